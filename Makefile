@@ -1,0 +1,65 @@
+# pfm-mpm: the two commands a newcomer needs are `make run` and `make test` (see README.md).
+PYTHON ?= /usr/bin/python3
+BUILD_DIR ?= build
+SANITIZE_DIR ?= build-sanitize
+JOBS ?= 2
+CASE ?= cases/bearing_block.json
+OUT ?= results/bearing_block
+
+# Debian packages the build, the tests and the studies need.
+DEB_PACKAGES := cmake make g++ git clang-format \
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
+  libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
+  python3-numpy python3-scipy python3-matplotlib python3-pandas python3-shapely \
+  python3-skimage python3-pytest python3-hypothesis python3-jinja2 python3-h5py \
+  python3-meshio python3-gmsh python3-dolfinx
+
+.PHONY: deps build run test test-cpp test-python sanitize bench format clean
+
+deps:
+	@missing=""; for p in $(DEB_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'ok installed' || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make deps: installing$$missing"; \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$missing; \
+	  else \
+	    echo "make deps: missing Debian packages; run as root:"; \
+	    echo "  apt-get install$$missing"; exit 1; \
+	  fi; \
+	fi
+
+build: deps
+	@cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release > /dev/null
+	@cmake --build $(BUILD_DIR) -j $(JOBS)
+
+run: build
+	@rm -rf $(OUT).tmp
+	$(BUILD_DIR)/bin/pfm-mpm run $(CASE) --out $(OUT)
+	@echo "results: $(OUT) (run.json, particles.xdmf for ParaView, timeseries.csv, final_particles.csv)"
+
+test: build test-cpp test-python
+
+test-cpp:
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+# pytest exits 5 when it collects nothing; that is not a failure of the suite.
+test-python:
+	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python $(wildcard fem_reference/tests) $(wildcard studies/tests); \
+	  rc=$$?; if [ $$rc -eq 5 ]; then echo "no Python tests collected"; exit 0; fi; exit $$rc
+
+sanitize: deps
+	@cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=Sanitize > /dev/null
+	@cmake --build $(SANITIZE_DIR) -j $(JOBS)
+	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --output-on-failure -j $(JOBS) --timeout 900
+
+bench: build
+	$(BUILD_DIR)/bin/pfm-bench
+
+format:
+	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
+
+clean:
+	rm -rf $(BUILD_DIR) $(SANITIZE_DIR)

@@ -1,0 +1,85 @@
+// Constitutive models for plane strain, shared by the MPM and the updated-Lagrangian FEM.
+//
+// Materials are stateless: the per-point state (stress, equivalent plastic strain) is data
+// passed in and out of update(). Units: kPa for moduli, stresses and cohesion; degrees for
+// angles in the parameter structs. Tension positive. Strain increments are (dxx, dyy,
+// dgamma_xy = 2 deps_xy, dzz = 0); the increment is the objective (rotation-free) part, the
+// Jaumann rotation of the stress is done by the caller (mpm/core/kinematics.hpp).
+//
+// Models (every detail of the plastic ones is stated in materials.cpp's header comment and
+// repeated here in brief):
+//  * LinearElastic: isotropic Hooke's law.
+//  * Tresca: f = (s1 - s3) / 2 - c(eps_p) with s1 >= s2 >= s3 the principal stresses of the
+//    full 3D plane-strain stress (sigma_zz included), associated flow, cohesion piecewise linear
+//    in the equivalent plastic strain eps_p; return mapping in principal stress space with the
+//    main plane and the two edge (corner) returns.
+//  * MohrCoulomb: f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c(eps_p) cos(phi), non-associated flow
+//    with dilation angle psi, tension cut-off s1 <= sigma_t, the same softening of c.
+#pragma once
+
+#include <variant>
+#include <vector>
+
+#include "mpm/core/types.hpp"
+
+namespace pfm {
+
+/// Per-point material state besides the stress.
+struct PointState {
+  double plastic_strain = 0.0;  ///< equivalent plastic strain eps_p (-), see materials.cpp
+};
+
+/// Piecewise linear function y(x) through the points (x[k], y[k]), x strictly increasing,
+/// constant beyond the first and last point. Used for cohesion against eps_p
+/// (thesis Tables 5.1, 6.2: initial, peak and residual cohesion).
+struct PiecewiseLinear {
+  std::vector<double> x;
+  std::vector<double> y;
+  double value(double at) const;
+  /// dy/dx on the segment holding `at`, taken from the right at a breakpoint; 0 outside.
+  double slope(double at) const;
+};
+
+struct ElasticParameters {
+  double youngs_modulus = 0.0;  ///< E, kPa
+  double poisson_ratio = 0.0;   ///< nu, -
+  double shear_modulus() const { return youngs_modulus / (2.0 * (1.0 + poisson_ratio)); }
+  double bulk_modulus() const { return youngs_modulus / (3.0 * (1.0 - 2.0 * poisson_ratio)); }
+  double lame_lambda() const {
+    return youngs_modulus * poisson_ratio / ((1.0 + poisson_ratio) * (1.0 - 2.0 * poisson_ratio));
+  }
+  /// Constrained (oedometric, P-wave) modulus M = E (1 - nu) / ((1 + nu)(1 - 2 nu)), kPa.
+  double constrained_modulus() const { return lame_lambda() + 2.0 * shear_modulus(); }
+};
+
+/// Stress increment of Hooke's law for a plane-strain strain increment.
+Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& strain_increment);
+
+struct LinearElastic {
+  ElasticParameters elastic;
+  void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+};
+
+struct Tresca {
+  ElasticParameters elastic;
+  PiecewiseLinear cohesion;  ///< c(eps_p), kPa
+  void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  /// Yield function at the given stress and state (kPa); <= 0 inside the elastic region.
+  double yield_function(const Stress& stress, const PointState& state) const;
+};
+
+struct MohrCoulomb {
+  ElasticParameters elastic;
+  PiecewiseLinear cohesion;         ///< c(eps_p), kPa
+  double friction_angle_deg = 0.0;  ///< phi
+  double dilation_angle_deg = 0.0;  ///< psi <= phi
+  double tension_cutoff = 0.0;      ///< largest allowed principal stress sigma_t, kPa (>= 0)
+  void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  double yield_function(const Stress& stress, const PointState& state) const;
+};
+
+using Material = std::variant<LinearElastic, Tresca, MohrCoulomb>;
+
+const ElasticParameters& elastic_parameters(const Material& material);
+
+}  // namespace pfm
