@@ -7,14 +7,18 @@ CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
 # Debian packages the build, the tests and the studies need.
-DEB_PACKAGES := cmake make g++ git clang-format \
+DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
   python3-numpy python3-scipy python3-matplotlib python3-pandas python3-shapely \
   python3-skimage python3-pytest python3-hypothesis python3-jinja2 python3-h5py \
   python3-meshio python3-gmsh python3-dolfinx
 
-.PHONY: deps build run test test-cpp test-python sanitize bench format clean
+.PHONY: deps build run test test-cpp test-python sanitize bench format clean study report \
+  study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks
+
+SCHEDULER ?=
+STUDY_FLAGS = $(if $(SCHEDULER),--scheduler $(SCHEDULER),) $(if $(QUICK),--quick,)
 
 deps:
 	@missing=""; for p in $(DEB_PACKAGES); do \
@@ -58,8 +62,20 @@ sanitize: deps
 bench: build
 	$(BUILD_DIR)/bin/pfm-bench
 
+# Studies (studies/): `make study-NAME`, `make study` for all, `make report` for the nightly
+# accuracy report. QUICK=1 runs the quick variants; SCHEDULER=tcp://host:8786 uses Dask.
+study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks: build
+	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies $(@:study-%=%) $(STUDY_FLAGS)
+
+study: build
+	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies all $(STUDY_FLAGS)
+
+report:
+	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies report
+
 format:
 	git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
+	@command -v black > /dev/null && git ls-files '*.py' | xargs black -q || echo "black not installed: Python left as is"
 
 clean:
 	rm -rf $(BUILD_DIR) $(SANITIZE_DIR)

@@ -39,6 +39,9 @@ nlohmann::json read_json_file(const std::string& path) {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path + ": invalid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. a number too large for a double (1e999): JSON has no inf or NaN.
+    throw InputError(path + ": invalid JSON value: " + e.what());
   }
 }
 

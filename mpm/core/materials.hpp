@@ -15,6 +15,14 @@
 //    main plane and the two edge (corner) returns.
 //  * MohrCoulomb: f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c(eps_p) cos(phi), non-associated flow
 //    with dilation angle psi, tension cut-off s1 <= sigma_t, the same softening of c.
+//    The cut-off used is sigma_t,eff = min(sigma_t, c(eps_p) / tan(phi)): it follows the cone
+//    apex down when c softens, so the hydrostatic tension apex always exists.
+//  * eps_p is the accumulated plastic shear strain of the shear planes: per step the sum over the
+//    active shear planes of (eps1^p - eps3^p) of that plane's flow; the tension cut-off does not
+//    add to it. In simple shear eps_p is the plastic engineering shear strain gamma_xy^p.
+//
+// update() is the hot path (no allocation, no exception, no virtual call); update_with_info()
+// does the same and also says which return was used (for tests and diagnostics).
 #pragma once
 
 #include <variant>
@@ -38,6 +46,8 @@ struct PiecewiseLinear {
   double value(double at) const;
   /// dy/dx on the segment holding `at`, taken from the right at a breakpoint; 0 outside.
   double slope(double at) const;
+  /// Smallest y[k] (the weakest cohesion the law can reach).
+  double min_value() const;
 };
 
 struct ElasticParameters {
@@ -55,6 +65,30 @@ struct ElasticParameters {
 /// Stress increment of Hooke's law for a plane-strain strain increment.
 Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& strain_increment);
 
+/// The planes of the principal-stress-space return, in the ordered frame s1 >= s2 >= s3 of the
+/// elastic trial stress. kShearIJ: the Mohr-Coulomb (Tresca for phi = 0) plane with s_I as the
+/// major and s_J as the minor principal stress; kTensionI: s_I <= sigma_t.
+enum class YieldPlane : unsigned char {
+  kShear13,
+  kShear23,
+  kShear12,
+  kTension1,
+  kTension2,
+  kTension3
+};
+
+/// What a stress update did. n_active == 0: elastic step. The multipliers belong to the
+/// yield functions as defined for the model (Tresca: f = (s1 - s3)/2 - c; Mohr-Coulomb:
+/// f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c cos(phi); tension: f = s1 - sigma_t).
+struct ReturnInfo {
+  int n_active = 0;                       ///< number of active planes (0..3)
+  YieldPlane planes[3] = {};              ///< the active planes
+  double multipliers[3] = {};             ///< their plastic multipliers (>= 0)
+  double plastic_strain_increment = 0.0;  ///< increment of eps_p
+  bool admissible = true;  ///< false only if no return satisfied the Kuhn-Tucker conditions
+                           ///< (never seen in the tests; the least violating one is used)
+};
+
 struct LinearElastic {
   ElasticParameters elastic;
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
@@ -64,6 +98,8 @@ struct Tresca {
   ElasticParameters elastic;
   PiecewiseLinear cohesion;  ///< c(eps_p), kPa
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
+                              PointState& state) const;
   /// Yield function at the given stress and state (kPa); <= 0 inside the elastic region.
   double yield_function(const Stress& stress, const PointState& state) const;
 };
@@ -75,7 +111,15 @@ struct MohrCoulomb {
   double dilation_angle_deg = 0.0;  ///< psi <= phi
   double tension_cutoff = 0.0;      ///< largest allowed principal stress sigma_t, kPa (>= 0)
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
+                              PointState& state) const;
+  /// Shear yield function f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c(eps_p) cos(phi), kPa.
   double yield_function(const Stress& stress, const PointState& state) const;
+  /// Tension cut-off function s1 - sigma_t,eff, kPa; the elastic region is where both are <= 0.
+  double tension_function(const Stress& stress, const PointState& state) const;
+  /// sigma_t,eff = min(tension_cutoff, c(eps_p) / tan(phi)) (phi > 0), else tension_cutoff.
+  /// tension_cutoff may be +infinity (no cut-off besides the apex).
+  double effective_tension_cutoff(const PointState& state) const;
 };
 
 using Material = std::variant<LinearElastic, Tresca, MohrCoulomb>;

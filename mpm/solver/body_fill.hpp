@@ -1,0 +1,29 @@
+// Filling bodies with material points (thesis 3.2, 5.3.3).
+#pragma once
+
+#include <vector>
+
+#include "mpm/solver/case.hpp"
+#include "mpm/solver/particles.hpp"
+
+namespace pfm {
+
+/// Even-odd point-in-polygon test (points exactly on an edge count as inside the half-open
+/// region below/left of it, consistently for neighbouring polygons).
+bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& x);
+
+/// Height of the polygon's top above x: the largest y of the polygon boundary on the vertical
+/// line through x, or NaN if the line misses the polygon. Used as the local surface for K0.
+double polygon_top(const std::vector<Vec2>& polygon, double x);
+
+/// Natural positions in [0, 1] and weights (summing to 1) of the n points of a placement.
+void placement_points_1d(Placement placement, int n, std::vector<double>& position,
+                         std::vector<double>& weight);
+
+/// Fill every body with n x n points per cell whose point lies inside the body polygon; a point
+/// inside several bodies belongs to the first. Volume = cell area x the point's weight
+/// (1/n^2 for equal spacing, the Gauss weight product for Gauss placement); mass = density x
+/// volume with density = unit weight / g (g = 9.81 m/s^2 when gravity is 0).
+Particles fill_bodies(const Case& c);
+
+}  // namespace pfm

@@ -1,0 +1,439 @@
+#include "mpm/solver/case.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <set>
+
+#include "mpm/core/json_input.hpp"
+
+namespace pfm {
+
+namespace {
+
+PiecewiseLinear parse_cohesion(const JsonView& v) {
+  PiecewiseLinear law;
+  if (v.is_number()) {
+    const double c = v.as_number();
+    v.require(c > 0.0, "must be > 0");
+    law.x = {0.0};
+    law.y = {c};
+    return law;
+  }
+  if (!v.is_object()) v.fail("expected a number or an object");
+  if (v.has("table")) {
+    v.expect_object({"table"});
+    const JsonView table = v.at("table");
+    table.require(table.array_size() >= 1, "must hold at least one [plastic_strain, cohesion]");
+    for (std::size_t k = 0; k < table.array_size(); ++k) {
+      const JsonView row = table.at(k);
+      const Vec2 xy = row.as_vec2();
+      row.require(xy.x() >= 0.0, "plastic strain must be >= 0");
+      row.require(xy.y() > 0.0, "cohesion must be > 0");
+      row.require(k == 0 || xy.x() > law.x.back(), "plastic strains must increase strictly");
+      law.x.push_back(xy.x());
+      law.y.push_back(xy.y());
+    }
+    return law;
+  }
+  v.expect_object(
+      {"initial", "peak", "residual", "peak_plastic_strain", "residual_plastic_strain"});
+  const double initial = v.at("initial").as_number();
+  const double peak = v.at("peak").as_number();
+  const double residual = v.at("residual").as_number();
+  const double eps_peak = v.at("peak_plastic_strain").as_number();
+  const double eps_residual = v.at("residual_plastic_strain").as_number();
+  v.at("initial").require(initial > 0.0, "must be > 0");
+  v.at("peak").require(peak > 0.0, "must be > 0");
+  v.at("residual").require(residual > 0.0, "must be > 0");
+  v.at("peak_plastic_strain").require(eps_peak > 0.0, "must be > 0");
+  v.at("residual_plastic_strain")
+      .require(eps_residual > eps_peak, "must be > peak_plastic_strain");
+  law.x = {0.0, eps_peak, eps_residual};
+  law.y = {initial, peak, residual};
+  return law;
+}
+
+MaterialRecord parse_material(const JsonView& v) {
+  const std::string model =
+      v.at("model").as_choice({"linear_elastic", "tresca", "mohr_coulomb"});
+  if (model == "linear_elastic") {
+    v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight"});
+  } else if (model == "tresca") {
+    v.expect_object(
+        {"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion"});
+  } else {
+    v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight",
+                     "cohesion", "friction_angle", "dilation_angle", "tension_cutoff"});
+  }
+  MaterialRecord record;
+  record.name = v.at("name").as_string();
+  v.at("name").require(!record.name.empty(), "must not be empty");
+  ElasticParameters elastic;
+  elastic.youngs_modulus = v.at("youngs_modulus").as_number();
+  v.at("youngs_modulus").require(elastic.youngs_modulus > 0.0, "must be > 0");
+  elastic.poisson_ratio = v.at("poisson_ratio").as_number();
+  v.at("poisson_ratio")
+      .require(elastic.poisson_ratio >= 0.0 && elastic.poisson_ratio < 0.5,
+               "must be in [0, 0.5)");
+  record.unit_weight = v.at("unit_weight").as_number();
+  v.at("unit_weight").require(record.unit_weight >= 0.0, "must be >= 0");
+  if (model == "linear_elastic") {
+    record.model = LinearElastic{elastic};
+  } else if (model == "tresca") {
+    record.model = Tresca{elastic, parse_cohesion(v.at("cohesion"))};
+  } else {
+    MohrCoulomb mc;
+    mc.elastic = elastic;
+    mc.cohesion = parse_cohesion(v.at("cohesion"));
+    mc.friction_angle_deg = v.at("friction_angle").as_number();
+    v.at("friction_angle")
+        .require(mc.friction_angle_deg >= 0.0 && mc.friction_angle_deg < 90.0,
+                 "must be in [0, 90) degrees");
+    mc.dilation_angle_deg = v.number_or("dilation_angle", 0.0);
+    if (v.has("dilation_angle")) {
+      v.at("dilation_angle")
+          .require(mc.dilation_angle_deg >= 0.0 && mc.dilation_angle_deg <= mc.friction_angle_deg,
+                   "must be in [0, friction_angle] degrees");
+    }
+    // Default: no cut-off of its own; the effective cut-off is then the cone apex c cot(phi)
+    // (materials.cpp), so phi = 0 with the default is Tresca exactly.
+    mc.tension_cutoff = v.number_or("tension_cutoff", std::numeric_limits<double>::infinity());
+    if (v.has("tension_cutoff")) v.at("tension_cutoff").require(mc.tension_cutoff >= 0.0, "must be >= 0");
+    record.model = mc;
+  }
+  return record;
+}
+
+// Cross product sign of (b - a) x (c - a).
+double orient(const Vec2& a, const Vec2& b, const Vec2& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+bool on_segment(const Vec2& a, const Vec2& b, const Vec2& p) {
+  return std::min(a.x(), b.x()) <= p.x() && p.x() <= std::max(a.x(), b.x()) &&
+         std::min(a.y(), b.y()) <= p.y() && p.y() <= std::max(a.y(), b.y());
+}
+
+bool segments_intersect(const Vec2& p1, const Vec2& p2, const Vec2& q1, const Vec2& q2) {
+  const double d1 = orient(q1, q2, p1), d2 = orient(q1, q2, p2);
+  const double d3 = orient(p1, p2, q1), d4 = orient(p1, p2, q2);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) {
+    return true;
+  }
+  return (d1 == 0 && on_segment(q1, q2, p1)) || (d2 == 0 && on_segment(q1, q2, p2)) ||
+         (d3 == 0 && on_segment(p1, p2, q1)) || (d4 == 0 && on_segment(p1, p2, q2));
+}
+
+std::vector<Vec2> parse_polygon(const JsonView& body, const Grid& grid) {
+  std::vector<Vec2> polygon;
+  const bool has_rectangle = body.has("rectangle"), has_polygon = body.has("polygon");
+  body.require(has_rectangle != has_polygon, "give exactly one of \"rectangle\" or \"polygon\"");
+  if (has_rectangle) {
+    const JsonView r = body.at("rectangle");
+    r.require(r.array_size() == 2, "expected [[x0, y0], [x1, y1]]");
+    const Vec2 a = r.at(std::size_t{0}).as_vec2(), b = r.at(std::size_t{1}).as_vec2();
+    r.require(b.x() > a.x() && b.y() > a.y(), "expected x1 > x0 and y1 > y0");
+    polygon = {a, Vec2(b.x(), a.y()), b, Vec2(a.x(), b.y())};
+  } else {
+    const JsonView p = body.at("polygon");
+    p.require(p.array_size() >= 3, "a polygon needs at least 3 vertices");
+    for (std::size_t k = 0; k < p.array_size(); ++k) polygon.push_back(p.at(k).as_vec2());
+    if ((polygon.front() - polygon.back()).norm() == 0.0) polygon.pop_back();  // closed form
+    p.require(polygon.size() >= 3, "a polygon needs at least 3 distinct vertices");
+    p.require(!polygon_self_intersects(polygon),
+              "polygon edges intersect each other (or a vertex repeats)");
+    const double area = polygon_signed_area(polygon);
+    p.require(std::abs(area) > 0.0, "polygon has zero area");
+    if (area < 0.0) std::reverse(polygon.begin(), polygon.end());
+  }
+  const Vec2 lo = grid.origin, hi = grid.upper_corner();
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Vec2& v = polygon[k];
+    if (v.x() < lo.x() || v.y() < lo.y() || v.x() > hi.x() || v.y() > hi.y()) {
+      body.at(has_rectangle ? "rectangle" : "polygon")
+          .fail("vertex (" + std::to_string(v.x()) + ", " + std::to_string(v.y()) +
+                ") lies outside the grid [" + std::to_string(lo.x()) + ", " +
+                std::to_string(hi.x()) + "] x [" + std::to_string(lo.y()) + ", " +
+                std::to_string(hi.y()) + "]");
+    }
+  }
+  return polygon;
+}
+
+unsigned parse_fix(const JsonView& v) {
+  const std::string s = v.as_choice({"x", "y", "xy"});
+  return s == "x" ? kFixX : (s == "y" ? kFixY : kFixXY);
+}
+
+TimeFunction parse_time_function(const JsonView& v) {
+  TimeFunction f;
+  const std::string type = v.at("type").as_choice({"constant", "ramp"});
+  if (type == "constant") {
+    v.expect_object({"type"});
+  } else {
+    v.expect_object({"type", "ramp_time"});
+    f.kind = TimeFunctionKind::kRamp;
+    f.ramp_time = v.at("ramp_time").as_number();
+    v.at("ramp_time").require(f.ramp_time > 0.0, "must be > 0");
+  }
+  return f;
+}
+
+}  // namespace
+
+double polygon_signed_area(const std::vector<Vec2>& polygon) {
+  double twice = 0.0;
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Vec2& a = polygon[k];
+    const Vec2& b = polygon[(k + 1) % polygon.size()];
+    twice += a.x() * b.y() - b.x() * a.y();
+  }
+  return 0.5 * twice;
+}
+
+bool polygon_self_intersects(const std::vector<Vec2>& polygon) {
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      if ((polygon[i] - polygon[j]).norm() == 0.0) return true;  // repeated vertex
+      const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
+      if (adjacent) continue;
+      if (segments_intersect(polygon[i], polygon[(i + 1) % n], polygon[j], polygon[(j + 1) % n])) {
+        return true;
+      }
+    }
+  }
+  // Adjacent edges folding back onto each other (collinear overlap).
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2& a = polygon[(i + n - 1) % n];
+    const Vec2& b = polygon[i];
+    const Vec2& c = polygon[(i + 1) % n];
+    if (orient(a, b, c) == 0.0 && (a - b).dot(c - b) > 0.0) return true;
+  }
+  return false;
+}
+
+Case read_case(const std::string& path) { return parse_case(read_json_file(path), path); }
+
+Case parse_case(const nlohmann::json& document, const std::string& file) {
+  Case c;
+  c.file = file;
+  c.source = document;
+  const JsonView root(document, file);
+  root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
+                      "node_sets", "boundary_conditions", "loads", "solver", "time", "output",
+                      "detection"});
+  if (root.has("title")) c.title = root.at("title").as_string();
+
+  // Grid.
+  {
+    const JsonView g = root.at("grid");
+    g.expect_object({"origin", "cell_size", "n_cells"});
+    if (g.has("origin")) c.grid.origin = g.at("origin").as_vec2();
+    c.grid.cell_size = g.at("cell_size").as_number();
+    g.at("cell_size").require(c.grid.cell_size > 0.0, "must be > 0");
+    const JsonView n = g.at("n_cells");
+    n.require(n.array_size() == 2, "expected [nx, ny]");
+    c.grid.n_cells_x = n.at(std::size_t{0}).as_int();
+    c.grid.n_cells_y = n.at(std::size_t{1}).as_int();
+    n.at(std::size_t{0}).require(c.grid.n_cells_x >= 1, "must be >= 1");
+    n.at(std::size_t{1}).require(c.grid.n_cells_y >= 1, "must be >= 1");
+    n.require(static_cast<long long>(c.grid.n_cells_x + 1) * (c.grid.n_cells_y + 1) <= 50'000'000,
+              "more than 5e7 grid nodes");
+  }
+
+  // Materials.
+  {
+    const JsonView m = root.at("materials");
+    m.require(m.array_size() >= 1, "at least one material is required");
+    std::set<std::string> names;
+    for (std::size_t k = 0; k < m.array_size(); ++k) {
+      c.materials.push_back(parse_material(m.at(k)));
+      m.at(k).at("name").require(names.insert(c.materials.back().name).second,
+                                 "duplicate material name");
+    }
+  }
+
+  // Bodies.
+  {
+    const JsonView b = root.at("bodies");
+    b.require(b.array_size() >= 1, "at least one body is required");
+    std::set<std::string> names;
+    for (std::size_t k = 0; k < b.array_size(); ++k) {
+      const JsonView v = b.at(k);
+      v.expect_object({"name", "material", "rectangle", "polygon", "points_per_cell", "placement"});
+      BodySpec body;
+      body.name = v.at("name").as_string();
+      v.at("name").require(names.insert(body.name).second, "duplicate body name");
+      const std::string material = v.at("material").as_string();
+      int index = -1;
+      for (std::size_t i = 0; i < c.materials.size(); ++i) {
+        if (c.materials[i].name == material) index = static_cast<int>(i);
+      }
+      v.at("material").require(index >= 0, "no material named \"" + material + "\"");
+      body.material = index;
+      body.polygon = parse_polygon(v, c.grid);
+      body.points_per_cell = v.int_or("points_per_cell", 2);
+      if (v.has("points_per_cell")) {
+        v.at("points_per_cell")
+            .require(body.points_per_cell >= 1 && body.points_per_cell <= 8, "must be in 1..8");
+      }
+      body.placement =
+          v.choice_or("placement", {"equal", "gauss"}, "equal") == "gauss" ? Placement::kGauss
+                                                                          : Placement::kEqual;
+      c.bodies.push_back(std::move(body));
+    }
+  }
+
+  if (const auto g = root.find("gravity")) {
+    g->expect_object({"g", "ramp_time"});
+    c.gravity.g = g->number_or("g", 9.81);
+    if (g->has("g")) g->at("g").require(c.gravity.g >= 0.0, "must be >= 0");
+    c.gravity.ramp_time = g->number_or("ramp_time", 0.0);
+    if (g->has("ramp_time")) g->at("ramp_time").require(c.gravity.ramp_time >= 0.0, "must be >= 0");
+  }
+
+  if (const auto s = root.find("initial_stress")) {
+    s->expect_object({"method", "k0", "kinetic_energy_ratio", "damping", "max_time"});
+    const std::string method = s->at("method").as_choice({"zero", "k0", "gravity"});
+    c.initial_stress.method = method == "zero" ? InitialStressMethod::kZero
+                              : method == "k0" ? InitialStressMethod::kK0
+                                               : InitialStressMethod::kGravity;
+    if (s->has("k0")) {
+      s->at("k0").require(method == "k0", "only used with method \"k0\"");
+      c.initial_stress.k0 = s->at("k0").as_number();
+      s->at("k0").require(*c.initial_stress.k0 >= 0.0, "must be >= 0");
+    }
+    for (const char* key : {"kinetic_energy_ratio", "damping", "max_time"}) {
+      if (s->has(key)) s->at(key).require(method == "gravity", "only used with method \"gravity\"");
+    }
+    c.initial_stress.kinetic_energy_ratio = s->number_or("kinetic_energy_ratio", 1e-6);
+    if (s->has("kinetic_energy_ratio")) {
+      s->at("kinetic_energy_ratio")
+          .require(c.initial_stress.kinetic_energy_ratio > 0.0 &&
+                       c.initial_stress.kinetic_energy_ratio < 1.0,
+                   "must be in (0, 1)");
+    }
+    c.initial_stress.damping = s->number_or("damping", 0.7);
+    if (s->has("damping")) {
+      s->at("damping").require(c.initial_stress.damping >= 0.0 && c.initial_stress.damping < 1.0,
+                               "must be in [0, 1)");
+    }
+    c.initial_stress.max_time = s->number_or("max_time", 20.0);
+    if (s->has("max_time")) s->at("max_time").require(c.initial_stress.max_time > 0.0, "must be > 0");
+  }
+
+  if (const auto ns = root.find("node_sets")) {
+    for (std::size_t k = 0; k < ns->array_size(); ++k) {
+      const JsonView v = ns->at(k);
+      v.expect_object({"name", "box"});
+      NodeSet set;
+      set.name = v.at("name").as_string();
+      for (const char* reserved : {"left", "right", "bottom", "top"}) {
+        v.at("name").require(set.name != reserved, "\"" + set.name + "\" is reserved");
+      }
+      for (const auto& other : c.node_sets) {
+        v.at("name").require(other.name != set.name, "duplicate node-set name");
+      }
+      const JsonView box = v.at("box");
+      box.require(box.array_size() == 2, "expected [[x0, y0], [x1, y1]]");
+      set.box_min = box.at(std::size_t{0}).as_vec2();
+      set.box_max = box.at(std::size_t{1}).as_vec2();
+      box.require(set.box_max.x() >= set.box_min.x() && set.box_max.y() >= set.box_min.y(),
+                  "expected x1 >= x0 and y1 >= y0");
+      c.node_sets.push_back(set);
+    }
+  }
+
+  if (const auto bcs = root.find("boundary_conditions")) {
+    for (std::size_t k = 0; k < bcs->array_size(); ++k) {
+      const JsonView v = bcs->at(k);
+      v.expect_object({"where", "fix"});
+      BoundaryCondition bc;
+      bc.where = v.at("where").as_string();
+      bool known = bc.where == "left" || bc.where == "right" || bc.where == "bottom" ||
+                   bc.where == "top";
+      for (const auto& set : c.node_sets) known = known || set.name == bc.where;
+      v.at("where").require(known, "\"" + bc.where +
+                                       "\" is neither left, right, bottom, top nor a node set");
+      bc.fix = parse_fix(v.at("fix"));
+      c.boundary_conditions.push_back(bc);
+    }
+  }
+
+  if (const auto loads = root.find("loads")) {
+    for (std::size_t k = 0; k < loads->array_size(); ++k) {
+      const JsonView v = loads->at(k);
+      LoadSpec load;
+      load.raw = v.raw();
+      const std::string target =
+          v.choice_or("apply_on", {"grid_top_nodes", "detected_boundary"}, "grid_top_nodes");
+      if (target == "detected_boundary") {
+        // Keys are validated by the boundary-load module (mpm/boundary).
+        load.apply_on = LoadTarget::kDetectedBoundary;
+        c.loads.push_back(std::move(load));
+        continue;
+      }
+      v.expect_object({"type", "pressure", "x_range", "apply_on", "time_function"});
+      load.type = v.at("type").as_choice({"vertical_pressure"});
+      load.pressure = v.at("pressure").as_number();
+      v.at("pressure").require(load.pressure >= 0.0, "must be >= 0");
+      const Vec2 range = v.at("x_range").as_vec2();
+      v.at("x_range").require(range.x() < range.y(), "expected x0 < x1");
+      load.x0 = range.x();
+      load.x1 = range.y();
+      if (v.has("time_function")) load.time_function = parse_time_function(v.at("time_function"));
+      c.loads.push_back(std::move(load));
+    }
+  }
+
+  if (const auto s = root.find("solver")) {
+    s->expect_object({"scheme", "shape_function", "damping"});
+    c.solver.scheme =
+        s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
+    c.solver.shape_function =
+        s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
+            ? ShapeFunctionKind::kGimp
+            : ShapeFunctionKind::kLinear;
+    c.solver.damping = s->number_or("damping", 0.0);
+    if (s->has("damping")) {
+      s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
+                               "must be in [0, 1)");
+    }
+  }
+
+  {
+    const JsonView t = root.at("time");
+    t.expect_object({"end_time", "cfl", "dt"});
+    c.time.end_time = t.at("end_time").as_number();
+    t.at("end_time").require(c.time.end_time > 0.0, "must be > 0");
+    c.time.cfl = t.number_or("cfl", 0.5);
+    if (t.has("cfl")) t.at("cfl").require(c.time.cfl > 0.0 && c.time.cfl <= 1.0, "must be in (0, 1]");
+    if (t.has("dt")) {
+      c.time.dt = t.at("dt").as_number();
+      t.at("dt").require(*c.time.dt > 0.0, "must be > 0");
+    }
+  }
+
+  c.output.interval = c.time.end_time / 20.0;
+  if (const auto o = root.find("output")) {
+    o->expect_object({"interval", "timeseries_interval"});
+    c.output.interval = o->number_or("interval", c.output.interval);
+    if (o->has("interval")) o->at("interval").require(c.output.interval > 0.0, "must be > 0");
+    c.output.timeseries_interval = o->number_or("timeseries_interval", c.output.interval / 10.0);
+    if (o->has("timeseries_interval")) {
+      o->at("timeseries_interval").require(c.output.timeseries_interval > 0.0, "must be > 0");
+    }
+  } else {
+    c.output.timeseries_interval = c.output.interval / 10.0;
+  }
+
+  if (const auto d = root.find("detection")) {
+    d->require(d->is_object(), "expected an object");
+    c.detection = d->raw();
+  }
+  return c;
+}
+
+}  // namespace pfm

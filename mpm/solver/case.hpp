@@ -1,0 +1,131 @@
+// A validated case: everything a run needs, read from a JSON case file (schema in README.md).
+// Units: kN, m, s, t, kPa; angles converted to degrees-in-struct as documented per field.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mpm/core/grid.hpp"
+#include "mpm/core/materials.hpp"
+#include "mpm/core/shape_functions.hpp"
+
+namespace pfm {
+
+struct MaterialRecord {
+  std::string name;
+  Material model;
+  double unit_weight = 0.0;  ///< kN/m^3
+};
+
+enum class Placement { kEqual, kGauss };
+
+struct BodySpec {
+  std::string name;
+  int material = 0;            ///< index into Case::materials
+  std::vector<Vec2> polygon;   ///< counter-clockwise, not closed (first point not repeated), m
+  int points_per_cell = 2;     ///< n: n x n points per cell
+  Placement placement = Placement::kEqual;
+};
+
+struct GravitySpec {
+  double g = 9.81;         ///< m/s^2, acting along -y
+  double ramp_time = 0.0;  ///< s; 0 = applied at once
+};
+
+enum class InitialStressMethod { kZero, kK0, kGravity };
+
+struct InitialStressSpec {
+  InitialStressMethod method = InitialStressMethod::kZero;
+  std::optional<double> k0;  ///< default nu / (1 - nu) of each point's material
+  double kinetic_energy_ratio = 1e-6;
+  double damping = 0.7;
+  double max_time = 20.0;  ///< s
+};
+
+/// Direction bits of a constraint.
+enum FixMask : unsigned { kFixNone = 0u, kFixX = 1u, kFixY = 2u, kFixXY = 3u };
+
+struct NodeSet {
+  std::string name;
+  Vec2 box_min, box_max;  ///< m, closed box
+};
+
+struct BoundaryCondition {
+  std::string where;  ///< left, right, bottom, top or a node-set name
+  unsigned fix = kFixNone;
+};
+
+enum class TimeFunctionKind { kConstant, kRamp };
+
+struct TimeFunction {
+  TimeFunctionKind kind = TimeFunctionKind::kConstant;
+  double ramp_time = 0.0;  ///< s
+  /// Factor in [0, 1] at time t.
+  double factor(double t) const {
+    if (kind == TimeFunctionKind::kConstant || ramp_time <= 0.0) return 1.0;
+    return t >= ramp_time ? 1.0 : t / ramp_time;
+  }
+};
+
+enum class LoadTarget { kGridTopNodes, kDetectedBoundary };
+
+struct LoadSpec {
+  std::string type = "vertical_pressure";
+  double pressure = 0.0;  ///< kPa
+  double x0 = 0.0, x1 = 0.0;
+  LoadTarget apply_on = LoadTarget::kGridTopNodes;
+  TimeFunction time_function;
+  nlohmann::json raw;  ///< the entry as written, for the boundary-load module
+};
+
+enum class Scheme { kMUSL, kUSL };
+
+struct SolverSpec {
+  Scheme scheme = Scheme::kMUSL;
+  ShapeFunctionKind shape_function = ShapeFunctionKind::kLinear;
+  double damping = 0.0;  ///< local (Cundall) damping coefficient
+};
+
+struct TimeSpec {
+  double end_time = 0.0;
+  double cfl = 0.5;
+  std::optional<double> dt;
+};
+
+struct OutputSpec {
+  double interval = 0.0;             ///< s
+  double timeseries_interval = 0.0;  ///< s
+};
+
+struct Case {
+  std::string file;  ///< path it was read from
+  nlohmann::json source;
+  std::string title;
+  Grid grid;
+  std::vector<MaterialRecord> materials;
+  std::vector<BodySpec> bodies;
+  GravitySpec gravity;
+  InitialStressSpec initial_stress;
+  std::vector<NodeSet> node_sets;
+  std::vector<BoundaryCondition> boundary_conditions;
+  std::vector<LoadSpec> loads;
+  SolverSpec solver;
+  TimeSpec time;
+  OutputSpec output;
+  std::optional<nlohmann::json> detection;  ///< validated by the detection module
+};
+
+/// Read and validate a case file. Throws InputError naming the file and JSON pointer.
+Case read_case(const std::string& path);
+/// Validate an already-parsed document (file is used in messages only).
+Case parse_case(const nlohmann::json& document, const std::string& file);
+
+/// Signed area of a closed polygon (positive when counter-clockwise), m^2.
+double polygon_signed_area(const std::vector<Vec2>& polygon);
+/// True if two non-adjacent edges of the closed polygon intersect or touch.
+bool polygon_self_intersects(const std::vector<Vec2>& polygon);
+
+}  // namespace pfm

@@ -1,0 +1,181 @@
+#include "mpm/solver/output.hpp"
+
+#include <hdf5.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+namespace pfm {
+
+namespace {
+
+void check(herr_t status, const char* what) {
+  if (status < 0) throw std::runtime_error(std::string("HDF5 error: ") + what);
+}
+
+void write_dataset(hid_t group, const char* name, const std::vector<double>& data,
+                   std::size_t rows, std::size_t cols) {
+  hsize_t dims[2] = {rows, cols};
+  const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
+  const hid_t set =
+      H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
+  if (rows > 0) check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()), name);
+  H5Dclose(set);
+  H5Sclose(space);
+}
+
+std::string fmt(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + temporary);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("error while writing " + temporary);
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+ParticleSeriesWriter::ParticleSeriesWriter(std::string directory)
+    : directory_(std::move(directory)) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const std::string path = directory_ + "/particles.h5";
+  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+}
+
+ParticleSeriesWriter::~ParticleSeriesWriter() {
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
+}
+
+void ParticleSeriesWriter::write(double time, long step, const Particles& particles) {
+  if (times_.empty()) {
+    // Polyvertex connectivity 0 .. N-1, shared by every step (the particle count is fixed).
+    std::vector<long long> connectivity(particles.size());
+    for (std::size_t p = 0; p < connectivity.size(); ++p) connectivity[p] = static_cast<long long>(p);
+    hsize_t dims[1] = {connectivity.size()};
+    const hid_t space = H5Screate_simple(1, dims, nullptr);
+    const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space,
+                                 H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (set < 0) throw std::runtime_error("HDF5: cannot create dataset connectivity");
+    if (!connectivity.empty()) {
+      check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, connectivity.data()),
+            "connectivity");
+    }
+    H5Dclose(set);
+    H5Sclose(space);
+  }
+  char name[32];
+  std::snprintf(name, sizeof name, "step_%08ld", step);
+  const hid_t group =
+      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  const std::size_t n = particles.size();
+  std::vector<double> buffer;
+  auto vec3 = [&](auto get) {
+    buffer.assign(3 * n, 0.0);
+    for (std::size_t p = 0; p < n; ++p) {
+      const Vec2 v = get(p);
+      buffer[3 * p] = v.x();
+      buffer[3 * p + 1] = v.y();
+    }
+  };
+  auto scalar = [&](auto get) {
+    buffer.resize(n);
+    for (std::size_t p = 0; p < n; ++p) buffer[p] = get(p);
+  };
+  vec3([&](std::size_t p) { return particles.position[p]; });
+  write_dataset(group, "position", buffer, n, 3);
+  vec3([&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
+  write_dataset(group, "displacement", buffer, n, 3);
+  vec3([&](std::size_t p) { return particles.velocity[p]; });
+  write_dataset(group, "velocity", buffer, n, 3);
+  const char* stress_names[4] = {"sxx", "syy", "sxy", "szz"};
+  for (int k = 0; k < 4; ++k) {
+    scalar([&](std::size_t p) { return particles.stress[p][k]; });
+    write_dataset(group, stress_names[k], buffer, n, 1);
+  }
+  scalar([&](std::size_t p) { return particles.state[p].plastic_strain; });
+  write_dataset(group, "eps_p", buffer, n, 1);
+  scalar([&](std::size_t p) { return particles.volume[p]; });
+  write_dataset(group, "volume", buffer, n, 1);
+  scalar([&](std::size_t p) { return static_cast<double>(p); });
+  write_dataset(group, "id", buffer, n, 1);
+  scalar([&](std::size_t p) { return static_cast<double>(particles.material[p]); });
+  write_dataset(group, "material", buffer, n, 1);
+  scalar([&](std::size_t p) { return static_cast<double>(particles.body[p]); });
+  write_dataset(group, "body", buffer, n, 1);
+  H5Gclose(group);
+  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), "flush");
+  times_.push_back(time);
+  groups_.push_back(name);
+  counts_.push_back(n);
+  write_xdmf();
+}
+
+void ParticleSeriesWriter::write_xdmf() const {
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
+    << "<Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t s = 0; s < times_.size(); ++s) {
+    const std::size_t n = counts_[s];
+    const std::string& g = groups_[s];
+    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
+      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
+      << "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
+      << "\" NodesPerElement=\"1\"><DataItem Dimensions=\"" << n
+      << "\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">particles.h5:/connectivity"
+      << "</DataItem></Topology>\n"
+      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n
+      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g
+      << "/position</DataItem></Geometry>\n";
+    for (const char* vector_name : {"displacement", "velocity"}) {
+      x << "<Attribute Name=\"" << vector_name
+        << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n
+        << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
+        << vector_name << "</DataItem></Attribute>\n";
+    }
+    for (const char* scalar_name :
+         {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material", "body"}) {
+      x << "<Attribute Name=\"" << scalar_name
+        << "\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" << n
+        << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
+        << scalar_name << "</DataItem></Attribute>\n";
+    }
+    x << "</Grid>\n";
+  }
+  x << "</Grid>\n</Domain>\n</Xdmf>\n";
+  write_file_atomically(directory_ + "/particles.xdmf", x.str());
+}
+
+std::string particles_csv(const Particles& particles) {
+  std::ostringstream out;
+  out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body\n";
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const Vec2& x = particles.position[p];
+    const Vec2& v = particles.velocity[p];
+    const Stress& s = particles.stress[p];
+    const Vec2 u = x - particles.reference_position[p];
+    out << p << ',' << fmt(x.x()) << ',' << fmt(x.y()) << ',' << fmt(v.x()) << ',' << fmt(v.y())
+        << ',' << fmt(s[0]) << ',' << fmt(s[1]) << ',' << fmt(s[2]) << ',' << fmt(s[3]) << ','
+        << fmt(particles.state[p].plastic_strain) << ',' << fmt(particles.volume[p]) << ','
+        << fmt(u.x()) << ',' << fmt(u.y()) << ',' << particles.material[p] << ','
+        << particles.body[p] << '\n';
+  }
+  return out.str();
+}
+
+}  // namespace pfm

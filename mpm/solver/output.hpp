@@ -1,0 +1,47 @@
+// Output writers. Every file is complete whenever it can be seen: CSV and JSON files are written
+// to a temporary name and renamed; the XDMF index of the HDF5 particle series is rewritten (also
+// by rename) after each HDF5 step is flushed, so it never names a step that is not on disk.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mpm/solver/particles.hpp"
+
+namespace pfm {
+
+/// Write `text` to `path` atomically (temporary file in the same directory, then rename).
+void write_file_atomically(const std::string& path, const std::string& text);
+
+/// Particle time series: particles.h5 (one group per output step) + particles.xdmf (a temporal
+/// collection of Polyvertex grids that ParaView and meshio open).
+///
+/// Per step, datasets of length N (N = number of particles): position (N x 3, z = 0),
+/// displacement (N x 3), velocity (N x 3), sxx, syy, sxy, szz (kPa), eps_p, volume (m^2),
+/// id, material, body.
+class ParticleSeriesWriter {
+ public:
+  explicit ParticleSeriesWriter(std::string directory);
+  ~ParticleSeriesWriter();
+  ParticleSeriesWriter(const ParticleSeriesWriter&) = delete;
+  ParticleSeriesWriter& operator=(const ParticleSeriesWriter&) = delete;
+
+  void write(double time, long step, const Particles& particles);
+  /// Extra polylines (detected boundary) listed beside the particles of the last step written.
+  int n_steps() const { return static_cast<int>(times_.size()); }
+
+ private:
+  void write_xdmf() const;
+  std::string directory_;
+  long file_ = -1;  // hid_t
+  std::vector<double> times_;
+  std::vector<std::string> groups_;
+  std::vector<std::size_t> counts_;
+};
+
+/// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body).
+std::string particles_csv(const Particles& particles);
+
+}  // namespace pfm

@@ -1,0 +1,196 @@
+#include "mpm/solver/run.hpp"
+
+#include <omp.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "mpm/core/json_input.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+#include "mpm/solver/output.hpp"
+
+#ifndef PFM_GIT_REVISION
+#define PFM_GIT_REVISION "unknown"
+#endif
+#ifndef PFM_BUILD_TYPE
+#define PFM_BUILD_TYPE "unknown"
+#endif
+
+namespace pfm {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return buffer;
+}
+
+std::string fmt(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+class Progress {
+ public:
+  explicit Progress(bool enabled)
+      : enabled_(enabled && isatty(STDERR_FILENO) && std::getenv("CI") == nullptr),
+        start_(std::chrono::steady_clock::now()) {}
+  void update(long step, double time, double end_time) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_ < std::chrono::milliseconds(500)) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double fraction = std::min(1.0, time / end_time);
+    const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+    std::fprintf(stderr, "\r  step %ld  t = %.4f / %.4f s  (%5.1f %%)  ETA %.0f s   ", step, time,
+                 end_time, 100.0 * fraction, eta);
+    std::fflush(stderr);
+    printed_ = true;
+  }
+  ~Progress() {
+    if (printed_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool enabled_;
+  bool printed_ = false;
+  std::chrono::steady_clock::time_point start_, last_{};
+};
+
+}  // namespace
+
+nlohmann::json provenance(const std::string& case_file, const std::string& command_line) {
+  return {{"program", "pfm-mpm"},
+          {"git_revision", PFM_GIT_REVISION},
+          {"build_type", PFM_BUILD_TYPE},
+          {"case_file", case_file},
+          {"command", command_line},
+          {"started_utc", utc_now()},
+          {"units", "kN, m, s, t, kPa; plane strain; tension positive"}};
+}
+
+void prepare_output_directory(const std::string& out_dir) {
+  if (out_dir.empty()) throw InputError("--out: an output directory is required");
+  std::error_code error;
+  if (fs::exists(out_dir, error)) {
+    if (!fs::is_directory(out_dir)) throw InputError("--out " + out_dir + ": exists and is not a directory");
+    if (!fs::is_empty(out_dir)) {
+      if (!fs::exists(fs::path(out_dir) / "run.json")) {
+        throw InputError("--out " + out_dir +
+                         ": directory exists and is not a pfm-mpm output directory (no run.json); " +
+                         "refusing to overwrite it");
+      }
+      fs::remove_all(out_dir);
+    }
+  }
+  fs::create_directories(out_dir);
+}
+
+int run_case(const Case& c, const RunOptions& options) {
+  const int threads = options.threads > 0 ? options.threads : omp_get_num_procs();
+  omp_set_num_threads(threads);
+  MpmSolver solver(c);  // may throw InputError: nothing created yet
+  prepare_output_directory(options.out_dir);
+  const std::string dir = options.out_dir;
+
+  nlohmann::json run;
+  run["provenance"] = provenance(c.file, options.command_line);
+  run["provenance"]["threads"] = threads;
+  run["case"] = c.source;
+  run["status"] = "running";
+  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+
+  std::ostringstream series;
+  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y\n";
+  auto record = [&](const MpmSolver& s) {
+    const EnergyBalance e = s.energy();
+    series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
+           << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
+           << ',' << fmt(e.momentum.y()) << '\n';
+  };
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  long initial_steps = 0;
+  int status = kExitOk;
+  std::string message;
+  try {
+    solver.initialise_stress();
+    initial_steps = solver.initial_stress_steps();
+    ParticleSeriesWriter writer(dir);
+    writer.write(solver.time(), solver.step_count(), solver.particles());
+    record(solver);
+    const double end = c.time.end_time;
+    const double eps = 1e-9 * solver.dt();
+    const long n_steps = static_cast<long>(std::ceil(end / solver.dt() - 1e-9));
+    double next_output = c.output.interval, next_series = c.output.timeseries_interval;
+    Progress progress(options.progress);
+    for (long k = 0; k < n_steps; ++k) {
+      solver.step();
+      const double t = solver.time();
+      if (t >= next_series - eps || k + 1 == n_steps) {
+        record(solver);
+        while (next_series <= t + eps) next_series += c.output.timeseries_interval;
+      }
+      if (t >= next_output - eps || k + 1 == n_steps) {
+        writer.write(t, solver.step_count(), solver.particles());
+        write_file_atomically(dir + "/timeseries.csv", series.str());
+        while (next_output <= t + eps) next_output += c.output.interval;
+      }
+      progress.update(solver.step_count(), t, end);
+    }
+    write_file_atomically(dir + "/final_particles.csv", particles_csv(solver.particles()));
+  } catch (const SimulationError& e) {
+    status = kExitSimulationError;
+    message = e.what();
+    std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
+              << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+  }
+  write_file_atomically(dir + "/timeseries.csv", series.str());
+
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const StageTimes& st = solver.stage_times();
+  const double n_particles = static_cast<double>(solver.particles().size());
+  const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
+  run["status"] = status == kExitOk ? "completed" : "failed";
+  if (!message.empty()) run["error"] = message;
+  run["provenance"]["finished_utc"] = utc_now();
+  run["summary"] = {
+      {"n_particles", solver.particles().size()},
+      {"n_steps", solver.step_count()},
+      {"n_initial_stress_steps", initial_steps},
+      {"final_time_s", solver.time()},
+      {"dt_s", solver.dt()},
+      {"critical_dt_s", solver.critical_dt()},
+      {"wall_time_s", wall},
+      {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
+      {"stage_seconds",
+       {{"locate", st.locate},
+        {"particles_to_grid", st.particles_to_grid},
+        {"external_forces", st.external_forces},
+        {"update_grid", st.update_grid},
+        {"grid_to_particles", st.grid_to_particles},
+        {"remap", st.remap},
+        {"stress", st.stress}}}};
+  const EnergyBalance e = solver.energy();
+  run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
+                              {"external_work", e.external_work},
+                              {"internal_work", e.internal_work},
+                              {"damping_work", e.damping_work}};
+  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  return status;
+}
+
+}  // namespace pfm

@@ -1,0 +1,38 @@
+// The `pfm-mpm run` driver: validated case in, output directory out.
+//
+// Output directory (created only once the case is valid):
+//   run.json              provenance (git revision, build type, command, case copy) + summary
+//   particles.h5/.xdmf    particle time series (ParaView: open particles.xdmf)
+//   timeseries.csv        time, kinetic energy, works, momentum, load diagnostics
+//   final_particles.csv   the final particle state
+#pragma once
+
+#include <string>
+
+#include "mpm/solver/case.hpp"
+
+namespace pfm {
+
+struct RunOptions {
+  std::string out_dir;
+  int threads = 0;           ///< 0: all cores
+  bool progress = true;      ///< progress line on a terminal (never when CI is set)
+  std::string command_line;  ///< recorded in run.json
+};
+
+/// Exit codes of the command-line tool.
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitInputError = 2, kExitSimulationError = 3 };
+
+/// Prepare the output directory: create it, or clear it if it holds a previous run (run.json);
+/// InputError if it exists with other content.
+void prepare_output_directory(const std::string& out_dir);
+
+/// Run a validated case. Returns kExitOk, or kExitSimulationError after writing run.json with
+/// status "failed" and keeping the outputs written so far. InputError propagates (nothing is
+/// created when the case or options are invalid).
+int run_case(const Case& c, const RunOptions& options);
+
+/// Provenance block shared by every output directory.
+nlohmann::json provenance(const std::string& case_file, const std::string& command_line);
+
+}  // namespace pfm
