@@ -1,0 +1,68 @@
+"""Closed-form solutions the benchmarks are measured against. Units kN, m, kPa; tension
+positive in what is returned unless a docstring says otherwise."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def constrained_modulus(youngs_modulus: float, poisson_ratio: float) -> float:
+    """M = E (1 - nu) / ((1 + nu)(1 - 2 nu)), kPa: the 1D (oedometric) modulus."""
+    nu = poisson_ratio
+    return youngs_modulus * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+
+
+def column_surcharge_settlement(height: float, surcharge: float, youngs_modulus: float,
+                                poisson_ratio: float) -> float:
+    """Top settlement (m, positive down) of a laterally confined elastic column of height H
+    under a surcharge q added to a column already in K0 equilibrium: q H / M."""
+    return surcharge * height / constrained_modulus(youngs_modulus, poisson_ratio)
+
+
+def column_vertical_stress(y, height: float, surcharge: float, unit_weight: float):
+    """syy(y) (kPa, tension positive) in a column with base at y = 0: -(q + gamma (H - y))."""
+    return -(surcharge + unit_weight * (height - np.asarray(y, dtype=float)))
+
+
+def strip_vertical_stress(pressure: float, half_width: float, x, depth):
+    """Vertical stress (kPa, COMPRESSION positive) in an elastic half-space under a uniform
+    strip load q on |x| <= b (plane strain; e.g. Poulos & Davis 1974):
+    sigma_z = q / pi (alpha + sin(alpha) cos(alpha + 2 delta)), written with the angles
+    theta1 = atan((x - b) / z), theta2 = atan((x + b) / z): alpha = theta2 - theta1 and
+    alpha + 2 delta = theta1 + theta2. Under the centre: q / pi (alpha + sin alpha),
+    alpha = 2 atan(b / z)."""
+    x = np.asarray(x, dtype=float)
+    z = np.asarray(depth, dtype=float)
+    theta1 = np.arctan2(x - half_width, z)
+    theta2 = np.arctan2(x + half_width, z)
+    alpha = theta2 - theta1
+    return pressure / math.pi * (alpha + np.sin(alpha) * np.cos(theta1 + theta2))
+
+
+def prandtl_bearing_capacity(cohesion: float) -> float:
+    """Collapse pressure (kPa) of a smooth strip footing on weightless Tresca soil:
+    (2 + pi) c (Prandtl 1920)."""
+    return (2.0 + math.pi) * cohesion
+
+
+def disk_external_pressure(radius: float, pressure: float, youngs_modulus: float,
+                           poisson_ratio: float) -> dict:
+    """Plane-strain elastic disk (cylinder) under a uniform external pressure p: homogeneous
+    stress srr = stt = -p, szz = -2 nu p, and radial displacement at r = R
+    u_r = -p R (1 + nu)(1 - 2 nu) / E."""
+    nu = poisson_ratio
+    return {"srr": -pressure, "stt": -pressure, "szz": -2.0 * nu * pressure,
+            "radial_displacement": -pressure * radius * (1 + nu) * (1 - 2 * nu) / youngs_modulus}
+
+
+def observed_orders(h, errors) -> list:
+    """Observed convergence orders log(e_i / e_{i+1}) / log(h_i / h_{i+1}); None first."""
+    orders = [None]
+    for (h0, e0), (h1, e1) in zip(zip(h, errors), zip(h[1:], errors[1:])):
+        if e0 > 0 and e1 > 0 and h0 != h1:
+            orders.append(math.log(e0 / e1) / math.log(h0 / h1))
+        else:
+            orders.append(None)
+    return orders
