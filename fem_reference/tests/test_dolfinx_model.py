@@ -1,0 +1,330 @@
+"""Verification of the dolfinx reference model (fem_reference/dolfinx_model).
+
+Each test asserts a physical or mathematical fact with a stated tolerance and prints the
+measured figures (run pytest -s to see them)."""
+import json
+import math
+import os
+
+import numpy as np
+import pytest
+
+from fem_reference.dolfinx_model import (CaseError, Model, read_case, run_explicit, run_static,
+                                         write_boundary_csv)
+from fem_reference.dolfinx_model.case import Cohesion, Material
+from fem_reference.dolfinx_model.material import ElasticPlasticModel
+
+DATA = os.path.join(os.path.dirname(__file__), "data")
+
+
+def data(name):
+    return os.path.join(DATA, name)
+
+
+def constrained_modulus(e, nu):
+    return e * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+
+
+# ------------------------------------------------------------------------- 1. oedometer
+@pytest.mark.parametrize("quads", [False, True], ids=["P2-triangles", "Q2-quads"])
+def test_oedometric_column_self_weight(quads):
+    """Top settlement = gamma H^2 / (2 M) within 0.5 %; szz = sxx = nu/(1-nu) syy."""
+    case = read_case(data("oedometer_column.json"))
+    model = Model(case, degree=2, quads=quads)
+    model.add_probe("top", (0.5, 5.0))
+    result = run_static(case, model=model, initial_stress_method="zero")
+    exact = 20.0 * 5.0 ** 2 / (2 * constrained_modulus(1e4, 0.15))
+    settlement = -model.probe_displacement("top")[1]
+    print(f"\noedometer ({'quads' if quads else 'triangles'}): settlement {settlement:.6e} m, "
+          f"exact {exact:.6e} m, "
+          f"runtime {result.runtime:.2f} s")
+    assert abs(settlement - exact) <= 0.005 * exact
+    k0 = 0.15 / 0.85
+    s = model.stress
+    assert np.allclose(s[:, 0], k0 * s[:, 1], rtol=1e-6, atol=1e-6)
+    assert np.allclose(s[:, 3], k0 * s[:, 1], rtol=1e-6, atol=1e-6)
+
+
+def test_initial_stress_procedures_agree_on_level_ground():
+    """K0 with K0 = nu/(1-nu) is the oedometric self-weight state: already in equilibrium
+    (no displacement, 1e-9 m) and equal to the stress of the gravity procedure (1e-6 kPa),
+    whose displacements are reset to zero."""
+    case = read_case(data("oedometer_column.json"))
+    k0_model = Model(case)
+    run_static(case, model=k0_model, initial_stress_method="k0")
+    assert np.abs(k0_model.u.x.array).max() < 1e-9
+    grav_model = Model(case)
+    run_static(case, model=grav_model, initial_stress_method="gravity")
+    assert np.abs(grav_model.u.x.array).max() == 0.0
+    assert np.allclose(k0_model.stress, grav_model.stress, atol=1e-6)
+
+
+def test_updated_lagrangian_column_large_strain_solution():
+    """Updated Lagrangian (Jaumann, hypoelastic, weight conserved): the top settlement tends to
+    the large-strain 1D solution H - (M/gamma)(1 - exp(-gamma H / M)) (Cauchy stress = M ln
+    stretch); 20 gravity increments are within 0.05 % of it, while the small-strain value is
+    0.32 % away."""
+    case = read_case(data("oedometer_column.json"))
+    gamma, height = 20.0, 5.0
+    m_mod = constrained_modulus(1e4, 0.15)
+    large = height - (m_mod / gamma) * (1 - math.exp(-gamma * height / m_mod))
+    small = gamma * height ** 2 / (2 * m_mod)
+    model = Model(case, updated_lagrangian=True)
+    model.add_probe("top", (0.5, 5.0))
+    run_static(case, model=model, gravity_steps=20)
+    settlement = -model.probe_displacement("top")[1]
+    print(f"\nUL column: settlement {settlement:.6e} m, large-strain {large:.6e} m, "
+          f"small-strain {small:.6e} m")
+    assert abs(settlement - large) <= 5e-4 * large
+    assert abs(small - large) > 6 * 5e-4 * large
+
+
+def test_uniform_surface_load_is_oedometric():
+    """q over the whole top of the weightless bearing block: settlement q H / M within 0.5 %
+    (checks the pressure load path: facets, normals, resultant)."""
+    raw = json.load(open(data("bearing_block_elastic.json")))
+    raw["gravity"] = {"g": 0}  # weightless; unit_weight stays (density = 20 / 9.81)
+    raw["loads"][0]["x_range"] = [0, 15]
+    raw["initial_stress"]["method"] = "zero"
+    from fem_reference.dolfinx_model import case_from_dict
+    case = case_from_dict(raw, "uniform")
+    result = run_static(case, steps=1, element_size=1.0)
+    exact = 50.0 * 5.0 / constrained_modulus(1e4, 0.15)
+    print(f"\nuniform load: settlement {result.curve[-1][1]:.6e} m, exact {exact:.6e} m")
+    assert abs(result.curve[-1][1] - exact) <= 0.005 * exact
+
+
+# ------------------------------------------------------------------------- 2. bearing, elastic
+def test_bearing_block_elastic_settlement():
+    """Settlement at the strip centre due to q_v (gravity procedure first): P2 triangles of
+    0.5 m and 0.25 m and Q2 quadrilaterals of 0.5 m agree within 1 %; the external vertical
+    force equals q B + weight to 1e-9 (relative)."""
+    case = read_case(data("bearing_block_elastic.json"))
+    values = []
+    for h, quads in ((0.5, True), (0.5, False), (0.25, False)):
+        result = run_static(case, steps=1, element_size=h, quads=quads)
+        assert result.initial_stress == "gravity"
+        assert result.converged_to_full_load
+        values.append(result.curve[-1][1])
+        print(f"\nbearing elastic h={h} {'Q2' if quads else 'P2'}: settlement {values[-1]:.6e} m, "
+              f"cells {result.model.n_cells}, runtime {result.runtime:.2f} s")
+    assert max(values) - min(values) <= 0.01 * values[-1]
+    from dolfinx import fem
+    vec = fem.petsc.assemble_vector(result.model.f_ext_form)
+    fy = vec.array.reshape(-1, 2)[:, 1].sum()
+    assert abs(fy + (50.0 * 5.0 + 20.0 * 75.0)) <= 1e-9 * (50.0 * 5.0 + 20.0 * 75.0)
+
+
+# ------------------------------------------------------------------------- 3. Prandtl
+def test_bearing_block_tresca_collapse_load():
+    """Weightless (g = 0) Tresca c = 20 kPa: load-controlled Newton with step halving; the last
+    converged pressure is within 3 % of Prandtl's (2 + pi) c, and the last converged increment
+    has a secant stiffness below 5 % of the initial elastic one (a plateau)."""
+    case = read_case(data("bearing_block_tresca.json"))
+    result = run_static(case, steps=4, collapse=True, max_factor=1.5, min_step=1e-3,
+                        element_size=0.75, refine_size=0.125, refine_distance=1.5)
+    prandtl = (2 + math.pi) * 20.0
+    collapse = result.collapse_load
+    curve = np.array(result.curve)
+    print(f"\nTresca collapse load {collapse:.2f} kPa, Prandtl {prandtl:.2f} kPa "
+          f"({100 * (collapse / prandtl - 1):+.2f} %), settlement at collapse "
+          f"{curve[-1, 1]:.4f} m, Newton iterations {result.newton_iterations}, cells "
+          f"{result.model.n_cells}, runtime {result.runtime:.1f} s")
+    assert abs(collapse - prandtl) <= 0.03 * prandtl
+    initial_stiffness = curve[1, 0] / curve[1, 1]  # kPa/m, first (elastic) increment
+    last_stiffness = (curve[-1, 0] - curve[-2, 0]) / (curve[-1, 1] - curve[-2, 1])
+    print(f"last-increment stiffness / initial: {last_stiffness / initial_stiffness:.4f}")
+    assert last_stiffness < 0.05 * initial_stiffness
+
+
+# ------------------------------------------------------------------------- 4. slope
+def test_slope_elastic_crest_displacement_mesh_converged():
+    """Geometry of cases/slope.json (toe x = 10.125, crest x = 14.125, 4 m high, 6 m base,
+    26 m wide), elastic E = 1000 kPa, nu = 0.33: gravity switched on (zero initial stress,
+    displacements kept); the crest displacement of the 0.5 m and 0.25 m meshes agree within
+    2 % (vector norm)."""
+    case = read_case(data("slope_elastic.json"))
+    crest = []
+    for h in (0.5, 0.25):
+        model = Model(case, element_size=h)
+        model.add_probe("crest", (14.125, 10.0))
+        assert model.probes["crest"][2] < 1e-12  # the crest is a mesh node
+        result = run_static(case, model=model)
+        crest.append(model.probe_displacement("crest"))
+        print(f"\nslope h={h}: crest (ux, uy) = ({crest[-1][0]:.5e}, {crest[-1][1]:.5e}) m, "
+              f"cells {model.n_cells}, runtime {result.runtime:.2f} s")
+    diff = np.linalg.norm(crest[0] - crest[1])
+    assert diff <= 0.02 * np.linalg.norm(crest[1])
+
+
+# ------------------------------------------------------------------------- explicit dynamics
+def test_explicit_column_sudden_gravity():
+    """Explicit P1 lumped mass, column with gravity switched on at t = 0: undamped, the top
+    reaches 2 x the static settlement (the dynamic amplification of a step load) within 3 %;
+    with local damping 0.7 it settles to the static value within 0.5 %."""
+    case = read_case(data("oedometer_column.json"))
+    static = 20.0 * 5.0 ** 2 / (2 * constrained_modulus(1e4, 0.15))
+    model = Model(case, degree=1, element_size=0.25)
+    model.add_probe("top", (0.5, 5.0))
+    result = run_explicit(case, end_time=0.3, model=model, series_interval=1e-12)
+    peak = -min(uy for _, _, uy in result.probe_history["top"])
+    print(f"\nexplicit undamped: peak/static {peak / static:.4f}, dt {result.dt:.3e} s, "
+          f"{result.n_steps} steps, runtime {result.runtime:.2f} s")
+    assert abs(peak - 2 * static) <= 0.03 * 2 * static
+    case.damping = 0.7
+    model = Model(case, degree=1, element_size=0.25)
+    model.add_probe("top", (0.5, 5.0))
+    result = run_explicit(case, end_time=3.0, model=model)
+    final = -model.probe_displacement("top")[1]
+    print(f"explicit damped: final/static {final / static:.5f}, runtime {result.runtime:.2f} s")
+    assert abs(final - static) <= 0.005 * static
+
+
+# ------------------------------------------------------------------------- outputs, input
+def test_boundary_csv_order(tmp_path):
+    """Undeformed slope outline: one loop, counter-clockwise, area = polygon area (1e-9),
+    first point the lowest-then-leftmost, no repeated closing point, every polygon vertex on it."""
+    case = read_case(data("slope_elastic.json"))
+    model = Model(case, element_size=1.0)
+    loops = model.boundary_loops()
+    assert len(loops) == 1
+    pts = loops[0]
+    area = 0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+    polygon = np.array(case.bodies[0].polygon)
+    exact = 0.5 * np.sum(polygon[:, 0] * np.roll(polygon[:, 1], -1)
+                         - np.roll(polygon[:, 0], -1) * polygon[:, 1])
+    assert area > 0 and abs(area - exact) <= 1e-9 * exact
+    assert np.allclose(pts[0], [0.0, 0.0], atol=1e-12)
+    assert not np.allclose(pts[0], pts[-1])
+    for vertex in polygon:
+        assert np.min(np.linalg.norm(pts - vertex, axis=1)) < 1e-12
+    path = tmp_path / "boundary.csv"
+    write_boundary_csv(loops, path)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "loop,x,y" and len(lines) == len(pts) + 1
+
+
+def test_case_reader_rejects_unknown_key(tmp_path):
+    """Same contract as the C++ reader: file + JSON pointer in the message."""
+    raw = json.load(open(data("oedometer_column.json")))
+    raw["materials"][0]["colour"] = "brown"
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(raw))
+    with pytest.raises(CaseError, match=r"bad\.json: /materials/0/colour: unknown key"):
+        read_case(path)
+
+
+# ------------------------------------------------------------------------- constitutive
+def test_tresca_return_mapping_properties():
+    """Random plane-strain increments from zero stress with softening 20 -> 10 kPa:
+    f <= 1e-9 kPa after the return (= 0 where plastic); the plastic strain increment is traceless
+    (Tresca is isochoric, 1e-12); the dissipation sigma : eps_p = c(kappa) kappa (1e-8) at main
+    plane and edge returns alike; the FD tangent equals D for elastic points."""
+    mat = Material("c", "tresca", 1e4, 0.3, 20.0, Cohesion([0.0, 0.05], [20.0, 10.0]))
+    model = ElasticPlasticModel(mat)
+    rng = np.random.default_rng(7)
+    n = 2000
+    dstrain = rng.normal(size=(n, 3)) * 3e-3
+    stress, kappa, tangent = model.update_with_tangent(np.zeros((n, 4)), np.zeros(n), dstrain)
+    p = 0.5 * (stress[:, 0] + stress[:, 1])
+    r = np.hypot(0.5 * (stress[:, 0] - stress[:, 1]), stress[:, 2])
+    tri = np.stack([p + r, p - r, stress[:, 3]], axis=1)
+    f = 0.5 * (tri.max(axis=1) - tri.min(axis=1)) - mat.cohesion.value(kappa)
+    assert f.max() <= 1e-9
+    assert (kappa > 0).sum() > n // 4 and kappa.min() >= 0.0
+    # elastic strain from the stress, plastic = total - elastic (3D, ezz total = 0)
+    lam, mu = model.lam, model.mu
+    e_mod = mu * (3 * lam + 2 * mu) / (lam + mu)
+    nu = lam / (2 * (lam + mu))
+    trace_s = stress[:, 0] + stress[:, 1] + stress[:, 3]
+    elastic = [((1 + nu) * stress[:, k] - nu * trace_s) / e_mod for k in (0, 1, 3)]
+    plastic_trace = dstrain[:, 0] + dstrain[:, 1] - sum(elastic)
+    assert np.abs(plastic_trace).max() <= 1e-12
+    # consistency on the yield surface; kappa is the plastic shear strain of the active planes,
+    # so for associated Tresca the plastic dissipation sigma : eps_p equals c(kappa) kappa
+    assert np.abs(f[kappa > 0]).max() <= 1e-9
+    gxy_el = stress[:, 2] / mu
+    ep = np.stack([dstrain[:, 0] - elastic[0], dstrain[:, 1] - elastic[1], -elastic[2],
+                   dstrain[:, 2] - gxy_el], axis=1)  # (xx, yy, zz, engineering xy)
+    dissipation = (stress[:, 0] * ep[:, 0] + stress[:, 1] * ep[:, 1] + stress[:, 3] * ep[:, 2]
+                   + stress[:, 2] * ep[:, 3])
+    assert np.allclose(dissipation, mat.cohesion.value(kappa) * kappa, rtol=1e-8, atol=1e-12)
+    ordered = np.sort(tri, axis=1)
+    gap = np.minimum(ordered[:, 2] - ordered[:, 1], ordered[:, 1] - ordered[:, 0])
+    plastic = kappa > 0
+    assert (plastic & (gap > 1e-6)).sum() > n // 10  # main-plane returns were checked
+    assert (plastic & (gap < 1e-9)).sum() > n // 100  # and edge returns
+    elastic_points = kappa == 0
+    assert np.allclose(tangent[elastic_points & (f < -1.0)], model.elastic_matrix())
+
+
+def _principal(stress):
+    p = 0.5 * (stress[:, 0] + stress[:, 1])
+    r = np.hypot(0.5 * (stress[:, 0] - stress[:, 1]), stress[:, 2])
+    return np.stack([p + r, p - r, stress[:, 3]], axis=1)
+
+
+@pytest.mark.parametrize("phi, psi, cutoff",
+                         [(30.0, 30.0, 1e9), (30.0, 5.0, None), (20.0, 0.0, 5.0)])
+def test_mohr_coulomb_return_mapping(phi, psi, cutoff):
+    """Random increments from a compressive state, softening 20 -> 10 kPa: every returned
+    stress is admissible (shear and tension planes, 1e-9 kPa), the tension cut-off is reached by
+    some points when it is below the apex, and for associated flow (psi = phi) the dissipation
+    sigma : eps_p = c(kappa) cos(phi) kappa (1e-8)."""
+    mat = Material("m", "mohr_coulomb", 1e4, 0.3, 20.0, Cohesion([0.0, 0.05], [20.0, 10.0]),
+                   phi, psi, None)
+    mat.tension_cutoff = cutoff if cutoff is not None else 20.0 / math.tan(math.radians(phi))
+    model = ElasticPlasticModel(mat)
+    rng = np.random.default_rng(3)
+    n = 3000
+    start = np.tile([-50.0, -80.0, 0.0, -60.0], (n, 1))
+    dstrain = rng.normal(size=(n, 3)) * 3e-3
+    stress, kappa, _ = model.update_with_tangent(start, np.zeros(n), dstrain)
+    tri = _principal(stress)
+    assert model._violation(tri, kappa).max() <= 1e-9
+    assert (kappa > 0).sum() > n // 20
+    limit = model.tension_limit(mat.cohesion.value(kappa))
+    if cutoff is not None and cutoff < 20.0 / math.tan(math.radians(phi)):
+        assert np.sum(np.abs(tri.max(axis=1) - limit) < 1e-9) > n // 100
+    if psi == phi:
+        lam, mu = model.lam, model.mu
+        e_mod = mu * (3 * lam + 2 * mu) / (lam + mu)
+        nu = lam / (2 * (lam + mu))
+        ds = stress - start
+        trace = ds[:, 0] + ds[:, 1] + ds[:, 3]
+        el = [((1 + nu) * ds[:, k] - nu * trace) / e_mod for k in (0, 1, 3)]
+        ep = [dstrain[:, 0] - el[0], dstrain[:, 1] - el[1], -el[2], dstrain[:, 2] - ds[:, 2] / mu]
+        dissipation = (stress[:, 0] * ep[0] + stress[:, 1] * ep[1] + stress[:, 3] * ep[2]
+                       + stress[:, 2] * ep[3])
+        expected = mat.cohesion.value(kappa) * math.cos(math.radians(phi)) * kappa
+        assert np.allclose(dissipation, expected, rtol=1e-8, atol=1e-10)
+
+
+def test_cli_outputs_and_bad_input(tmp_path):
+    """The CLI writes the boundary, load-settlement, fields and summary files; its settlement is
+    the API's (1e-9 relative); a case with an unknown key exits with code 2 and writes nothing."""
+    import csv
+    import subprocess
+    import sys
+    root = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "fem_reference.dolfinx_model", data("bearing_block_elastic.json"),
+           "--out", str(out), "--steps", "2"]
+    done = subprocess.run(cmd, cwd=root, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    for name in ("boundary.csv", "load_settlement.csv", "fields.xdmf", "fields.h5", "summary.json"):
+        assert (out / name).exists()
+    rows = list(csv.DictReader(open(out / "load_settlement.csv")))
+    assert [float(r["load"]) for r in rows] == [0.0, 25.0, 50.0]
+    api = run_static(data("bearing_block_elastic.json"), steps=2).curve[-1][1]
+    assert abs(float(rows[-1]["settlement"]) - api) <= 1e-9 * api
+    raw = json.load(open(data("bearing_block_elastic.json")))
+    raw["loads"][0]["colour"] = "red"
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(raw))
+    cmd = [sys.executable, "-m", "fem_reference.dolfinx_model", str(bad),
+           "--out", str(tmp_path / "no")]
+    done = subprocess.run(cmd, cwd=root, capture_output=True, text=True)
+    assert done.returncode == 2
+    assert "bad.json: /loads/0/colour: unknown key" in done.stderr
+    assert not (tmp_path / "no").exists()
