@@ -6,7 +6,6 @@
 // Exit codes: 0 success, 2 bad input (nothing written), 3 the simulation stopped (NaN, CFL,
 // a particle leaving the grid); the outputs up to the last good step are kept.
 #include <CLI/CLI.hpp>
-
 #include <iostream>
 
 #include "mpm/core/json_input.hpp"

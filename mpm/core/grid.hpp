@@ -25,9 +25,7 @@ struct Grid {
   Vec2 node_position(int i, int j) const {
     return origin + Vec2(static_cast<double>(i) * cell_size, static_cast<double>(j) * cell_size);
   }
-  Vec2 upper_corner() const {
-    return origin + Vec2(n_cells_x * cell_size, n_cells_y * cell_size);
-  }
+  Vec2 upper_corner() const { return origin + Vec2(n_cells_x * cell_size, n_cells_y * cell_size); }
   /// Cell column containing x (may be outside [0, n_cells_x) for points off the grid).
   int cell_i(double x) const { return static_cast<int>(std::floor((x - origin.x()) / cell_size)); }
   int cell_j(double y) const { return static_cast<int>(std::floor((y - origin.y()) / cell_size)); }

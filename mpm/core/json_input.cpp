@@ -23,7 +23,9 @@ std::string escape_pointer_token(std::string_view token) {
   return out;
 }
 
-const char* type_name(const nlohmann::json& v) { return v.type_name(); }
+const char* type_name(const nlohmann::json& v) {
+  return v.type_name();
+}
 }  // namespace
 
 nlohmann::json read_json_file(const std::string& path) {

@@ -117,8 +117,10 @@ Particles fill_bodies(const Case& c) {
       lo = lo.cwiseMin(v);
       hi = hi.cwiseMax(v);
     }
-    const int i0 = std::max(0, grid.cell_i(lo.x())), i1 = std::min(grid.n_cells_x - 1, grid.cell_i(hi.x()));
-    const int j0 = std::max(0, grid.cell_j(lo.y())), j1 = std::min(grid.n_cells_y - 1, grid.cell_j(hi.y()));
+    const int i0 = std::max(0, grid.cell_i(lo.x())),
+              i1 = std::min(grid.n_cells_x - 1, grid.cell_i(hi.x()));
+    const int j0 = std::max(0, grid.cell_j(lo.y())),
+              j1 = std::min(grid.n_cells_y - 1, grid.cell_j(hi.y()));
     // Cell by cell, row by row, so particle ids follow the cells (good memory locality).
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
@@ -133,8 +135,8 @@ Particles fill_bodies(const Case& c) {
               taken = taken || point_in_polygon(c.bodies[other].polygon, x);
             }
             if (taken) continue;
-            const double v = h * h * weight[static_cast<std::size_t>(ai)] *
-                             weight[static_cast<std::size_t>(bj)];
+            const double v =
+                h * h * weight[static_cast<std::size_t>(ai)] * weight[static_cast<std::size_t>(bj)];
             particles.add(x, v, density, half_size, body.material, static_cast<int>(b));
           }
         }

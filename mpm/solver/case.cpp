@@ -47,24 +47,22 @@ PiecewiseLinear parse_cohesion(const JsonView& v) {
   v.at("peak").require(peak > 0.0, "must be > 0");
   v.at("residual").require(residual > 0.0, "must be > 0");
   v.at("peak_plastic_strain").require(eps_peak > 0.0, "must be > 0");
-  v.at("residual_plastic_strain")
-      .require(eps_residual > eps_peak, "must be > peak_plastic_strain");
+  v.at("residual_plastic_strain").require(eps_residual > eps_peak, "must be > peak_plastic_strain");
   law.x = {0.0, eps_peak, eps_residual};
   law.y = {initial, peak, residual};
   return law;
 }
 
 MaterialRecord parse_material(const JsonView& v) {
-  const std::string model =
-      v.at("model").as_choice({"linear_elastic", "tresca", "mohr_coulomb"});
+  const std::string model = v.at("model").as_choice({"linear_elastic", "tresca", "mohr_coulomb"});
   if (model == "linear_elastic") {
     v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight"});
   } else if (model == "tresca") {
     v.expect_object(
         {"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion"});
   } else {
-    v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight",
-                     "cohesion", "friction_angle", "dilation_angle", "tension_cutoff"});
+    v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion",
+                     "friction_angle", "dilation_angle", "tension_cutoff"});
   }
   MaterialRecord record;
   record.name = v.at("name").as_string();
@@ -74,8 +72,7 @@ MaterialRecord parse_material(const JsonView& v) {
   v.at("youngs_modulus").require(elastic.youngs_modulus > 0.0, "must be > 0");
   elastic.poisson_ratio = v.at("poisson_ratio").as_number();
   v.at("poisson_ratio")
-      .require(elastic.poisson_ratio >= 0.0 && elastic.poisson_ratio < 0.5,
-               "must be in [0, 0.5)");
+      .require(elastic.poisson_ratio >= 0.0 && elastic.poisson_ratio < 0.5, "must be in [0, 0.5)");
   record.unit_weight = v.at("unit_weight").as_number();
   v.at("unit_weight").require(record.unit_weight >= 0.0, "must be >= 0");
   if (model == "linear_elastic") {
@@ -99,7 +96,8 @@ MaterialRecord parse_material(const JsonView& v) {
     // Default: no cut-off of its own; the effective cut-off is then the cone apex c cot(phi)
     // (materials.cpp), so phi = 0 with the default is Tresca exactly.
     mc.tension_cutoff = v.number_or("tension_cutoff", std::numeric_limits<double>::infinity());
-    if (v.has("tension_cutoff")) v.at("tension_cutoff").require(mc.tension_cutoff >= 0.0, "must be >= 0");
+    if (v.has("tension_cutoff"))
+      v.at("tension_cutoff").require(mc.tension_cutoff >= 0.0, "must be >= 0");
     record.model = mc;
   }
   return record;
@@ -214,7 +212,9 @@ bool polygon_self_intersects(const std::vector<Vec2>& polygon) {
   return false;
 }
 
-Case read_case(const std::string& path) { return parse_case(read_json_file(path), path); }
+Case read_case(const std::string& path) {
+  return parse_case(read_json_file(path), path);
+}
 
 Case parse_case(const nlohmann::json& document, const std::string& file) {
   Case c;
@@ -279,9 +279,9 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
         v.at("points_per_cell")
             .require(body.points_per_cell >= 1 && body.points_per_cell <= 8, "must be in 1..8");
       }
-      body.placement =
-          v.choice_or("placement", {"equal", "gauss"}, "equal") == "gauss" ? Placement::kGauss
-                                                                          : Placement::kEqual;
+      body.placement = v.choice_or("placement", {"equal", "gauss"}, "equal") == "gauss"
+                           ? Placement::kGauss
+                           : Placement::kEqual;
       c.bodies.push_back(std::move(body));
     }
   }
@@ -321,7 +321,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                                "must be in [0, 1)");
     }
     c.initial_stress.max_time = s->number_or("max_time", 20.0);
-    if (s->has("max_time")) s->at("max_time").require(c.initial_stress.max_time > 0.0, "must be > 0");
+    if (s->has("max_time"))
+      s->at("max_time").require(c.initial_stress.max_time > 0.0, "must be > 0");
   }
 
   if (const auto ns = root.find("node_sets")) {
@@ -352,11 +353,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       v.expect_object({"where", "fix"});
       BoundaryCondition bc;
       bc.where = v.at("where").as_string();
-      bool known = bc.where == "left" || bc.where == "right" || bc.where == "bottom" ||
-                   bc.where == "top";
+      bool known =
+          bc.where == "left" || bc.where == "right" || bc.where == "bottom" || bc.where == "top";
       for (const auto& set : c.node_sets) known = known || set.name == bc.where;
-      v.at("where").require(known, "\"" + bc.where +
-                                       "\" is neither left, right, bottom, top nor a node set");
+      v.at("where").require(
+          known, "\"" + bc.where + "\" is neither left, right, bottom, top nor a node set");
       bc.fix = parse_fix(v.at("fix"));
       c.boundary_conditions.push_back(bc);
     }
@@ -392,10 +393,9 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     s->expect_object({"scheme", "shape_function", "damping"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
-    c.solver.shape_function =
-        s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
-            ? ShapeFunctionKind::kGimp
-            : ShapeFunctionKind::kLinear;
+    c.solver.shape_function = s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
+                                  ? ShapeFunctionKind::kGimp
+                                  : ShapeFunctionKind::kLinear;
     c.solver.damping = s->number_or("damping", 0.0);
     if (s->has("damping")) {
       s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
@@ -409,7 +409,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     c.time.end_time = t.at("end_time").as_number();
     t.at("end_time").require(c.time.end_time > 0.0, "must be > 0");
     c.time.cfl = t.number_or("cfl", 0.5);
-    if (t.has("cfl")) t.at("cfl").require(c.time.cfl > 0.0 && c.time.cfl <= 1.0, "must be in (0, 1]");
+    if (t.has("cfl"))
+      t.at("cfl").require(c.time.cfl > 0.0 && c.time.cfl <= 1.0, "must be in (0, 1]");
     if (t.has("dt")) {
       c.time.dt = t.at("dt").as_number();
       t.at("dt").require(*c.time.dt > 0.0, "must be > 0");

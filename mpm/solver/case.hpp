@@ -2,11 +2,10 @@
 // Units: kN, m, s, t, kPa; angles converted to degrees-in-struct as documented per field.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mpm/core/grid.hpp"
 #include "mpm/core/materials.hpp"
@@ -24,9 +23,9 @@ enum class Placement { kEqual, kGauss };
 
 struct BodySpec {
   std::string name;
-  int material = 0;            ///< index into Case::materials
-  std::vector<Vec2> polygon;   ///< counter-clockwise, not closed (first point not repeated), m
-  int points_per_cell = 2;     ///< n: n x n points per cell
+  int material = 0;           ///< index into Case::materials
+  std::vector<Vec2> polygon;  ///< counter-clockwise, not closed (first point not repeated), m
+  int points_per_cell = 2;    ///< n: n x n points per cell
   Placement placement = Placement::kEqual;
 };
 

@@ -33,8 +33,8 @@ struct StencilView {
 
 std::string describe_particle(const Particles& particles, std::size_t p) {
   std::ostringstream s;
-  s << "particle " << p << " at (" << particles.position[p].x() << ", "
-    << particles.position[p].y() << ")";
+  s << "particle " << p << " at (" << particles.position[p].x() << ", " << particles.position[p].y()
+    << ")";
   return s.str();
 }
 
@@ -74,9 +74,9 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   critical_dt_ = case_.grid.cell_size / max_wave_speed_;
   if (case_.time.dt) {
     if (*case_.time.dt > critical_dt_) {
-      throw InputError(case_.file + ": /time/dt: " + std::to_string(*case_.time.dt) +
-                       " s exceeds the critical time step h / c_p = " +
-                       std::to_string(critical_dt_) + " s");
+      throw InputError(
+          case_.file + ": /time/dt: " + std::to_string(*case_.time.dt) +
+          " s exceeds the critical time step h / c_p = " + std::to_string(critical_dt_) + " s");
     }
     dt_ = *case_.time.dt;
   } else {
@@ -279,8 +279,10 @@ void MpmSolver::locate_particles() {
       // A node off the grid must carry no weight (the particle domain stays on the grid).
       bool off = false;
       for (int a = 0; a < 3; ++a) {
-        if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0)) off = true;
-        if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0)) off = true;
+        if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
+          off = true;
+        if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0))
+          off = true;
       }
       if (off) outside = std::max(outside, static_cast<long>(p));
     }
@@ -295,7 +297,8 @@ void MpmSolver::locate_particles() {
   // Bin particles by cell: a stable counting sort, so ids ascend within each cell.
   const int n_cells = grid.n_cells();
   cell_start_.assign(static_cast<std::size_t>(n_cells) + 1, 0);
-  for (std::size_t p = 0; p < n; ++p) ++cell_start_[static_cast<std::size_t>(particle_cell_[p]) + 1];
+  for (std::size_t p = 0; p < n; ++p)
+    ++cell_start_[static_cast<std::size_t>(particle_cell_[p]) + 1];
   for (int c = 0; c < n_cells; ++c) {
     cell_start_[static_cast<std::size_t>(c) + 1] += cell_start_[static_cast<std::size_t>(c)];
   }
@@ -311,7 +314,8 @@ void MpmSolver::locate_particles() {
   constexpr int s = W == 2 ? 2 : 4;
   for (auto& list : colour_cells_) list.clear();
   for (int c = 0; c < n_cells; ++c) {
-    if (cell_start_[static_cast<std::size_t>(c) + 1] == cell_start_[static_cast<std::size_t>(c)]) continue;
+    if (cell_start_[static_cast<std::size_t>(c) + 1] == cell_start_[static_cast<std::size_t>(c)])
+      continue;
     const int i = c % grid.n_cells_x, j = c / grid.n_cells_x;
     colour_cells_[static_cast<std::size_t>((j % s) * s + (i % s))].push_back(c);
   }
@@ -462,7 +466,8 @@ void MpmSolver::grid_to_particles() {
     particles_.velocity[p] += dt * a;  // FLIP
     particles_.position[p] += dt * v;
     const double speed = particles_.velocity[p].norm();
-    if (!(speed < 1e300) || !particles_.position[p].allFinite()) bad = std::max(bad, static_cast<long>(p));
+    if (!(speed < 1e300) || !particles_.position[p].allFinite())
+      bad = std::max(bad, static_cast<long>(p));
     max_speed = std::max(max_speed, speed);
   }
   bad_particle_ = bad;
@@ -519,15 +524,15 @@ void MpmSolver::check_particles() {
   if (bad_particle_ >= 0) {
     throw SimulationError("non-finite value (NaN or inf) at " +
                           describe_particle(particles_, static_cast<std::size_t>(bad_particle_)) +
-                          " at t = " + std::to_string(time_) + " s (step " +
-                          std::to_string(step_) + ")");
+                          " at t = " + std::to_string(time_) + " s (step " + std::to_string(step_) +
+                          ")");
   }
   // Courant condition with the material speed added to the wave speed.
   if ((max_wave_speed_ + max_speed_) * dt_ > case_.grid.cell_size) {
     throw SimulationError("CFL condition violated at t = " + std::to_string(time_) + " s (step " +
                           std::to_string(step_) + "): (c_p + |v|max) dt = " +
-                          std::to_string((max_wave_speed_ + max_speed_) * dt_) + " m > h = " +
-                          std::to_string(case_.grid.cell_size) + " m");
+                          std::to_string((max_wave_speed_ + max_speed_) * dt_) +
+                          " m > h = " + std::to_string(case_.grid.cell_size) + " m");
   }
 }
 

@@ -48,18 +48,18 @@ struct StageTimes {
   double locate = 0, particles_to_grid = 0, external_forces = 0, update_grid = 0,
          grid_to_particles = 0, remap = 0, stress = 0;
   double total() const {
-    return locate + particles_to_grid + external_forces + update_grid + grid_to_particles +
-           remap + stress;
+    return locate + particles_to_grid + external_forces + update_grid + grid_to_particles + remap +
+           stress;
   }
 };
 
 /// Energies and momentum for timeseries.csv.
 struct EnergyBalance {
-  double kinetic_energy = 0.0;  ///< kJ (per m thickness)
-  double external_work = 0.0;   ///< kJ, accumulated work of gravity and surface loads
-  double internal_work = 0.0;   ///< kJ, accumulated stress power (strain energy + dissipation)
-  double damping_work = 0.0;    ///< kJ, accumulated work of the damping forces (<= 0)
-  Vec2 momentum = Vec2::Zero(); ///< t m/s
+  double kinetic_energy = 0.0;   ///< kJ (per m thickness)
+  double external_work = 0.0;    ///< kJ, accumulated work of gravity and surface loads
+  double internal_work = 0.0;    ///< kJ, accumulated stress power (strain energy + dissipation)
+  double damping_work = 0.0;     ///< kJ, accumulated work of the damping forces (<= 0)
+  Vec2 momentum = Vec2::Zero();  ///< t m/s
 };
 
 /// Extra external forces added to the grid each step (the boundary-traction stage hooks in
@@ -146,22 +146,22 @@ class MpmSolver {
   std::vector<TopNodeLoad> top_loads_;
 
   // Per-step work arrays.
-  std::vector<int> particle_cell_;    ///< cell index of each particle
-  std::vector<int> cell_start_;       ///< n_cells + 1 offsets into sorted_
-  std::vector<int> sorted_;           ///< particle ids binned by cell, ascending within a cell
-  std::vector<int> occupied_cells_;   ///< cells holding particles, ascending
+  std::vector<int> particle_cell_;   ///< cell index of each particle
+  std::vector<int> cell_start_;      ///< n_cells + 1 offsets into sorted_
+  std::vector<int> sorted_;          ///< particle ids binned by cell, ascending within a cell
+  std::vector<int> occupied_cells_;  ///< cells holding particles, ascending
   std::vector<std::array<double, 12>> stencil_;  ///< 1D factors per particle (see .cpp)
   std::vector<std::array<int, 2>> stencil_base_;
   std::vector<double> internal_work_increment_;
-  std::vector<Vec2> velocity_before_update_;  ///< nodal velocity before the grid update
-  std::vector<Vec2> remapped_velocity_;       ///< MUSL: nodal velocity from updated particles
+  std::vector<Vec2> velocity_before_update_;       ///< nodal velocity before the grid update
+  std::vector<Vec2> remapped_velocity_;            ///< MUSL: nodal velocity from updated particles
   std::array<std::vector<int>, 16> colour_cells_;  ///< occupied cells per colour class
   bool loads_active_ = true;
   bool gravity_full_ = false;
 
   long initial_stress_steps_ = 0;
-  long bad_particle_ = -1;    ///< a particle with a non-finite value in this step, or -1
-  double max_speed_ = 0.0;   ///< largest particle speed after this step, m/s
+  long bad_particle_ = -1;  ///< a particle with a non-finite value in this step, or -1
+  double max_speed_ = 0.0;  ///< largest particle speed after this step, m/s
   double external_work_ = 0.0;
   double internal_work_ = 0.0;
   double damping_work_ = 0.0;

@@ -17,14 +17,15 @@ void check(herr_t status, const char* what) {
   if (status < 0) throw std::runtime_error(std::string("HDF5 error: ") + what);
 }
 
-void write_dataset(hid_t group, const char* name, const std::vector<double>& data,
-                   std::size_t rows, std::size_t cols) {
+void write_dataset(hid_t group, const char* name, const std::vector<double>& data, std::size_t rows,
+                   std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
   const hid_t set =
       H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
-  if (rows > 0) check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()), name);
+  if (rows > 0)
+    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()), name);
   H5Dclose(set);
   H5Sclose(space);
 }
@@ -65,7 +66,8 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   if (times_.empty()) {
     // Polyvertex connectivity 0 .. N-1, shared by every step (the particle count is fixed).
     std::vector<long long> connectivity(particles.size());
-    for (std::size_t p = 0; p < connectivity.size(); ++p) connectivity[p] = static_cast<long long>(p);
+    for (std::size_t p = 0; p < connectivity.size(); ++p)
+      connectivity[p] = static_cast<long long>(p);
     hsize_t dims[1] = {connectivity.size()};
     const hid_t space = H5Screate_simple(1, dims, nullptr);
     const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space,
@@ -99,7 +101,8 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   };
   vec3([&](std::size_t p) { return particles.position[p]; });
   write_dataset(group, "position", buffer, n, 3);
-  vec3([&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
+  vec3(
+      [&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
   write_dataset(group, "displacement", buffer, n, 3);
   vec3([&](std::size_t p) { return particles.velocity[p]; });
   write_dataset(group, "velocity", buffer, n, 3);

@@ -3,10 +3,9 @@
 // by rename) after each HDF5 step is flushed, so it never names a step that is not on disk.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "mpm/solver/particles.hpp"
 

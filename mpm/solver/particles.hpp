@@ -10,18 +10,18 @@
 namespace pfm {
 
 struct Particles {
-  std::vector<Vec2> position;           ///< m
-  std::vector<Vec2> reference_position; ///< m, displacement = position - reference_position
-  std::vector<Vec2> velocity;           ///< m/s
-  std::vector<double> mass;             ///< t
-  std::vector<double> volume;           ///< current volume per unit thickness, m^2
-  std::vector<double> initial_volume;   ///< m^2
-  std::vector<Vec2> half_length;        ///< initial half size of the particle domain (uGIMP), m
-  std::vector<Stress> stress;           ///< kPa, (xx, yy, xy, zz), tension positive
-  std::vector<PointState> state;        ///< equivalent plastic strain and friends
+  std::vector<Vec2> position;            ///< m
+  std::vector<Vec2> reference_position;  ///< m, displacement = position - reference_position
+  std::vector<Vec2> velocity;            ///< m/s
+  std::vector<double> mass;              ///< t
+  std::vector<double> volume;            ///< current volume per unit thickness, m^2
+  std::vector<double> initial_volume;    ///< m^2
+  std::vector<Vec2> half_length;         ///< initial half size of the particle domain (uGIMP), m
+  std::vector<Stress> stress;            ///< kPa, (xx, yy, xy, zz), tension positive
+  std::vector<PointState> state;         ///< equivalent plastic strain and friends
   std::vector<Mat2> deformation_gradient;
-  std::vector<int> material;            ///< index into Case::materials
-  std::vector<int> body;                ///< index into Case::bodies
+  std::vector<int> material;  ///< index into Case::materials
+  std::vector<int> body;      ///< index into Case::bodies
 
   std::size_t size() const { return position.size(); }
   void reserve(std::size_t n);

@@ -86,12 +86,14 @@ void prepare_output_directory(const std::string& out_dir) {
   if (out_dir.empty()) throw InputError("--out: an output directory is required");
   std::error_code error;
   if (fs::exists(out_dir, error)) {
-    if (!fs::is_directory(out_dir)) throw InputError("--out " + out_dir + ": exists and is not a directory");
+    if (!fs::is_directory(out_dir))
+      throw InputError("--out " + out_dir + ": exists and is not a directory");
     if (!fs::is_empty(out_dir)) {
       if (!fs::exists(fs::path(out_dir) / "run.json")) {
-        throw InputError("--out " + out_dir +
-                         ": directory exists and is not a pfm-mpm output directory (no run.json); " +
-                         "refusing to overwrite it");
+        throw InputError(
+            "--out " + out_dir +
+            ": directory exists and is not a pfm-mpm output directory (no run.json); " +
+            "refusing to overwrite it");
       }
       fs::remove_all(out_dir);
     }
@@ -160,30 +162,30 @@ int run_case(const Case& c, const RunOptions& options) {
   }
   write_file_atomically(dir + "/timeseries.csv", series.str());
 
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const StageTimes& st = solver.stage_times();
   const double n_particles = static_cast<double>(solver.particles().size());
   const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
   run["status"] = status == kExitOk ? "completed" : "failed";
   if (!message.empty()) run["error"] = message;
   run["provenance"]["finished_utc"] = utc_now();
-  run["summary"] = {
-      {"n_particles", solver.particles().size()},
-      {"n_steps", solver.step_count()},
-      {"n_initial_stress_steps", initial_steps},
-      {"final_time_s", solver.time()},
-      {"dt_s", solver.dt()},
-      {"critical_dt_s", solver.critical_dt()},
-      {"wall_time_s", wall},
-      {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
-      {"stage_seconds",
-       {{"locate", st.locate},
-        {"particles_to_grid", st.particles_to_grid},
-        {"external_forces", st.external_forces},
-        {"update_grid", st.update_grid},
-        {"grid_to_particles", st.grid_to_particles},
-        {"remap", st.remap},
-        {"stress", st.stress}}}};
+  run["summary"] = {{"n_particles", solver.particles().size()},
+                    {"n_steps", solver.step_count()},
+                    {"n_initial_stress_steps", initial_steps},
+                    {"final_time_s", solver.time()},
+                    {"dt_s", solver.dt()},
+                    {"critical_dt_s", solver.critical_dt()},
+                    {"wall_time_s", wall},
+                    {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
+                    {"stage_seconds",
+                     {{"locate", st.locate},
+                      {"particles_to_grid", st.particles_to_grid},
+                      {"external_forces", st.external_forces},
+                      {"update_grid", st.update_grid},
+                      {"grid_to_particles", st.grid_to_particles},
+                      {"remap", st.remap},
+                      {"stress", st.stress}}}};
   const EnergyBalance e = solver.energy();
   run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
                               {"external_work", e.external_work},

@@ -21,7 +21,12 @@ struct RunOptions {
 };
 
 /// Exit codes of the command-line tool.
-enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitInputError = 2, kExitSimulationError = 3 };
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitFailure = 1,
+  kExitInputError = 2,
+  kExitSimulationError = 3
+};
 
 /// Prepare the output directory: create it, or clear it if it holds a previous run (run.json);
 /// InputError if it exists with other content.

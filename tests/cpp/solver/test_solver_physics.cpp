@@ -59,7 +59,8 @@ struct ColumnResult {
 // sigma_yy = -gamma (H - y).
 ColumnResult run_column(const std::string& placement, int points_per_cell) {
   const double height = 5.0, cell = 0.5, gamma = 20.0;
-  const Case c = parse_case(testing::column_case(height, cell, points_per_cell, placement), "column");
+  const Case c =
+      parse_case(testing::column_case(height, cell, points_per_cell, placement), "column");
   MpmSolver solver(c);
   while (solver.time() < c.time.end_time) solver.step();
   const double m = elastic_parameters(c.materials[0].model).constrained_modulus();
@@ -86,7 +87,8 @@ ColumnResult run_column(const std::string& placement, int points_per_cell) {
     ++count[row];
   }
   for (const auto& [row, sums] : rows) {
-    r.stress_error = std::max(r.stress_error, std::abs(sums.first - sums.second) / std::abs(sums.second));
+    r.stress_error =
+        std::max(r.stress_error, std::abs(sums.first - sums.second) / std::abs(sums.second));
   }
   return r;
 }
@@ -147,10 +149,11 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
     }
   }
   const double drift = std::abs(last_sum / last_n - first_sum / first_n) / e0;
-  std::printf("free vibration: period %.4f s, %ld steps, period-averaged drift %.3e, "
-              "sampled max deviation %.3e, oscillation first/last period %.3e / %.3e\n",
-              period, solver.step_count(), drift, worst, (first_hi - first_lo) / e0,
-              (last_hi - last_lo) / e0);
+  std::printf(
+      "free vibration: period %.4f s, %ld steps, period-averaged drift %.3e, "
+      "sampled max deviation %.3e, oscillation first/last period %.3e / %.3e\n",
+      period, solver.step_count(), drift, worst, (first_hi - first_lo) / e0,
+      (last_hi - last_lo) / e0);
   EXPECT_LT(min_ke, 0.05 * e0);  // it really oscillates: energy goes into strain and back
   EXPECT_LT(drift, 0.01);
   EXPECT_LE(last_hi - last_lo, 1.1 * (first_hi - first_lo));  // no growth

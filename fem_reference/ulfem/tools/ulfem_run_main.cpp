@@ -1,0 +1,37 @@
+// pfm-ulfem: run a case with the UL-FEM until `pfm-mpm run CASE --solver ulfem` exists.
+//
+//   pfm-ulfem CASE.json OUT_DIR [THREADS]
+//
+// Exit codes as pfm-mpm: 0 done, 2 bad input (nothing written), 3 the simulation stopped.
+#include <iostream>
+#include <string>
+
+#include "fem_reference/ulfem/ulfem_run.hpp"
+#include "mpm/core/json_input.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::cerr << "usage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
+    return pfm::kExitInputError;
+  }
+  pfm::RunOptions options;
+  options.out_dir = argv[2];
+  options.threads = argc > 3 ? std::stoi(argv[3]) : 0;
+  for (int k = 0; k < argc; ++k) {
+    if (k > 0) options.command_line += ' ';
+    options.command_line += argv[k];
+  }
+  try {
+    const pfm::Case c = pfm::read_case(argv[1]);
+    const int status = pfm::run_ulfem_case(c, options);
+    if (status == pfm::kExitOk) std::cout << "results: " << options.out_dir << "\n";
+    return status;
+  } catch (const pfm::InputError& e) {
+    std::cerr << "pfm-ulfem: error: " << e.what() << "\n";
+    return pfm::kExitInputError;
+  } catch (const std::exception& e) {
+    std::cerr << "pfm-ulfem: failure: " << e.what() << "\n";
+    return pfm::kExitFailure;
+  }
+}

@@ -1,0 +1,254 @@
+#include "fem_reference/ulfem/ulfem_run.hpp"
+
+#include <hdf5.h>
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "fem_reference/ulfem/ulfem_solver.hpp"
+#include "mpm/solver/output.hpp"
+
+namespace pfm::ulfem {
+
+namespace {
+
+std::string fmt(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return buffer;
+}
+
+void write_doubles(hid_t group, const char* name, const std::vector<double>& data, std::size_t rows,
+                   std::size_t cols) {
+  hsize_t dims[2] = {rows, cols};
+  const hid_t space = H5Screate_simple(2, dims, nullptr);
+  const hid_t set =
+      H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
+  if (rows > 0 &&
+      H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0) {
+    throw std::runtime_error(std::string("HDF5: cannot write ") + name);
+  }
+  H5Dclose(set);
+  H5Sclose(space);
+}
+
+}  // namespace
+
+std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& positions) {
+  std::ostringstream out;
+  out << "loop,x,y\n";
+  const auto loops = boundary_loops(mesh, positions);
+  for (std::size_t k = 0; k < loops.size(); ++k) {
+    for (int n : loops[k]) {
+      const Vec2& x = positions[static_cast<std::size_t>(n)];
+      out << k << ',' << fmt(x.x()) << ',' << fmt(x.y()) << '\n';
+    }
+  }
+  return out.str();
+}
+
+MeshSeriesWriter::MeshSeriesWriter(std::string directory, const QuadMesh& mesh)
+    : directory_(std::move(directory)), n_nodes_(mesh.n_nodes()), n_elements_(mesh.n_elements()) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const std::string path = directory_ + "/mesh.h5";
+  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+  std::vector<long long> topology;
+  for (const auto& element : mesh.element_nodes) {
+    for (int n : element) topology.push_back(n);
+  }
+  hsize_t dims[2] = {n_elements_, 4};
+  const hid_t space = H5Screate_simple(2, dims, nullptr);
+  const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "topology", H5T_STD_I64LE, space,
+                               H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (set < 0 ||
+      H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, topology.data()) < 0) {
+    throw std::runtime_error("HDF5: cannot write the mesh topology");
+  }
+  H5Dclose(set);
+  H5Sclose(space);
+}
+
+MeshSeriesWriter::~MeshSeriesWriter() {
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
+}
+
+void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& position,
+                             const std::vector<Vec2>& displacement,
+                             const std::vector<Vec2>& velocity) {
+  char name[32];
+  std::snprintf(name, sizeof name, "step_%08ld", step);
+  const hid_t group =
+      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  std::vector<double> buffer(3 * n_nodes_, 0.0);
+  auto put = [&](const std::vector<Vec2>& v, const char* dataset) {
+    for (std::size_t n = 0; n < n_nodes_; ++n) {
+      buffer[3 * n] = v[n].x();
+      buffer[3 * n + 1] = v[n].y();
+      buffer[3 * n + 2] = 0.0;
+    }
+    write_doubles(group, dataset, buffer, n_nodes_, 3);
+  };
+  put(position, "geometry");
+  put(displacement, "displacement");
+  put(velocity, "velocity");
+  H5Gclose(group);
+  if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0) {
+    throw std::runtime_error("HDF5: cannot flush mesh.h5");
+  }
+  times_.push_back(time);
+  groups_.push_back(name);
+  write_xdmf();
+}
+
+void MeshSeriesWriter::write_xdmf() const {
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
+    << "<Grid Name=\"mesh\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t s = 0; s < times_.size(); ++s) {
+    const std::string& g = groups_[s];
+    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
+      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
+      << "<Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << n_elements_
+      << "\"><DataItem Dimensions=\"" << n_elements_
+      << " 4\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">mesh.h5:/topology</DataItem>"
+      << "</Topology>\n"
+      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n_nodes_
+      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g
+      << "/geometry</DataItem></Geometry>\n";
+    for (const char* vector_name : {"displacement", "velocity"}) {
+      x << "<Attribute Name=\"" << vector_name
+        << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n_nodes_
+        << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g << "/"
+        << vector_name << "</DataItem></Attribute>\n";
+    }
+    x << "</Grid>\n";
+  }
+  x << "</Grid>\n</Domain>\n</Xdmf>\n";
+  write_file_atomically(directory_ + "/mesh.xdmf", x.str());
+}
+
+int run_ulfem_case(const Case& c, const RunOptions& options) {
+  const int threads = options.threads > 0 ? options.threads : omp_get_num_procs();
+  omp_set_num_threads(threads);
+  UlFemSolver solver(c);  // may throw InputError: nothing created yet
+  prepare_output_directory(options.out_dir);
+  const std::string dir = options.out_dir;
+
+  nlohmann::json run;
+  run["provenance"] = provenance(c.file, options.command_line);
+  run["provenance"]["threads"] = threads;
+  run["provenance"]["solver"] = "ulfem";
+  run["case"] = c.source;
+  run["status"] = "running";
+  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+
+  std::ostringstream series;
+  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y\n";
+  auto record = [&](const UlFemSolver& s) {
+    const EnergyBalance e = s.energy();
+    series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
+           << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
+           << ',' << fmt(e.momentum.y()) << '\n';
+  };
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  long initial_steps = 0;
+  int status = kExitOk;
+  std::string message;
+  try {
+    solver.initialise_stress();
+    initial_steps = solver.initial_stress_steps();
+    ParticleSeriesWriter particle_writer(dir);
+    MeshSeriesWriter mesh_writer(dir, solver.mesh());
+    auto output = [&](double t) {
+      particle_writer.write(t, solver.step_count(), solver.particles());
+      mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
+                        solver.node_state().velocity);
+      char name[48];
+      std::snprintf(name, sizeof name, "/boundary_%08ld.csv", solver.step_count());
+      write_file_atomically(dir + name, boundary_csv(solver.mesh(), solver.node_position()));
+    };
+    output(solver.time());
+    record(solver);
+    const double end = c.time.end_time;
+    const double eps = 1e-9 * solver.dt();
+    double next_output = c.output.interval, next_series = c.output.timeseries_interval;
+    // The step may shrink as elements are crushed (UlFemSolver::dt), so loop on time.
+    while (solver.time() < end - eps) {
+      solver.step();
+      const double t = solver.time();
+      const bool last = t >= end - eps;
+      if (t >= next_series - eps || last) {
+        record(solver);
+        while (next_series <= t + eps) next_series += c.output.timeseries_interval;
+      }
+      if (t >= next_output - eps || last) {
+        output(t);
+        write_file_atomically(dir + "/timeseries.csv", series.str());
+        while (next_output <= t + eps) next_output += c.output.interval;
+      }
+    }
+    write_file_atomically(dir + "/final_particles.csv", particles_csv(solver.particles()));
+  } catch (const SimulationError& e) {
+    status = kExitSimulationError;
+    message = e.what();
+    std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
+              << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+  }
+  write_file_atomically(dir + "/timeseries.csv", series.str());
+
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const StageTimes& st = solver.stage_times();
+  const double n_particles = static_cast<double>(solver.particles().size());
+  const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
+  run["status"] = status == kExitOk ? "completed" : "failed";
+  if (!message.empty()) run["error"] = message;
+  run["provenance"]["finished_utc"] = utc_now();
+  run["summary"] = {{"solver", "ulfem"},
+                    {"mesh",
+                     {{"generator", solver.mesh().generator},
+                      {"n_elements", solver.mesh().n_elements()},
+                      {"n_nodes", solver.mesh().n_nodes()}}},
+                    {"n_particles", solver.particles().size()},
+                    {"n_steps", solver.step_count()},
+                    {"n_initial_stress_steps", initial_steps},
+                    {"final_time_s", solver.time()},
+                    {"dt_s", solver.dt()},
+                    {"critical_dt_s", solver.critical_dt()},
+                    {"wall_time_s", wall},
+                    {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
+                    {"stage_seconds",
+                     {{"geometry", st.locate},
+                      {"particles_to_nodes", st.particles_to_grid},
+                      {"external_forces", st.external_forces},
+                      {"update_nodes", st.update_grid},
+                      {"nodes_to_particles", st.grid_to_particles},
+                      {"remap", st.remap},
+                      {"stress", st.stress}}}};
+  const EnergyBalance e = solver.energy();
+  run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
+                              {"external_work", e.external_work},
+                              {"internal_work", e.internal_work},
+                              {"damping_work", e.damping_work}};
+  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  return status;
+}
+
+}  // namespace pfm::ulfem

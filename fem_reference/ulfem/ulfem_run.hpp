@@ -1,0 +1,58 @@
+// The UL-FEM driver: `pfm-mpm run CASE.json --solver ulfem --out DIR`.
+//
+// Output directory, as pfm::run_case (mpm/solver/run.hpp) plus the exact boundary and the mesh:
+//   run.json                provenance + summary (solver "ulfem", mesh generator and size)
+//   particles.h5/.xdmf      material points (the Gauss points) per output step
+//   timeseries.csv          time, kinetic energy, works, momentum
+//   final_particles.csv     the final material point state
+//   boundary_<step>.csv     per output step (step with 8 digits): the exact outer boundary of
+//                           the deformed mesh, columns loop,x,y; counter-clockwise (material on
+//                           the left), no repeated closing point, first point the lowest (then
+//                           leftmost); one loop per boundary component
+//   mesh.h5/.xdmf           the mesh per output step: quads, current geometry, nodal
+//                           displacement and velocity
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fem_reference/ulfem/quad_mesh.hpp"
+#include "mpm/solver/run.hpp"
+
+namespace pfm::ulfem {
+
+/// Run a validated case with the UL-FEM. Returns kExitOk, or kExitSimulationError after
+/// writing run.json with status "failed" (outputs so far kept). InputError propagates before
+/// anything is created.
+int run_ulfem_case(const Case& c, const RunOptions& options);
+
+/// boundary CSV text ("loop,x,y") of the mesh at the given node positions (boundary_loops).
+std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& positions);
+
+/// Mesh time series: mesh.h5 (topology once, one group per step) + mesh.xdmf (temporal
+/// collection of Quadrilateral grids; ParaView and meshio open it).
+class MeshSeriesWriter {
+ public:
+  MeshSeriesWriter(std::string directory, const QuadMesh& mesh);
+  ~MeshSeriesWriter();
+  MeshSeriesWriter(const MeshSeriesWriter&) = delete;
+  MeshSeriesWriter& operator=(const MeshSeriesWriter&) = delete;
+
+  /// positions, displacement, velocity: one per node (m, m, m/s).
+  void write(double time, long step, const std::vector<Vec2>& position,
+             const std::vector<Vec2>& displacement, const std::vector<Vec2>& velocity);
+
+ private:
+  void write_xdmf() const;
+  std::string directory_;
+  long file_ = -1;  // hid_t
+  std::size_t n_nodes_ = 0, n_elements_ = 0;
+  std::vector<double> times_;
+  std::vector<std::string> groups_;
+};
+
+}  // namespace pfm::ulfem
+
+namespace pfm {
+using ulfem::run_ulfem_case;  // pfm::run_ulfem_case, beside pfm::run_case
+}  // namespace pfm

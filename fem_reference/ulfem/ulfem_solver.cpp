@@ -1,0 +1,604 @@
+#include "fem_reference/ulfem/ulfem_solver.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+#include "mpm/core/json_input.hpp"
+#include "mpm/core/kinematics.hpp"
+#include "mpm/core/shape_functions.hpp"
+#include "mpm/solver/body_fill.hpp"
+
+namespace pfm::ulfem {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Below this many elements a parallel region costs more than it saves (and a busy machine can
+// deschedule a team member for milliseconds).
+constexpr std::size_t kParallelElements = 2048;
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string fmt(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", v);
+  return buffer;
+}
+
+// Natural coordinates of point slot k: (-,-), (+,-), (-,+), (+,+), the row-by-row order of the
+// MPM's fill_bodies (q4_gauss_points_2x2 lists them counter-clockwise; slots 2 and 3 swap).
+std::array<Vec2, 4> point_slots() {
+  const std::array<Vec2, 4> ccw = q4_gauss_points_2x2();
+  return {ccw[0], ccw[1], ccw[3], ccw[2]};
+}
+
+}  // namespace
+
+UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
+
+UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::move(mesh)) {
+  node_position_ = mesh_.node_position;
+  node_reference_ = mesh_.node_position;
+  const std::size_t n_nodes = mesh_.n_nodes();
+  nodes_.mass.assign(n_nodes, 0.0);
+  nodes_.momentum.assign(n_nodes, Vec2::Zero());
+  nodes_.internal_force.assign(n_nodes, Vec2::Zero());
+  nodes_.external_force.assign(n_nodes, Vec2::Zero());
+  nodes_.velocity.assign(n_nodes, Vec2::Zero());
+  nodes_.acceleration.assign(n_nodes, Vec2::Zero());
+  nodes_.fixed.assign(n_nodes, kFixNone);
+  velocity_before_update_.assign(n_nodes, Vec2::Zero());
+  remapped_velocity_.assign(n_nodes, Vec2::Zero());
+  const std::array<Vec2, 4> slots = point_slots();
+  for (std::size_t k = 0; k < 4; ++k) {
+    shape_value_[k] = q4_values(slots[k].x(), slots[k].y());
+    shape_natural_gradient_[k] = q4_natural_gradients(slots[k].x(), slots[k].y());
+  }
+  gradient_.resize(4 * mesh_.n_elements());
+  det_jacobian_.resize(4 * mesh_.n_elements());
+  compute_geometry();
+  build_particles();
+  build_constraints();
+  build_top_edges();
+
+  // Critical time step h_min / c_p, h_min = smallest (area / longest edge) of the mesh (h for a
+  // square cell, as the MPM's h / c_p).
+  const double g = case_.gravity.g > 0.0 ? case_.gravity.g : 9.81;
+  for (const MaterialRecord& m : case_.materials) {
+    const double density = m.unit_weight / g;
+    if (density <= 0.0) continue;
+    max_wave_speed_ = std::max(
+        max_wave_speed_, std::sqrt(elastic_parameters(m.model).constrained_modulus() / density));
+  }
+  if (max_wave_speed_ <= 0.0) {
+    throw InputError(case_.file + ": /materials: every material has zero unit weight, so the " +
+                     "critical time step is undefined");
+  }
+  critical_dt_ = min_element_length_ / max_wave_speed_;
+  if (case_.time.dt) {
+    if (*case_.time.dt > critical_dt_) {
+      throw InputError(case_.file + ": /time/dt: " + std::to_string(*case_.time.dt) +
+                       " s exceeds the critical time step of the mesh h_min / c_p = " +
+                       std::to_string(critical_dt_) + " s");
+    }
+    base_dt_ = *case_.time.dt;
+  } else {
+    base_dt_ = case_.time.cfl * critical_dt_;
+  }
+  dt_ = base_dt_;
+  damping_ = case_.solver.damping;
+  internal_work_increment_.assign(particles_.size(), 0.0);
+}
+
+void UlFemSolver::set_dt(double dt) {
+  if (!(dt > 0.0) || dt > critical_dt_) {
+    throw SimulationError("time step " + std::to_string(dt) + " s outside (0, " +
+                          std::to_string(critical_dt_) + "]");
+  }
+  base_dt_ = dt_ = dt;
+}
+
+void UlFemSolver::build_particles() {
+  const double g = case_.gravity.g > 0.0 ? case_.gravity.g : 9.81;
+  const std::size_t n_elements = mesh_.n_elements();
+  particles_.reserve(4 * n_elements);
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    const int body = mesh_.element_body[e];
+    const int material = case_.bodies[static_cast<std::size_t>(body)].material;
+    const double density = case_.materials[static_cast<std::size_t>(material)].unit_weight / g;
+    Vec2 lo = node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][0])], hi = lo;
+    for (int n : mesh_.element_nodes[e]) {
+      lo = lo.cwiseMin(node_position_[static_cast<std::size_t>(n)]);
+      hi = hi.cwiseMax(node_position_[static_cast<std::size_t>(n)]);
+    }
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t p = 4 * e + k;
+      Vec2 x = Vec2::Zero();
+      for (std::size_t a = 0; a < 4; ++a) {
+        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
+             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
+      }
+      // Volume = det J x Gauss weight (1 for the 2 x 2 rule on [-1, 1]^2).
+      particles_.add(x, det_jacobian_[p], density, 0.25 * (hi - lo), material, body);
+    }
+  }
+}
+
+void UlFemSolver::build_constraints() {
+  const Grid& grid = case_.grid;
+  const double tol = 1e-9 * grid.cell_size;
+  const Vec2 lo = grid.origin, hi = grid.upper_corner();
+  for (const BoundaryCondition& bc : case_.boundary_conditions) {
+    for (std::size_t n = 0; n < mesh_.n_nodes(); ++n) {
+      const Vec2& x = node_reference_[n];
+      bool selected = false;
+      if (bc.where == "left") {
+        selected = std::abs(x.x() - lo.x()) <= tol;
+      } else if (bc.where == "right") {
+        selected = std::abs(x.x() - hi.x()) <= tol;
+      } else if (bc.where == "bottom") {
+        selected = std::abs(x.y() - lo.y()) <= tol;
+      } else if (bc.where == "top") {
+        selected = std::abs(x.y() - hi.y()) <= tol;
+      } else {
+        for (const NodeSet& set : case_.node_sets) {
+          if (set.name != bc.where) continue;
+          selected = x.x() >= set.box_min.x() - tol && x.x() <= set.box_max.x() + tol &&
+                     x.y() >= set.box_min.y() - tol && x.y() <= set.box_max.y() + tol;
+        }
+      }
+      if (selected) nodes_.fixed[n] |= bc.fix;
+    }
+  }
+}
+
+void UlFemSolver::build_top_edges() {
+  for (const auto& edge : boundary_edges(mesh_)) {
+    const Vec2 d = node_position_[static_cast<std::size_t>(edge[1])] -
+                   node_position_[static_cast<std::size_t>(edge[0])];
+    // Outward normal (dy, -dx) / L faces upwards: -dx > 0.
+    if (-d.x() > 1e-12 * d.norm()) top_edges_.push_back({edge[0], edge[1]});
+  }
+}
+
+void UlFemSolver::compute_geometry() {
+  const std::size_t n_elements = mesh_.n_elements();
+  long inverted = -1;
+  double min_length = std::numeric_limits<double>::infinity();
+#pragma omp parallel for schedule(static) reduction(max         \
+                                                    : inverted) \
+    reduction(min                                               \
+              : min_length) if (n_elements >= kParallelElements)
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    Eigen::Matrix<double, 4, 2> x;  // row a = current position of node a
+    for (std::size_t a = 0; a < 4; ++a) {
+      x.row(static_cast<Eigen::Index>(a)) =
+          node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])].transpose();
+    }
+    for (std::size_t k = 0; k < 4; ++k) {
+      // J(i, j) = d x_i / d xi_j = sum_a x_a,i dN_a/dxi_j; grad N_a = J^-T (dN_a/dxi).
+      const Mat2 jacobian = x.transpose() * shape_natural_gradient_[k];
+      const double det = jacobian.determinant();
+      det_jacobian_[4 * e + k] = det;
+      if (!(det > 0.0)) {
+        inverted = std::max(inverted, static_cast<long>(4 * e + k));
+        continue;
+      }
+      gradient_[4 * e + k] = shape_natural_gradient_[k] * jacobian.inverse();
+    }
+    double area = 0.0, longest = 0.0;
+    for (std::size_t a = 0; a < 4; ++a) {
+      const Vec2 p = x.row(static_cast<Eigen::Index>(a)).transpose();
+      const Vec2 q = x.row(static_cast<Eigen::Index>((a + 1) % 4)).transpose();
+      area += 0.5 * (p.x() * q.y() - q.x() * p.y());
+      longest = std::max(longest, (q - p).norm());
+    }
+    min_length = std::min(min_length, area / longest);
+  }
+  if (inverted >= 0) {
+    const auto p = static_cast<std::size_t>(inverted);
+    const std::size_t e = p / 4;
+    Vec2 centre = Vec2::Zero();
+    for (int n : mesh_.element_nodes[e])
+      centre += 0.25 * node_position_[static_cast<std::size_t>(n)];
+    throw SimulationError("element inverted: " + describe_element(e, centre) +
+                          ", det J = " + fmt(det_jacobian_[p]) + " m^2 <= 0 at its Gauss point " +
+                          std::to_string(p % 4) + " at t = " + std::to_string(time_) + " s (step " +
+                          std::to_string(step_) + ")");
+  }
+  min_element_length_ = min_length;
+  // Current volumes of the material points: det J x weight (1).
+  for (std::size_t p = 0; p < particles_.size(); ++p) particles_.volume[p] = det_jacobian_[p];
+}
+
+std::string UlFemSolver::describe_element(std::size_t element, const Vec2& x) const {
+  std::ostringstream s;
+  s << "element " << element << " (nodes";
+  for (int n : mesh_.element_nodes[element]) s << ' ' << n;
+  s << ") centred at (" << x.x() << ", " << x.y() << ")";
+  return s.str();
+}
+
+double UlFemSolver::gravity_factor(double t) const {
+  if (gravity_full_ || case_.gravity.ramp_time <= 0.0) return 1.0;
+  return std::min(1.0, t / case_.gravity.ramp_time);
+}
+
+void UlFemSolver::step() {
+  // The mesh is never reset, so crushed elements lower the stable time step: the step is the
+  // base step, reduced to cfl x (smallest current element length) / (c_p + |v|max) when that
+  // is smaller (explicit FE practice; the MPM keeps its cells and needs no such reduction).
+  dt_ = std::min(base_dt_,
+                 case_.time.cfl * min_element_length_ / (max_wave_speed_ + max_particle_speed_));
+  auto t0 = Clock::now();
+  particles_to_nodes(false);
+  times_.particles_to_grid += seconds_since(t0);
+
+  t0 = Clock::now();
+  external_forces();
+  times_.external_forces += seconds_since(t0);
+
+  t0 = Clock::now();
+  update_nodes();
+  times_.update_grid += seconds_since(t0);
+
+  t0 = Clock::now();
+  nodes_to_particles();
+  times_.grid_to_particles += seconds_since(t0);
+
+  if (case_.solver.scheme == Scheme::kMUSL) {
+    t0 = Clock::now();
+    particles_to_nodes(true);
+    const std::size_t n_nodes = nodes_.mass.size();
+    const double tiny = 1e-12 * particles_.mass.front();
+    for (std::size_t n = 0; n < n_nodes; ++n) {
+      Vec2 v = Vec2::Zero();
+      if (nodes_.mass[n] > tiny) v = nodes_.momentum[n] / nodes_.mass[n];
+      if (nodes_.fixed[n] & kFixX) v.x() = 0.0;
+      if (nodes_.fixed[n] & kFixY) v.y() = 0.0;
+      remapped_velocity_[n] = v;
+    }
+    times_.remap += seconds_since(t0);
+    t0 = Clock::now();
+    update_stress(remapped_velocity_);
+  } else {
+    t0 = Clock::now();
+    update_stress(nodes_.velocity);
+  }
+  times_.stress += seconds_since(t0);
+
+  time_ += dt_;
+  ++step_;
+  t0 = Clock::now();
+  move_mesh();
+  times_.locate += seconds_since(t0);
+  check_particles();
+}
+
+void UlFemSolver::particles_to_nodes(bool momentum_only) {
+  std::fill(nodes_.momentum.begin(), nodes_.momentum.end(), Vec2::Zero());
+  if (!momentum_only) {
+    std::fill(nodes_.mass.begin(), nodes_.mass.end(), 0.0);
+    std::fill(nodes_.internal_force.begin(), nodes_.internal_force.end(), Vec2::Zero());
+  }
+  // Serial over elements in index order: every node receives its contributions in a fixed
+  // order (bitwise reproducible).
+  const std::size_t n_elements = mesh_.n_elements();
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    const std::array<int, 4>& element = mesh_.element_nodes[e];
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t p = 4 * e + k;
+      const double m = particles_.mass[p];
+      const Vec2 mv = m * particles_.velocity[p];
+      const Eigen::Vector4d& shape = shape_value_[k];
+      if (momentum_only) {
+        for (std::size_t a = 0; a < 4; ++a) {
+          nodes_.momentum[static_cast<std::size_t>(element[a])] +=
+              shape[static_cast<Eigen::Index>(a)] * mv;
+        }
+        continue;
+      }
+      const double v = particles_.volume[p];
+      const Stress& sig = particles_.stress[p];
+      const Eigen::Matrix<double, 4, 2>& grad = gradient_[p];
+      for (std::size_t a = 0; a < 4; ++a) {
+        const auto node = static_cast<std::size_t>(element[a]);
+        const double weight = shape[static_cast<Eigen::Index>(a)];
+        const double gx = grad(static_cast<Eigen::Index>(a), 0);
+        const double gy = grad(static_cast<Eigen::Index>(a), 1);
+        nodes_.mass[node] += weight * m;
+        nodes_.momentum[node] += weight * mv;
+        // f_int = - integral sigma . grad N dV (tension positive), thesis eq. 3.24.
+        nodes_.internal_force[node] -=
+            v * Vec2(sig[kXX] * gx + sig[kXY] * gy, sig[kXY] * gx + sig[kYY] * gy);
+      }
+    }
+  }
+}
+
+void UlFemSolver::external_forces() {
+  const double gy = -case_.gravity.g * gravity_factor(time_);
+  const std::size_t n_nodes = nodes_.mass.size();
+  for (std::size_t n = 0; n < n_nodes; ++n)
+    nodes_.external_force[n] = Vec2(0.0, nodes_.mass[n] * gy);
+  if (!loads_active_) return;
+  for (const LoadSpec& load : case_.loads) {
+    const double q = load.pressure * load.time_function.factor(time_);
+    if (q == 0.0) continue;
+    for (const LoadedEdge& edge : top_edges_) {
+      const Vec2& a = node_position_[static_cast<std::size_t>(edge.from)];
+      const Vec2& b = node_position_[static_cast<std::size_t>(edge.to)];
+      const Vec2 d = b - a;
+      // Loaded part s in [s0, s1] of x(s) = a.x + s d.x within [x0, x1].
+      double s0 = 0.0, s1 = 1.0;
+      if (d.x() != 0.0) {
+        const double t0 = (load.x0 - a.x()) / d.x(), t1 = (load.x1 - a.x()) / d.x();
+        s0 = std::max(0.0, std::min(t0, t1));
+        s1 = std::min(1.0, std::max(t0, t1));
+      } else if (a.x() < load.x0 || a.x() > load.x1) {
+        continue;
+      }
+      if (s1 <= s0) continue;
+      const double integral_s = 0.5 * (s1 * s1 - s0 * s0);   // int s ds
+      const double integral_1ms = (s1 - s0) - integral_s;    // int (1 - s) ds
+      const Vec2 force_per_unit = -q * Vec2(d.y(), -d.x());  // -q n L
+      nodes_.external_force[static_cast<std::size_t>(edge.from)] += integral_1ms * force_per_unit;
+      nodes_.external_force[static_cast<std::size_t>(edge.to)] += integral_s * force_per_unit;
+    }
+  }
+  if (hook_) hook_(time_, nodes_, nodes_.external_force);
+}
+
+void UlFemSolver::update_nodes() {
+  // The arithmetic of MpmSolver::update_grid, node by node.
+  const std::size_t n_nodes = nodes_.mass.size();
+  const double tiny = 1e-12 * particles_.mass.front();
+  const double alpha = damping_;
+  const double dt = dt_;
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    const double m = nodes_.mass[n];
+    if (m <= tiny) {
+      velocity_before_update_[n] = Vec2::Zero();
+      nodes_.velocity[n] = Vec2::Zero();
+      nodes_.acceleration[n] = Vec2::Zero();
+      continue;
+    }
+    Vec2 v = nodes_.momentum[n] / m;
+    const Vec2 f = nodes_.internal_force[n] + nodes_.external_force[n];
+    // Local (Cundall) damping: a force opposing the velocity, proportional to the unbalanced
+    // force, per direction.
+    Vec2 damping_force = Vec2::Zero();
+    for (int d = 0; d < 2; ++d) {
+      const double sign = v[d] > 0.0 ? 1.0 : (v[d] < 0.0 ? -1.0 : 0.0);
+      damping_force[d] = -alpha * std::abs(f[d]) * sign;
+    }
+    Vec2 a = (f + damping_force) / m;
+    const unsigned fixed = nodes_.fixed[n];
+    if (fixed & kFixX) a.x() = v.x() = 0.0;
+    if (fixed & kFixY) a.y() = v.y() = 0.0;
+    velocity_before_update_[n] = v;
+    nodes_.acceleration[n] = a;
+    nodes_.velocity[n] = v + a * dt;
+  }
+  double external = 0.0, damping = 0.0;
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    if (nodes_.mass[n] <= tiny) continue;
+    const Vec2 mid = 0.5 * (velocity_before_update_[n] + nodes_.velocity[n]);
+    external += nodes_.external_force[n].dot(mid) * dt;
+    const Vec2 f = nodes_.internal_force[n] + nodes_.external_force[n];
+    damping += (nodes_.acceleration[n] * nodes_.mass[n] - f).dot(mid) * dt;
+  }
+  external_work_ += external;
+  damping_work_ += damping;
+}
+
+void UlFemSolver::nodes_to_particles() {
+  const std::size_t n_elements = mesh_.n_elements();
+  const double dt = dt_;
+#pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      Vec2 a = Vec2::Zero();
+      for (std::size_t n = 0; n < 4; ++n) {
+        a += shape_value_[k][static_cast<Eigen::Index>(n)] *
+             nodes_.acceleration[static_cast<std::size_t>(mesh_.element_nodes[e][n])];
+      }
+      particles_.velocity[4 * e + k] += dt * a;  // FLIP, as the MPM
+    }
+  }
+}
+
+void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
+  const std::size_t n_elements = mesh_.n_elements();
+  const double dt = dt_;
+  const std::vector<MaterialRecord>& materials = case_.materials;
+#pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t p = 4 * e + k;
+      const Eigen::Matrix<double, 4, 2>& grad = gradient_[p];  // start-of-step geometry
+      Mat2 l = Mat2::Zero();  // velocity gradient, L(i, j) = d v_i / d x_j
+      for (std::size_t a = 0; a < 4; ++a) {
+        const Vec2& v = node_velocity[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
+        const double gx = grad(static_cast<Eigen::Index>(a), 0);
+        const double gy = grad(static_cast<Eigen::Index>(a), 1);
+        l(0, 0) += v.x() * gx;
+        l(0, 1) += v.x() * gy;
+        l(1, 0) += v.y() * gx;
+        l(1, 1) += v.y() * gy;
+      }
+      const Strain de = strain_increment(l, dt);
+      Stress& sig = particles_.stress[p];
+      jaumann_rotate(l, dt, sig);
+      const Stress rotated = sig;
+      std::visit([&](const auto& model) { model.update(de, sig, particles_.state[p]); },
+                 materials[static_cast<std::size_t>(particles_.material[p])].model);
+      const double volume_before = particles_.volume[p];
+      particles_.deformation_gradient[p] =
+          update_deformation_gradient(l, dt, particles_.deformation_gradient[p]);
+      const double volume_after =
+          particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
+      const Stress mid = 0.5 * (rotated + sig);
+      internal_work_increment_[p] = 0.5 * (volume_before + volume_after) *
+                                    (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
+    }
+  }
+  double work = 0.0;
+  for (double w : internal_work_increment_) work += w;
+  internal_work_ += work;
+}
+
+void UlFemSolver::move_mesh() {
+  const double dt = dt_;
+  for (std::size_t n = 0; n < node_position_.size(); ++n)
+    node_position_[n] += dt * nodes_.velocity[n];
+  // Material points stay at their natural coordinates.
+  const std::size_t n_elements = mesh_.n_elements();
+  for (std::size_t e = 0; e < n_elements; ++e) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      Vec2 x = Vec2::Zero();
+      for (std::size_t a = 0; a < 4; ++a) {
+        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
+             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
+      }
+      particles_.position[4 * e + k] = x;
+    }
+  }
+  compute_geometry();  // throws SimulationError on an inverted element
+}
+
+void UlFemSolver::displace_nodes(const std::vector<Vec2>& displacement) {
+  if (displacement.size() != node_position_.size()) {
+    throw std::invalid_argument("displace_nodes: one displacement per mesh node");
+  }
+  for (std::size_t n = 0; n < node_position_.size(); ++n) node_position_[n] += displacement[n];
+  for (std::size_t e = 0; e < mesh_.n_elements(); ++e) {
+    for (std::size_t k = 0; k < 4; ++k) {
+      Vec2 x = Vec2::Zero();
+      for (std::size_t a = 0; a < 4; ++a) {
+        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
+             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
+      }
+      particles_.position[4 * e + k] = x;
+    }
+  }
+  compute_geometry();
+}
+
+void UlFemSolver::update_stress_from_node_velocity(const std::vector<Vec2>& node_velocity) {
+  if (node_velocity.size() != node_position_.size()) {
+    throw std::invalid_argument("update_stress_from_node_velocity: one velocity per mesh node");
+  }
+  update_stress(node_velocity);
+}
+
+void UlFemSolver::check_particles() {
+  const std::size_t n = particles_.size();
+  long bad = -1;
+  double max_speed = 0.0;
+  for (std::size_t p = 0; p < n; ++p) {
+    const bool finite = particles_.position[p].allFinite() && particles_.velocity[p].allFinite() &&
+                        particles_.stress[p].allFinite();
+    if (!finite) bad = std::max(bad, static_cast<long>(p));
+    max_speed = std::max(max_speed, particles_.velocity[p].norm());
+  }
+  max_particle_speed_ = max_speed;
+  if (bad >= 0) {
+    const auto p = static_cast<std::size_t>(bad);
+    throw SimulationError("non-finite value (NaN or inf) at material point " + std::to_string(p) +
+                          " of " + describe_element(p / 4, particles_.position[p]) + " at t = " +
+                          std::to_string(time_) + " s (step " + std::to_string(step_) + ")");
+  }
+  // Courant condition on the current mesh, material speed added to the wave speed.
+  if ((max_wave_speed_ + max_speed) * dt_ > min_element_length_) {
+    throw SimulationError(
+        "CFL condition violated at t = " + std::to_string(time_) + " s (step " +
+        std::to_string(step_) +
+        "): (c_p + |v|max) dt = " + std::to_string((max_wave_speed_ + max_speed) * dt_) +
+        " m > smallest element length " + std::to_string(min_element_length_) + " m");
+  }
+}
+
+EnergyBalance UlFemSolver::energy() const {
+  EnergyBalance e;
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    e.kinetic_energy += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
+    e.momentum += particles_.mass[p] * particles_.velocity[p];
+  }
+  e.external_work = external_work_;
+  e.internal_work = internal_work_;
+  e.damping_work = damping_work_;
+  return e;
+}
+
+std::vector<Vec2> UlFemSolver::node_displacement() const {
+  std::vector<Vec2> u(node_position_.size());
+  for (std::size_t n = 0; n < u.size(); ++n) u[n] = node_position_[n] - node_reference_[n];
+  return u;
+}
+
+void UlFemSolver::apply_k0_stress() {
+  // As MpmSolver::apply_k0_stress: sigma_v = -unit weight x depth below the local surface of
+  // the point's body polygon, sigma_xx = sigma_zz = K0 sigma_v.
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    const BodySpec& body = case_.bodies[static_cast<std::size_t>(particles_.body[p])];
+    const MaterialRecord& m = case_.materials[static_cast<std::size_t>(particles_.material[p])];
+    const double nu = elastic_parameters(m.model).poisson_ratio;
+    const double k0 = case_.initial_stress.k0 ? *case_.initial_stress.k0 : nu / (1.0 - nu);
+    const Vec2& x = particles_.position[p];
+    const double depth = polygon_top(body.polygon, x.x()) - x.y();
+    const double sigma_v = -m.unit_weight * std::max(depth, 0.0);
+    particles_.stress[p] = Stress(k0 * sigma_v, sigma_v, 0.0, k0 * sigma_v);
+  }
+}
+
+void UlFemSolver::initialise_stress() {
+  switch (case_.initial_stress.method) {
+    case InitialStressMethod::kZero:
+      return;
+    case InitialStressMethod::kK0:
+      apply_k0_stress();
+      gravity_full_ = true;
+      return;
+    case InitialStressMethod::kGravity:
+      break;
+  }
+  // Gravity loading as MpmSolver::initialise_stress: full gravity, heavy damping, no surface
+  // loads, until the kinetic energy has decayed; then velocities and displacements reset.
+  const double saved_damping = damping_;
+  damping_ = case_.initial_stress.damping;
+  gravity_full_ = true;
+  loads_active_ = false;
+  double peak = 0.0;
+  while (true) {
+    step();
+    const double ke = energy().kinetic_energy;
+    peak = std::max(peak, ke);
+    if (step_ > 10 && peak > 0.0 && ke < case_.initial_stress.kinetic_energy_ratio * peak) break;
+    if (time_ > case_.initial_stress.max_time) {
+      throw SimulationError("gravity loading did not reach kinetic energy ratio " +
+                            std::to_string(case_.initial_stress.kinetic_energy_ratio) + " within " +
+                            std::to_string(case_.initial_stress.max_time) + " s (ratio now " +
+                            std::to_string(ke / peak) + ")");
+    }
+  }
+  damping_ = saved_damping;
+  loads_active_ = true;
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    particles_.velocity[p].setZero();
+    particles_.reference_position[p] = particles_.position[p];
+  }
+  node_reference_ = node_position_;
+  initial_stress_steps_ = step_;
+  time_ = 0.0;
+  step_ = 0;
+  external_work_ = internal_work_ = damping_work_ = 0.0;
+}
+
+}  // namespace pfm::ulfem

@@ -1,0 +1,225 @@
+#include "mpm/detect/detect_command.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mpm/core/json_input.hpp"
+#include "mpm/detect/detector.hpp"
+
+namespace pfm {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto begin = s.find_first_not_of(" \t\r");
+  if (begin == std::string::npos) return "";
+  const auto end = s.find_last_not_of(" \t\r");
+  return s.substr(begin, end - begin + 1);
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) fields.push_back(trim(field));
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+// Writes `text` to dir/name through a temporary file and a rename.
+void write_atomically(const std::filesystem::path& dir, const std::string& name,
+                      const std::string& text) {
+  const auto final_path = dir / name;
+  const auto temporary = dir / ("." + name + ".tmp");
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError(temporary.string() + ": cannot write");
+    out << text;
+    out.flush();
+    if (!out) throw InputError(temporary.string() + ": write failed");
+  }
+  std::filesystem::rename(temporary, final_path);
+}
+
+}  // namespace
+
+ParticleTable read_particle_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open file");
+  std::string line;
+  int line_number = 0;
+  std::vector<std::string> header;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::string t = trim(line);
+    if (t.empty() || t[0] == '#') continue;
+    header = split(t);
+    break;
+  }
+  if (header.empty()) throw InputError(path + ": file is empty, expected a header line x,y,volume");
+  const auto column = [&](const char* name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    return it == header.end() ? -1 : static_cast<int>(it - header.begin());
+  };
+  const int cx = column("x"), cy = column("y"), cv = column("volume");
+  for (const auto& [index, name] :
+       {std::pair{cx, "x"}, std::pair{cy, "y"}, std::pair{cv, "volume"}}) {
+    if (index < 0) {
+      throw InputError(path + ":" + std::to_string(line_number) + ": missing column \"" + name +
+                       "\" in the header (need x, y, volume; optional F11, F12, F21, F22)");
+    }
+  }
+  const int cf[4] = {column("F11"), column("F12"), column("F21"), column("F22")};
+  const int n_f = static_cast<int>(std::count_if(cf, cf + 4, [](int c) { return c >= 0; }));
+  if (n_f != 0 && n_f != 4) {
+    throw InputError(path + ":" + std::to_string(line_number) +
+                     ": deformation gradient columns must be all of F11, F12, F21, F22 or none");
+  }
+  ParticleTable table;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::string t = trim(line);
+    if (t.empty() || t[0] == '#') continue;
+    const auto fields = split(t);
+    const std::string where = path + ":" + std::to_string(line_number);
+    if (fields.size() != header.size()) {
+      throw InputError(where + ": " + std::to_string(fields.size()) + " fields, the header has " +
+                       std::to_string(header.size()));
+    }
+    const auto number = [&](int c) {
+      const std::string& f = fields[c];
+      double value = 0.0;
+      const auto result = std::from_chars(f.data(), f.data() + f.size(), value);
+      if (f.empty() || result.ec != std::errc() || result.ptr != f.data() + f.size()) {
+        throw InputError(where + ": column " + header[c] + ": \"" + f + "\" is not a number");
+      }
+      if (!std::isfinite(value)) {
+        throw InputError(where + ": column " + header[c] + ": must be finite, got " + f);
+      }
+      return value;
+    };
+    table.position.emplace_back(number(cx), number(cy));
+    const double volume = number(cv);
+    if (!(volume > 0.0)) throw InputError(where + ": column volume: must be > 0");
+    table.volume.push_back(volume);
+    if (n_f == 4) {
+      Mat2 f;
+      f << number(cf[0]), number(cf[1]), number(cf[2]), number(cf[3]);
+      if (!(f.determinant() > 0.0)) {
+        throw InputError(where + ": columns F11..F22: det F must be > 0");
+      }
+      table.deformation_gradient.push_back(f);
+    }
+  }
+  if (table.position.empty()) throw InputError(path + ": no particle rows after the header");
+  return table;
+}
+
+int run_detect_command(const std::string& particles_csv, const std::string& config_json,
+                       const std::string& out_dir) {
+  // 1. Input: configuration, then particles; nothing is created before both are valid.
+  nlohmann::json json = read_json_file(config_json);
+  const JsonView root(json, config_json);
+  root.require(root.is_object(), "expected an object");
+  nlohmann::json detector_json = json;
+  detector_json.erase("grid");
+  detector_json.erase("initial_spacing");
+  const DetectorConfig config = parse_detector_config(JsonView(detector_json, config_json));
+  const ParticleTable table = read_particle_csv(particles_csv);
+
+  double spacing = 0.0;
+  if (const auto v = root.find("initial_spacing")) {
+    spacing = v->as_number();
+    v->require(spacing > 0.0, "must be > 0 (m)");
+  } else {
+    std::vector<double> volumes = table.volume;
+    std::nth_element(volumes.begin(), volumes.begin() + volumes.size() / 2, volumes.end());
+    spacing = std::sqrt(volumes[volumes.size() / 2]);
+  }
+  Grid grid;
+  if (const auto g = root.find("grid")) {
+    g->expect_object({"origin", "cell_size", "n_cells"});
+    grid.origin = g->at("origin").as_vec2();
+    grid.cell_size = g->at("cell_size").as_number();
+    g->at("cell_size").require(grid.cell_size > 0.0, "must be > 0 (m)");
+    const JsonView n = g->at("n_cells");
+    n.require(n.is_array() && n.array_size() == 2, "must be [nx, ny]");
+    grid.n_cells_x = n.at(0).as_int();
+    grid.n_cells_y = n.at(1).as_int();
+    n.require(grid.n_cells_x >= 1 && grid.n_cells_y >= 1, "must be >= 1");
+  } else {
+    grid.cell_size = 2.0 * spacing;
+    Vec2 lo = table.position[0], hi = table.position[0];
+    for (const auto& p : table.position) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    double stretch = 1.0;
+    for (const auto& f : table.deformation_gradient) stretch = std::max(stretch, f.norm());
+    const double radius = std::max(config.improved.radius_factor,
+                                   0.5 * config.pfm.kernel_factor * config.pfm.max_size_factor);
+    const double margin = radius * spacing * stretch + grid.cell_size;
+    const double h = grid.cell_size;
+    grid.origin =
+        Vec2(std::floor((lo.x() - margin) / h) * h, std::floor((lo.y() - margin) / h) * h);
+    grid.n_cells_x = static_cast<int>(std::ceil((hi.x() + margin - grid.origin.x()) / h));
+    grid.n_cells_y = static_cast<int>(std::ceil((hi.y() + margin - grid.origin.y()) / h));
+  }
+
+  // 2. Detection.
+  const ParticleCloud cloud{table.position, table.volume, table.deformation_gradient, spacing};
+  DetectorState state;
+  DetectionTimings timings;
+  const DetectedBoundary boundary = detect(cloud, grid, config, state, &timings);
+
+  // 3. Output.
+  std::string csv = "loop,x,y\n";
+  char buffer[96];
+  nlohmann::json points_per_loop = nlohmann::json::array(), closed = nlohmann::json::array();
+  int n_closed = 0;
+  for (std::size_t c = 0; c < boundary.contours.size(); ++c) {
+    const auto& contour = boundary.contours[c];
+    for (const auto& p : contour.points) {
+      std::snprintf(buffer, sizeof buffer, "%zu,%.17g,%.17g\n", c, p.x(), p.y());
+      csv += buffer;
+    }
+    points_per_loop.push_back(contour.points.size());
+    closed.push_back(contour.closed);
+    n_closed += contour.closed ? 1 : 0;
+  }
+  const char* method_names[] = {"pfm", "improved", "smm", "vof", "density"};
+  nlohmann::json summary = {
+      {"method", method_names[static_cast<int>(config.method)]},
+      {"particles", table.position.size()},
+      {"initial_spacing", spacing},
+      {"grid",
+       {{"origin", {grid.origin.x(), grid.origin.y()}},
+        {"cell_size", grid.cell_size},
+        {"n_cells", {grid.n_cells_x, grid.n_cells_y}}}},
+      {"refinement", timings.refinement},
+      {"loops", boundary.contours.size()},
+      {"closed", n_closed},
+      {"open", static_cast<int>(boundary.contours.size()) - n_closed},
+      {"points_per_loop", points_per_loop},
+      {"loop_closed", closed},
+      {"timings_s",
+       {{"field", timings.field},
+        {"edge_points", timings.edge_points},
+        {"connection", timings.connection},
+        {"filters", timings.filters}}},
+      {"field_evaluations", timings.field_evaluations},
+      {"edge_points", timings.edge_point_count},
+  };
+  const std::filesystem::path dir(out_dir);
+  std::filesystem::create_directories(dir);
+  write_atomically(dir, "boundary.csv", csv);
+  write_atomically(dir, "summary.json", summary.dump(2) + "\n");
+  return 0;
+}
+
+}  // namespace pfm

@@ -1,0 +1,34 @@
+// Internal interfaces between detector.cpp and the two detector implementations.
+#pragma once
+
+#include <chrono>
+
+#include "mpm/detect/detector.hpp"
+
+namespace pfm::detail {
+
+DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
+                                 const ImprovedConfig& config, DetectionTimings& timings);
+
+DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
+                                   const ThesisPfmConfig& config, DetectorState& state,
+                                   DetectionTimings& timings);
+
+/// Seconds since `start`.
+inline double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// Largest and smallest singular values of a 2 x 2 matrix (closed form).
+inline void singular_values(const Mat2& m, double& largest, double& smallest) {
+  const double e = 0.5 * (m(0, 0) + m(1, 1)), f = 0.5 * (m(0, 0) - m(1, 1));
+  const double g = 0.5 * (m(1, 0) + m(0, 1)), h = 0.5 * (m(1, 0) - m(0, 1));
+  const double q = std::sqrt(e * e + h * h), r = std::sqrt(f * f + g * g);
+  largest = q + r;
+  smallest = std::abs(q - r);
+}
+
+/// Validates the cloud's spans and spacing (InputError naming the field).
+void check_cloud(const ParticleCloud& cloud);
+
+}  // namespace pfm::detail

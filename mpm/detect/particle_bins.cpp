@@ -1,0 +1,38 @@
+#include "mpm/detect/particle_bins.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace pfm {
+
+ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : bin_size_(bin_size) {
+  if (!(bin_size > 0.0) || !std::isfinite(bin_size)) {
+    throw std::invalid_argument("ParticleBins: bin size must be finite and > 0");
+  }
+  if (positions.empty()) return;
+  Vec2 lo = positions[0], hi = positions[0];
+  for (const auto& p : positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  origin_ = lo;
+  n_x_ = static_cast<int>(std::floor((hi.x() - lo.x()) / bin_size)) + 1;
+  n_y_ = static_cast<int>(std::floor((hi.y() - lo.y()) / bin_size)) + 1;
+  start_.assign(static_cast<std::size_t>(n_x_) * n_y_ + 1, 0);
+  std::vector<int> bin_of(positions.size());
+  for (std::size_t p = 0; p < positions.size(); ++p) {
+    const int i = std::min(bin_coordinate(positions[p].x() - lo.x()), n_x_ - 1);
+    const int j = std::min(bin_coordinate(positions[p].y() - lo.y()), n_y_ - 1);
+    bin_of[p] = j * n_x_ + i;
+    ++start_[bin_of[p] + 1];
+  }
+  for (std::size_t b = 1; b < start_.size(); ++b) start_[b] += start_[b - 1];
+  particle_.resize(positions.size());
+  std::vector<int> fill(start_.begin(), start_.end() - 1);
+  for (std::size_t p = 0; p < positions.size(); ++p) {
+    particle_[fill[bin_of[p]]++] = static_cast<int>(p);
+  }
+}
+
+}  // namespace pfm

@@ -1,0 +1,78 @@
+// Uniform binning of particles so a field evaluation visits only the particles whose kernel can
+// reach the evaluation point: O(neighbours) per evaluation instead of O(particles).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <span>
+#include <vector>
+
+#include "mpm/core/types.hpp"
+
+namespace pfm {
+
+class ParticleBins {
+ public:
+  ParticleBins() = default;
+  /// Bins of side `bin_size` (m, > 0) covering the bounding box of `positions`. A kernel whose
+  /// reach is <= bin_size is fully found by for_each_near().
+  ParticleBins(std::span<const Vec2> positions, double bin_size);
+
+  /// Calls visit(p) for every particle in the 3 x 3 bins around x, in a fixed order (bins row by
+  /// row, particles by increasing index), so sums over the visits are bitwise reproducible.
+  template <class Visitor>
+  void for_each_near(const Vec2& x, Visitor&& visit) const {
+    if (n_x_ == 0) return;
+    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    for (int j = std::max(bj - 1, 0); j <= std::min(bj + 1, n_y_ - 1); ++j) {
+      for (int i = std::max(bi - 1, 0); i <= std::min(bi + 1, n_x_ - 1); ++i) {
+        const int b = j * n_x_ + i;
+        for (int k = start_[b]; k < start_[b + 1]; ++k) visit(particle_[k]);
+      }
+    }
+  }
+
+  /// Calls visit(p) for particles in rings of bins around x, ring by ring, until two rings past
+  /// the first ring with a particle have been searched (the closest particle by Euclidean distance
+  /// is then among the visited ones unless it is more than ~1.4 times farther than that ring). Used
+  /// for the thesis' closest-point value.
+  template <class Visitor>
+  void for_each_nearest_rings(const Vec2& x, Visitor&& visit) const {
+    if (n_x_ == 0) return;
+    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    int first_hit_ring = -1;
+    const int max_ring = std::max(n_x_, n_y_) + std::abs(bi) + std::abs(bj) + 2;
+    for (int ring = 0; ring <= max_ring; ++ring) {
+      for (int j = bj - ring; j <= bj + ring; ++j) {
+        for (int i = bi - ring; i <= bi + ring; ++i) {
+          if (std::max(std::abs(i - bi), std::abs(j - bj)) != ring) continue;
+          if (i < 0 || j < 0 || i >= n_x_ || j >= n_y_) continue;
+          const int b = j * n_x_ + i;
+          for (int k = start_[b]; k < start_[b + 1]; ++k) {
+            visit(particle_[k]);
+            if (first_hit_ring < 0) first_hit_ring = ring;
+          }
+        }
+      }
+      // Two rings past the first hit: close to exact for the nearest particle (a particle in
+      // ring r is at most (r + 1) sqrt(2) bins away, one in ring r + k at least r + k - 1).
+      if (first_hit_ring >= 0 && ring >= first_hit_ring + 2) return;
+    }
+  }
+
+  double bin_size() const { return bin_size_; }
+
+ private:
+  int bin_coordinate(double offset) const {
+    const double c = std::floor(offset / bin_size_);
+    return c < -1e9 ? -1000000000 : (c > 1e9 ? 1000000000 : static_cast<int>(c));
+  }
+  Vec2 origin_ = Vec2::Zero();
+  double bin_size_ = 1.0;
+  int n_x_ = 0, n_y_ = 0;
+  std::vector<int> start_;     ///< CSR offsets, size n_x * n_y + 1
+  std::vector<int> particle_;  ///< particle indices, bin by bin, increasing within a bin
+};
+
+}  // namespace pfm

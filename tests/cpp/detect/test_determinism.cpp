@@ -1,0 +1,185 @@
+// Deterministic output order, identical full-field and narrow-band results, root-finder cost,
+// and configuration errors with JSON pointers.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "random_clouds.hpp"
+
+namespace pfm::test {
+namespace {
+
+bool identical(const DetectedBoundary& a, const DetectedBoundary& b) {
+  if (a.contours.size() != b.contours.size()) return false;
+  for (std::size_t c = 0; c < a.contours.size(); ++c) {
+    if (a.contours[c].closed != b.contours[c].closed ||
+        a.contours[c].points != b.contours[c].points) {
+      return false;
+    }
+  }
+  return true;
+}
+
+TEST(Determinism, RepeatedCallsGiveBitwiseIdenticalOrderedOutput) {
+  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm}) {
+    DetectorConfig config;
+    config.method = method;
+    for (std::uint64_t seed = 0; seed < 50; ++seed) {
+      const auto rc = random_case(seed);
+      DetectorState s1, s2;
+      const auto a = detect(rc.cloud.view(), rc.grid, config, s1);
+      const auto b = detect(rc.cloud.view(), rc.grid, config, s2);
+      ASSERT_TRUE(identical(a, b)) << "seed " << seed;
+      // Canonical order: closed loops start at their lowest-then-leftmost point and contours are
+      // sorted by that point.
+      for (std::size_t c = 0; c < a.contours.size(); ++c) {
+        const auto& pts = a.contours[c].points;
+        const auto key =
+            *std::min_element(pts.begin(), pts.end(), [](const Vec2& p, const Vec2& q) {
+              return p.y() < q.y() || (p.y() == q.y() && p.x() < q.x());
+            });
+        if (a.contours[c].closed) {
+          EXPECT_EQ(pts[0], key);
+        }
+        if (c > 0) {
+          const auto& prev = a.contours[c - 1].points;
+          const auto prev_key =
+              *std::min_element(prev.begin(), prev.end(), [](const Vec2& p, const Vec2& q) {
+                return p.y() < q.y() || (p.y() == q.y() && p.x() < q.x());
+              });
+          EXPECT_TRUE(prev_key.y() < key.y() ||
+                      (prev_key.y() == key.y() && prev_key.x() <= key.x()));
+        }
+      }
+    }
+  }
+}
+
+TEST(Determinism, NarrowBandEqualsFullField) {
+  DetectorConfig band, full;
+  band.method = full.method = DetectorMethod::kImproved;
+  full.improved.narrow_band = false;
+  int mismatches = 0;
+  long band_evaluations = 0, full_evaluations = 0;
+  const int n = 2000;
+  for (std::uint64_t seed = 0; seed < n; ++seed) {
+    const auto rc = random_case(seed + 100000);
+    DetectorState s1, s2;
+    DetectionTimings t1, t2;
+    const auto a = detect(rc.cloud.view(), rc.grid, band, s1, &t1);
+    const auto b = detect(rc.cloud.view(), rc.grid, full, s2, &t2);
+    band_evaluations += t1.field_evaluations;
+    full_evaluations += t2.field_evaluations;
+    if (!identical(a, b)) {
+      ++mismatches;
+      std::printf("narrow band differs: seed %llu (%s)\n",
+                  static_cast<unsigned long long>(seed + 100000), rc.kind);
+    }
+  }
+  // Blocks of 12 m x 8 m and 24 m x 16 m on grids with a 2 m margin: the band's cost follows the
+  // perimeter (x 2), the full field's the grid area (x 2.9).
+  long band_cost[2] = {0, 0}, full_cost[2] = {0, 0};
+  for (const int scale : {1, 2}) {
+    const auto big =
+        lattice_cloud(0.5, Placement::kGaussPoints, Vec2(2, 2), Vec2(2 + 12 * scale, 2 + 8 * scale),
+                      [](const Vec2&) { return true; });
+    Grid g;
+    g.cell_size = 0.5;
+    g.n_cells_x = 24 * scale + 8;
+    g.n_cells_y = 16 * scale + 8;
+    DetectorState s1, s2;
+    DetectionTimings t1, t2;
+    const auto a = detect(big.view(), g, band, s1, &t1);
+    const auto b = detect(big.view(), g, full, s2, &t2);
+    EXPECT_TRUE(identical(a, b));
+    band_cost[scale - 1] = t1.field_evaluations;
+    full_cost[scale - 1] = t2.field_evaluations;
+    std::printf(
+        "%d x %d m block (%zu points): band %ld evaluations, field %.2f edge %.2f "
+        "connection %.2f ms; full %ld evaluations, field %.2f edge %.2f connection %.2f ms\n",
+        12 * scale, 8 * scale, big.position.size(), t1.field_evaluations, 1e3 * t1.field,
+        1e3 * t1.edge_points, 1e3 * t1.connection, t2.field_evaluations, 1e3 * t2.field,
+        1e3 * t2.edge_points, 1e3 * t2.connection);
+  }
+  std::printf("%d random clouds: %d mismatches; field evaluations band/full %.3f\n", n, mismatches,
+              static_cast<double>(band_evaluations) / full_evaluations);
+  EXPECT_LT(static_cast<double>(band_cost[1]) / band_cost[0], 2.3);
+  EXPECT_GT(static_cast<double>(full_cost[1]) / full_cost[0], 2.7);
+  EXPECT_EQ(mismatches, 0);
+}
+
+TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
+  const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(6, 6),
+                                   [](const Vec2& x) { return (x - Vec2(4, 4)).norm() < 1.8; });
+  Grid g;
+  g.cell_size = 0.5;
+  g.n_cells_x = g.n_cells_y = 16;
+  DetectorConfig config;
+  config.method = DetectorMethod::kImproved;
+  DetectorState state;
+  DetectionTimings t;
+  detect(cloud.view(), g, config, state, &t);
+  const double mean = static_cast<double>(t.root_evaluations) / t.edge_point_count;
+  std::printf("Brent: %ld edge points, %.2f evaluations each (tolerance 1e-6 h)\n",
+              t.edge_point_count, mean);
+  EXPECT_LE(mean, 10.0);
+  // Against a smooth function with a known root.
+  long evaluations = 0;
+  const double root = brent_root([](double s) { return std::cos(2.0 * s) - 0.3; },
+                                 std::cos(0.0) - 0.3, std::cos(2.0) - 0.3, 1e-6, &evaluations);
+  EXPECT_NEAR(root, 0.5 * std::acos(0.3), 1e-6);
+  EXPECT_LE(evaluations, 10);
+}
+
+TEST(Config, ParsesKeysAndRejectsUnknownOnesWithPointer) {
+  const auto json = nlohmann::json::parse(R"({"method": "pfm", "pfm": {"kernel_factor": 2.0,
+      "deformation": "large_strain", "gaussian_sigma": 1, "median_weights": [3, 1, 1]},
+      "improved": {"profile": "biweight", "narrow_band": false}})");
+  const auto c = parse_detector_config(JsonView(json, "cfg.json"));
+  EXPECT_EQ(c.method, DetectorMethod::kPfm);
+  EXPECT_EQ(c.pfm.kernel_factor, 2.0);
+  EXPECT_EQ(c.pfm.deformation, KernelDeformation::kLargeStrain);
+  EXPECT_EQ(c.pfm.median_weights[0], 3);
+  EXPECT_EQ(c.improved.profile, KernelProfile::kBiweight);
+  EXPECT_FALSE(c.improved.narrow_band);
+  const auto bad = nlohmann::json::parse(R"({"improved": {"radius": 2}})");
+  try {
+    parse_detector_config(JsonView(bad, "cfg.json"));
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cfg.json: /improved/radius: unknown key"),
+              std::string::npos)
+        << e.what();
+  }
+  const auto bad_value = nlohmann::json::parse(R"({"pfm": {"gaussian_size": 4}})");
+  EXPECT_THROW(parse_detector_config(JsonView(bad_value, "cfg.json")), InputError);
+  const auto bad_method = nlohmann::json::parse(R"({"method": "marker"})");
+  EXPECT_THROW(parse_detector_config(JsonView(bad_method, "cfg.json")), InputError);
+}
+
+}  // namespace
+}  // namespace pfm::test
+
+namespace pfm::test {
+namespace {
+
+TEST(Detect, EmptyCloudGivesNoContourAndBadSpansAreInputErrors) {
+  Grid g;
+  g.cell_size = 0.5;
+  g.n_cells_x = g.n_cells_y = 4;
+  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm}) {
+    DetectorConfig config;
+    config.method = method;
+    DetectorState state;
+    EXPECT_TRUE(detect(ParticleCloud{{}, {}, {}, 0.25}, g, config, state).contours.empty());
+    const std::vector<Vec2> x = {Vec2(1, 1)};
+    const std::vector<double> v = {0.0625, 0.0625};
+    EXPECT_THROW(detect(ParticleCloud{x, v, {}, 0.25}, g, config, state), InputError);
+    EXPECT_THROW(
+        detect(ParticleCloud{x, std::span<const double>(v).first(1), {}, 0.0}, g, config, state),
+        InputError);
+  }
+}
+
+}  // namespace
+}  // namespace pfm::test

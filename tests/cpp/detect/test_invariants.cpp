@@ -1,0 +1,113 @@
+// Contour invariants on 10,000 seeded random clouds: closed or ending on the field-grid edge,
+// every point joined to exactly two segments (no point shared between contours), no crossings,
+// orientation consistent with nesting, every material point inside the detected material.
+// Asserted zero for the improved detector; the thesis PFM's counts are printed beside them.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "random_clouds.hpp"
+
+namespace pfm::test {
+namespace {
+
+constexpr int kClouds = 10000;
+
+TEST(Invariants, ImprovedDetectorHasNoViolationsThesisCountsReported) {
+  DetectorConfig improved;
+  improved.method = DetectorMethod::kImproved;
+  DetectorConfig thesis;
+  thesis.method = DetectorMethod::kPfm;
+  thesis.pfm.deformation = KernelDeformation::kSmallStrain;
+  const char* kinds[5] = {"perturbed lattice", "affine", "hole", "blobs", "filament"};
+  Violations improved_by_kind[5], thesis_by_kind[5];
+  long particles = 0, max_refinement = 0;
+  double improved_seconds = 0.0, thesis_seconds = 0.0;
+  double improved_seconds_by_kind[5] = {0, 0, 0, 0, 0};
+  long evaluations_by_kind[5] = {0, 0, 0, 0, 0};
+  for (int seed = 0; seed < kClouds; ++seed) {
+    const auto rc = random_case(static_cast<std::uint64_t>(seed));
+    const int kind = seed % 5;
+    particles += static_cast<long>(rc.cloud.position.size());
+    DetectorState state;
+    DetectionTimings t;
+    const auto b = detect(rc.cloud.view(), rc.grid, improved, state, &t);
+    improved_seconds += t.field + t.edge_points + t.connection + t.filters;
+    improved_seconds_by_kind[kind] += t.field + t.edge_points + t.connection + t.filters;
+    evaluations_by_kind[kind] += t.field_evaluations;
+    max_refinement = std::max<long>(max_refinement, t.refinement);
+    const auto v = check_invariants(b, rc.grid, rc.cloud.position);
+    if (v.total() > 0 && improved_by_kind[kind].total() == 0) {
+      std::printf("first improved violation: seed %d (%s), %zu particles, refinement %d\n", seed,
+                  rc.kind, rc.cloud.position.size(), t.refinement);
+    }
+    improved_by_kind[kind] += v;
+    DetectorState thesis_state;
+    DetectionTimings tt;
+    const auto bt = detect(rc.cloud.view(), rc.grid, thesis, thesis_state, &tt);
+    thesis_seconds += tt.field + tt.edge_points + tt.connection + tt.filters;
+    thesis_by_kind[kind] += check_invariants(bt, rc.grid, rc.cloud.position);
+  }
+  std::printf("%d clouds, %ld particles; improved %.2f s (max refinement %ld), thesis %.2f s\n",
+              kClouds, particles, improved_seconds, max_refinement, thesis_seconds);
+  std::printf("%-18s | %-44s | %-44s\n", "violations",
+              "improved: open shared cross orient wind out",
+              "thesis PFM: open shared cross orient wind out");
+  Violations improved_total;
+  for (int k = 0; k < 5; ++k) {
+    const auto& a = improved_by_kind[k];
+    const auto& b = thesis_by_kind[k];
+    std::printf("%-18s | %6ld %6ld %6ld %6ld %6ld %6ld       | %6ld %6ld %6ld %6ld %6ld %6ld\n",
+                kinds[k], a.open_not_on_edge, a.shared_points, a.self_intersections, a.orientation,
+                a.winding, a.particles_outside, b.open_not_on_edge, b.shared_points,
+                b.self_intersections, b.orientation, b.winding, b.particles_outside);
+    improved_total += a;
+  }
+  for (int k = 0; k < 5; ++k) {
+    std::printf("%-18s improved %.2f s, %.1f field evaluations per cloud\n", kinds[k],
+                improved_seconds_by_kind[k], evaluations_by_kind[k] / (kClouds / 5.0));
+  }
+  EXPECT_EQ(improved_total.open_not_on_edge, 0);
+  EXPECT_EQ(improved_total.shared_points, 0);
+  EXPECT_EQ(improved_total.self_intersections, 0);
+  EXPECT_EQ(improved_total.orientation, 0);
+  EXPECT_EQ(improved_total.winding, 0);
+  EXPECT_EQ(improved_total.particles_outside, 0);
+}
+
+}  // namespace
+}  // namespace pfm::test
+
+namespace pfm::test {
+namespace {
+
+TEST(Invariants, BodyCutByTheFieldGridGivesOneOpenChainEndingOnItsEdge) {
+  // The rectangle [2, 8] x [2, 6] on a grid starting at y = 3: one open chain from the grid's
+  // bottom edge (x = 8 side) over the top back to the bottom edge (x = 2 side), material on the
+  // left, i.e. the chain runs counter-clockwise: starts near x = 8, ends near x = 2.
+  const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(8, 6),
+                                   [](const Vec2&) { return true; });
+  Grid g;
+  g.origin = Vec2(0.0, 3.0);
+  g.cell_size = 0.5;
+  g.n_cells_x = 20;
+  g.n_cells_y = 10;
+  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm}) {
+    DetectorConfig config;
+    config.method = method;
+    DetectorState state;
+    const auto b = detect(cloud.view(), g, config, state);
+    ASSERT_EQ(b.contours.size(), 1u);
+    const auto& c = b.contours[0];
+    EXPECT_FALSE(c.closed);
+    EXPECT_DOUBLE_EQ(c.points.front().y(), 3.0);
+    EXPECT_DOUBLE_EQ(c.points.back().y(), 3.0);
+    EXPECT_NEAR(c.points.front().x(), 8.0, 0.1);
+    EXPECT_NEAR(c.points.back().x(), 2.0, 0.1);
+    EXPECT_EQ(check_invariants(b, g, {}).total(), 0);
+  }
+}
+
+}  // namespace
+}  // namespace pfm::test

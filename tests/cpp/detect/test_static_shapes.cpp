@@ -1,0 +1,320 @@
+// Static bodies at h = 0.5 m with 2 x 2 material points per cell (equal spacing and Gauss
+// points): distance from the detected boundary to the exact geometry in units of h. The thesis
+// PFM is reported; the improved detector is asserted (targets from issue 3).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "detect_test_support.hpp"
+
+namespace pfm::test {
+namespace {
+
+constexpr double kH = 0.5;
+
+Grid test_grid() {
+  Grid g;
+  g.origin = Vec2(0.0, 0.0);
+  g.cell_size = kH;
+  g.n_cells_x = 24;
+  g.n_cells_y = 20;
+  return g;
+}
+
+DetectorConfig improved_config() {
+  DetectorConfig c;
+  c.method = DetectorMethod::kImproved;
+  return c;
+}
+
+DetectorConfig thesis_config() {
+  DetectorConfig c;
+  c.method = DetectorMethod::kPfm;
+  return c;
+}
+
+// A polygon body: faces with their end points; samples within `corner_zone` of a polygon vertex
+// are counted as corner samples, the rest by the face they are closest to.
+struct PolygonReport {
+  std::vector<Stats> face;
+  Stats corner;
+};
+
+PolygonReport polygon_distances(const DetectedBoundary& b, const std::vector<Vec2>& vertices,
+                                double corner_zone) {
+  PolygonReport r;
+  r.face.resize(vertices.size());
+  for (const auto& p : boundary_samples(b)) {
+    double best = 1e300;
+    std::size_t face = 0;
+    for (std::size_t k = 0; k < vertices.size(); ++k) {
+      const double d = segment_distance(p, vertices[k], vertices[(k + 1) % vertices.size()]);
+      if (d < best) {
+        best = d;
+        face = k;
+      }
+    }
+    bool near_corner = false;
+    for (const auto& v : vertices) near_corner = near_corner || (p - v).norm() < corner_zone;
+    (near_corner ? r.corner : r.face[face]).add(best / kH);
+  }
+  for (auto& s : r.face) s.finish();
+  r.corner.finish();
+  return r;
+}
+
+DetectedBoundary run(const OwnedCloud& cloud, const DetectorConfig& config,
+                     DetectionTimings* timings = nullptr) {
+  DetectorState state;
+  return detect(cloud.view(), test_grid(), config, state, timings);
+}
+
+double kernel_radius(const DetectorConfig& c) {
+  return c.improved.radius_factor * kH / 2.0;
+}
+
+TEST(StaticShapes, RectangleFlatFaces) {
+  const std::vector<Vec2> rect = {Vec2(2, 2), Vec2(8, 2), Vec2(8, 6), Vec2(2, 6)};
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    const auto cloud =
+        lattice_cloud(kH, placement, Vec2(2, 2), Vec2(8, 6), [](const Vec2&) { return true; });
+    for (const bool improved : {false, true}) {
+      const auto config = improved ? improved_config() : thesis_config();
+      DetectionTimings t;
+      const auto b = run(cloud, config, &t);
+      ASSERT_GE(b.contours.size(), 1u);
+      const auto r = polygon_distances(b, rect, 1.5 * kernel_radius(improved_config()) + kH);
+      Stats faces;
+      for (const auto& f : r.face) {
+        faces.mean += f.mean * f.count;
+        faces.count += f.count;
+        faces.max = std::max(faces.max, f.max);
+      }
+      faces.finish();
+      std::printf(
+          "rectangle %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h"
+          "  (refinement %d, %.2f ms)\n",
+          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
+          faces.mean, faces.max, r.corner.max, t.refinement,
+          1e3 * (t.field + t.edge_points + t.connection + t.filters));
+      if (improved) {
+        EXPECT_EQ(b.contours.size(), 1u);
+        EXPECT_LE(faces.max, 0.02);
+      }
+    }
+  }
+}
+
+TEST(StaticShapes, FortyFiveDegreeSlope) {
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    // An embankment: ground at y = 3 m left of the toe, a 45-degree slope x - y = c up to the
+    // crest at y = 8 m. The line lies half way between the particle diagonals next to it, so the
+    // particles represent exactly the polygon (equal spacing: c = (m + 1/2) h / 2; Gauss points:
+    // c = (n + 1/2) h, where the mass of the 2 x 2 Gauss pattern balances).
+    const double c = placement == Placement::kEqualSpacing ? 0.125 : 0.25;
+    const std::vector<Vec2> body = {Vec2(1, 1),         Vec2(11, 1),        Vec2(11, 8),
+                                    Vec2(c + 8.0, 8.0), Vec2(c + 3.0, 3.0), Vec2(1, 3)};
+    const auto cloud = lattice_cloud(kH, placement, Vec2(1, 1), Vec2(11, 8), [c](const Vec2& x) {
+      return x.y() < 3.0 || x.x() - x.y() > c;
+    });
+    for (const bool improved : {false, true}) {
+      const auto config = improved ? improved_config() : thesis_config();
+      const auto b = run(cloud, config);
+      ASSERT_GE(b.contours.size(), 1u);
+      const auto r = polygon_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH);
+      const Stats& slope = r.face[3];
+      Stats flat;
+      for (int f : {0, 1, 2, 4, 5}) {
+        flat.mean += r.face[f].mean * r.face[f].count;
+        flat.count += r.face[f].count;
+        flat.max = std::max(flat.max, r.face[f].max);
+      }
+      flat.finish();
+      std::printf(
+          "slope45   %-5s %-8s loops %zu  45deg mean %.4f h max %.4f h  flat max %.4f h"
+          "  corners max %.4f h\n",
+          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
+          slope.mean, slope.max, flat.max, r.corner.max);
+      if (improved) {
+        EXPECT_EQ(b.contours.size(), 1u);
+        EXPECT_GT(slope.count, 10);
+        EXPECT_LE(slope.mean, 0.01);
+        EXPECT_LE(slope.max, 0.05);
+        EXPECT_LE(flat.max, 0.02);
+      }
+    }
+  }
+}
+
+TEST(StaticShapes, RotatedSquare) {
+  // A 4 m square whose lattice is rotated rigidly by 30 degrees about (6, 5): F = R(30).
+  const double angle = std::numbers::pi / 6.0;
+  Mat2 rot;
+  rot << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  const Vec2 centre(6.0, 5.0);
+  std::vector<Vec2> body;
+  for (const Vec2& corner : {Vec2(4, 3), Vec2(8, 3), Vec2(8, 7), Vec2(4, 7)}) {
+    body.push_back(centre + rot * (corner - centre));
+  }
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    const auto cloud = lattice_cloud(
+        kH, placement, Vec2(4, 3), Vec2(8, 7), [](const Vec2&) { return true; }, rot, centre);
+    for (const bool improved : {false, true}) {
+      const auto config = improved ? improved_config() : thesis_config();
+      const auto b = run(cloud, config);
+      ASSERT_GE(b.contours.size(), 1u);
+      const auto r = polygon_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH);
+      Stats faces;
+      for (const auto& f : r.face) {
+        faces.mean += f.mean * f.count;
+        faces.count += f.count;
+        faces.max = std::max(faces.max, f.max);
+      }
+      faces.finish();
+      std::printf(
+          "square30  %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
+          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
+          faces.mean, faces.max, r.corner.max);
+      if (improved) {
+        EXPECT_EQ(b.contours.size(), 1u);
+        EXPECT_LE(faces.max, 0.02);
+      }
+    }
+  }
+}
+
+// Radial distances to circles of radius `radii` about `centre`: signed mean (bias, > 0 outside)
+// and mean/max of the absolute value, per circle, in units of h.
+void circle_report(const char* name, const DetectedBoundary& b, const Vec2& centre,
+                   const std::vector<double>& radii, bool improved, Placement placement,
+                   std::vector<double>* bias_out) {
+  for (const double radius : radii) {
+    Stats absolute;
+    double bias = 0.0;
+    for (const auto& p : boundary_samples(b)) {
+      double best = 1e300, signed_distance = 0.0;
+      for (const double r : radii) {
+        const double d = (p - centre).norm() - r;
+        if (std::abs(d) < best) {
+          best = std::abs(d);
+          signed_distance = d;
+        }
+      }
+      if (std::abs((p - centre).norm() - radius) > best + 1e-12) continue;
+      absolute.add(best / kH);
+      bias += signed_distance / kH;
+    }
+    absolute.finish();
+    bias /= std::max(absolute.count, 1);
+    if (bias_out != nullptr) bias_out->push_back(bias);
+    std::printf("%-9s %-5s %-8s R=%.3f  bias %+.4f h  mean %.4f h max %.4f h  loops %zu\n", name,
+                placement_name(placement), improved ? "improved" : "thesis", radius, bias,
+                absolute.mean, absolute.max, b.contours.size());
+  }
+}
+
+TEST(StaticShapes, DiskBiasWithinCurvatureBound) {
+  // Lattice points inside a circle of radius 2 m cover 13.0 m^2 instead of 4 pi: the exact body
+  // is the disk of the particles' total volume (radius 2.034 m).
+  const Vec2 centre(6.0, 5.0);
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    const auto cloud = lattice_cloud(kH, placement, Vec2(3, 2), Vec2(9, 8),
+                                     [&](const Vec2& x) { return (x - centre).norm() < 2.0; });
+    double volume = 0.0;
+    for (const double v : cloud.volume) volume += v;
+    const double radius = std::sqrt(volume / std::numbers::pi);
+    for (const bool improved : {false, true}) {
+      auto config = improved ? improved_config() : thesis_config();
+      const auto b = run(cloud, config);
+      std::vector<double> bias;
+      circle_report("disk", b, centre, {radius}, improved, placement, &bias);
+      if (improved) {
+        ASSERT_EQ(b.contours.size(), 1u);
+        const double a = kernel_radius(config);
+        const double bound = (1.0 / radius) * a * a / 10.0 / kH + 0.02;
+        EXPECT_LE(std::abs(bias[0]), bound) << "bound " << bound << " h";
+        config.improved.curvature_correction = true;
+        const auto corrected = run(cloud, config);
+        std::vector<double> corrected_bias;
+        circle_report("disk+corr", corrected, centre, {radius}, improved, placement,
+                      &corrected_bias);
+      }
+    }
+  }
+}
+
+TEST(StaticShapes, Ring) {
+  // Exact circles: radii of the disks with the volume of the particles inside each circle.
+  const Vec2 centre(6.0, 5.0);
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    const auto cloud = lattice_cloud(kH, placement, Vec2(3, 2), Vec2(9, 8), [&](const Vec2& x) {
+      const double r = (x - centre).norm();
+      return r < 2.0 && r > 1.0;
+    });
+    const auto disk_cloud = lattice_cloud(kH, placement, Vec2(3, 2), Vec2(9, 8),
+                                          [&](const Vec2& x) { return (x - centre).norm() < 2.0; });
+    const double outer = std::sqrt(kH * kH / 4.0 * disk_cloud.position.size() / std::numbers::pi);
+    const double inner = std::sqrt(
+        std::max(0.0, outer * outer - kH * kH / 4.0 * cloud.position.size() / std::numbers::pi));
+    for (const bool improved : {false, true}) {
+      const auto config = improved ? improved_config() : thesis_config();
+      const auto b = run(cloud, config);
+      circle_report("ring", b, centre, {inner, outer}, improved, placement, nullptr);
+      if (improved) {
+        ASSERT_EQ(b.contours.size(), 2u);
+        EXPECT_GT(signed_area(b.contours[0]), 0.0);  // the outer loop starts lower
+        EXPECT_LT(signed_area(b.contours[1]), 0.0);  // the hole runs clockwise
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pfm::test
+
+namespace pfm::test {
+namespace {
+
+TEST(StaticShapes, AffinelyDeformedRectangleKeepsFlatFaces) {
+  // With S = F S0 and V = J V0 the improved field of an affinely deformed lattice is the
+  // reference field mapped by F, so the parallelogram's faces are found as well as the
+  // rectangle's (stretch 1.4 x 0.8 with shear 0.35, J = 1.12).
+  Mat2 f;
+  f << 1.4, 0.35, 0.0, 0.8;
+  const Vec2 centre(5.0, 4.0);
+  std::vector<Vec2> body;
+  for (const Vec2& corner : {Vec2(2, 2), Vec2(8, 2), Vec2(8, 6), Vec2(2, 6)}) {
+    body.push_back(centre + f * (corner - centre));
+  }
+  for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
+    const auto cloud = lattice_cloud(
+        kH, placement, Vec2(2, 2), Vec2(8, 6), [](const Vec2&) { return true; }, f, centre);
+    for (const bool improved : {false, true}) {
+      auto config = improved ? improved_config() : thesis_config();
+      config.pfm.deformation = KernelDeformation::kSmallStrain;
+      DetectorState state;
+      const auto b = detect(cloud.view(), test_grid(), config, state);
+      ASSERT_GE(b.contours.size(), 1u);
+      const auto r = polygon_distances(b, body, 1.5 * 1.4 * kernel_radius(improved_config()) + kH);
+      Stats faces;
+      for (const auto& s : r.face) {
+        faces.mean += s.mean * s.count;
+        faces.count += s.count;
+        faces.max = std::max(faces.max, s.max);
+      }
+      faces.finish();
+      std::printf(
+          "sheared   %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
+          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
+          faces.mean, faces.max, r.corner.max);
+      if (improved) {
+        EXPECT_EQ(b.contours.size(), 1u);
+        EXPECT_GT(faces.count, 20);
+        EXPECT_LE(faces.max, 0.02);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pfm::test
