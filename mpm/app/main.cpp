@@ -1,14 +1,17 @@
 // pfm-mpm: the command-line tool.
 //
-//   pfm-mpm run CASE.json --out DIR [--threads N] [--quiet]
+//   pfm-mpm run CASE.json --out DIR [--solver mpm|ulfem] [--threads N] [--quiet]
 //   pfm-mpm validate CASE.json
+//   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR
 //
 // Exit codes: 0 success, 2 bad input (nothing written), 3 the simulation stopped (NaN, CFL,
 // a particle leaving the grid); the outputs up to the last good step are kept.
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "fem_reference/ulfem/ulfem_run.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/detect/detect_command.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/run.hpp"
 
@@ -28,6 +31,17 @@ int main(int argc, char** argv) {
   run->add_option("--threads", options.threads, "threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   run->add_flag("--quiet", quiet, "no progress line");
+  std::string solver_name = "mpm";
+  run->add_option("--solver", solver_name,
+                  "mpm (default) or ulfem (updated-Lagrangian FEM on a gmsh mesh)")
+      ->check(CLI::IsMember({"mpm", "ulfem"}));
+
+  std::string particles_csv, detect_config, detect_out;
+  CLI::App* detect = app.add_subcommand("detect", "detect the boundary of a particle file");
+  detect->add_option("particles", particles_csv, "particle CSV with x,y,volume[,F11..F22]")
+      ->required();
+  detect->add_option("--config", detect_config, "detector configuration (JSON)")->required();
+  detect->add_option("--out", detect_out, "output directory")->required();
 
   std::string validate_file;
   CLI::App* validate = app.add_subcommand("validate", "check a case file and exit");
@@ -48,9 +62,11 @@ int main(int argc, char** argv) {
                 << solver.dt() << " s)\n";
       return pfm::kExitOk;
     }
+    if (*detect) return pfm::run_detect_command(particles_csv, detect_config, detect_out);
     options.progress = !quiet;
     const pfm::Case c = pfm::read_case(case_file);
-    const int status = pfm::run_case(c, options);
+    const int status =
+        solver_name == "ulfem" ? pfm::run_ulfem_case(c, options) : pfm::run_case(c, options);
     if (status == pfm::kExitOk) std::cout << "results: " << options.out_dir << "\n";
     return status;
   } catch (const pfm::InputError& e) {

@@ -37,9 +37,10 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
     spec.x_range = x_range;
   }
   const bool vertical = spec.type == BoundaryLoadType::kVerticalPressure;
-  spec.faces = entry.choice_or("faces", {"upward", "all"}, vertical ? "upward" : "all") == "upward"
-                   ? LoadedFaces::kUpward
-                   : LoadedFaces::kAll;
+  const std::string faces = entry.choice_or("faces", {"top", "upward", "all"}, vertical ? "top" : "all");
+  spec.faces = faces == "top"      ? LoadedFaces::kTop
+               : faces == "upward" ? LoadedFaces::kUpward
+                                   : LoadedFaces::kAll;
   spec.curve = curve_kind_from_name(
       entry.choice_or("curve", {"linear", "quadratic", "cubic", "catmull_rom"}, "linear"));
   const bool thesis = entry.choice_or("integration", {"exact", "thesis"}, "exact") == "thesis";

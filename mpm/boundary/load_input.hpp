@@ -1,28 +1,29 @@
 // Case-file entry of a load on the detected boundary (an element of "loads" with
 // "apply_on": "detected_boundary"). Keys, units and defaults:
+// clang-format off
 //
-// | key                     | unit | default                        | meaning |
-// |-------------------------|------|--------------------------------|------------------------------------------|
-// | apply_on                |      | required                       | must be "detected_boundary" |
-// | type                    |      | required                       | vertical_pressure,
-// follower_pressure,     | |                         |      |                                |
-// traction                                  | | pressure                | kPa  | required for the
-// two pressures | q >= 0 (vertical, downward); p (follower, | |                         |      | |
-// > 0 pushes on the material, any sign)     | | traction                | kPa  | required for
-// traction          | [tx, ty] per current length               | | x_range                 | m |
-// required for vertical_pressure,| [x0, x1], x0 < x1; load only where        | | |      | else the
-// whole boundary        | x0 <= x <= x1                             | | faces                   |
-// | "upward" (vertical_pressure),  | "upward": only where n_y > 0; "all"       | | |      | "all"
-// (others)                 |                                           | | curve |      | "linear"
-// | linear, quadratic, cubic (C2, eq. 4.3),   | |                         |      | | catmull_rom |
-// | integration             |      | "exact"                        | exact, thesis (eq. 6.12 as
-// printed)       | | gauss_points            |      | 5                              | k, 1..20 |
-// | split_at_cell_edges     |      | true (exact), false (thesis)   | cut segments at cell edges
-// first          | | scale_eq_6_15           |      | false                          | scale to the
-// exact total (eq. 6.15)       | | redistribute_lost_load  |      | false | move force off
-// zero-mass nodes            | | interval                |      | "fixed"                        |
-// fixed (thesis 6.2) or material            | | time_function           |      | (read by the
-// solver)           | allowed here, not interpreted             |
+// | key                    | unit | default                          | meaning                                        |
+// |------------------------|------|----------------------------------|------------------------------------------------|
+// | apply_on               |      | required                         | must be "detected_boundary"                    |
+// | type                   |      | required                         | vertical_pressure, follower_pressure, traction |
+// | pressure               | kPa  | required for the two pressures   | q >= 0 (vertical, downward); p (follower,      |
+// |                        |      |                                  | > 0 pushes on the material, any sign)          |
+// | traction               | kPa  | required for traction            | [tx, ty] per current length                    |
+// | x_range                | m    | required for vertical_pressure,  | [x0, x1], x0 < x1; load only where             |
+// |                        |      | else the whole boundary          | x0 <= x <= x1                                  |
+// | faces                  |      | "top" (vertical_pressure),       | "top": upward parts with no boundary above;    |
+// |                        |      | "all" (others)                   | "upward": n_y > 0 (thesis); "all"              |
+// | curve                  |      | "linear"                         | linear, quadratic, cubic (C2, eq. 4.3),        |
+// |                        |      |                                  | catmull_rom                                    |
+// | integration            |      | "exact"                          | exact, thesis (eq. 6.12 as printed)            |
+// | gauss_points           |      | 5                                | k, 1..20                                       |
+// | split_at_cell_edges    |      | true (exact), false (thesis)     | cut segments at cell edges first               |
+// | scale_eq_6_15          |      | false                            | scale to the exact total (eq. 6.15)            |
+// | redistribute_lost_load |      | false                            | move force off zero-mass nodes                 |
+// | interval               |      | "fixed"                          | fixed (thesis 6.2) or material                 |
+// | time_function          |      | constant                         | read by the case reader                        |
+//
+// clang-format on
 #pragma once
 
 #include "mpm/boundary/surface_load.hpp"

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace pfm::boundary {
@@ -60,6 +61,18 @@ Vec2 exact_total_force(const BezierSegment& segment, const TractionLaw& law) {
   if (law.fixed_traction != Vec2::Zero()) total += law.fixed_traction * segment.length();
   return total;
 }
+
+namespace {
+
+/// exact_total_force of the part [t0, t1] of a segment.
+Vec2 exact_part_force(const BezierSegment& segment, double t0, double t1, const TractionLaw& law) {
+  Vec2 total =
+      law.normal_scale.cwiseProduct(turned_clockwise(segment.point(t1) - segment.point(t0)));
+  if (law.fixed_traction != Vec2::Zero()) total += law.fixed_traction * segment.length(t0, t1);
+  return total;
+}
+
+}  // namespace
 
 const GaussRule& BoundaryLoadIntegrator::gauss_rule(int k) const {
   if (k < 1 || k > kMaxGaussPoints) throw std::invalid_argument("gauss_points not in 1..20");
@@ -287,6 +300,72 @@ bool move_lost_force(const Grid& grid, std::span<const double> node_mass, std::s
 
 }  // namespace
 
+void BoundaryLoadIntegrator::index_shadows(const std::vector<CompositeBezier>& curves) {
+  turning_x_.clear();
+  double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min;
+  for (const auto& curve : curves) {
+    for (const auto& segment : curve.segments) {
+      turning_x_.push_back(segment.start().x());
+      turning_x_.push_back(segment.end().x());
+      if (segment.degree >= 2) {
+        ray_roots_.clear();
+        coordinate_crossings(hodograph(segment), 0, 0.0, ray_roots_);
+        for (const double t : ray_roots_) turning_x_.push_back(segment.point(t).x());
+      }
+      for (int k = 0; k <= segment.degree; ++k) {
+        x_min = std::min(x_min, segment.control[k].x());
+        x_max = std::max(x_max, segment.control[k].x());
+      }
+    }
+  }
+  sort_unique(turning_x_);
+  // Bins of one grid cell in x; a segment goes into every bin its control polygon overlaps.
+  shadow_bin_width_ = grid_.cell_size;
+  shadow_x0_ = x_min;
+  const std::size_t n_bins =
+      turning_x_.empty() ? 0 : static_cast<std::size_t>((x_max - x_min) / shadow_bin_width_) + 1;
+  for (auto& bin : shadow_bins_) bin.clear();
+  if (shadow_bins_.size() < n_bins) shadow_bins_.resize(n_bins);
+  for (std::size_t c = 0; c < curves.size(); ++c) {
+    for (std::size_t j = 0; j < curves[c].segments.size(); ++j) {
+      const BezierSegment& segment = curves[c].segments[j];
+      double lo = segment.control[0].x(), hi = lo;
+      for (int k = 1; k <= segment.degree; ++k) {
+        lo = std::min(lo, segment.control[k].x());
+        hi = std::max(hi, segment.control[k].x());
+      }
+      const auto first = static_cast<std::size_t>((lo - shadow_x0_) / shadow_bin_width_);
+      const auto last = std::min(n_bins - 1,
+                                 static_cast<std::size_t>((hi - shadow_x0_) / shadow_bin_width_));
+      for (std::size_t b = first; b <= last; ++b)
+        shadow_bins_[b].emplace_back(static_cast<int>(c), static_cast<int>(j));
+    }
+  }
+}
+
+bool BoundaryLoadIntegrator::shadowed(const std::vector<CompositeBezier>& curves,
+                                      const BezierSegment& segment, double t) const {
+  // A vertical ray up from B(t): shadowed when it meets the boundary above B(t).
+  const Vec2 p = segment.point(t);
+  const double tolerance = 1e-9 * grid_.cell_size;
+  const double offset = (p.x() - shadow_x0_) / shadow_bin_width_;
+  if (offset < 0.0) return false;
+  const auto bin = static_cast<std::size_t>(offset);
+  if (bin >= shadow_bins_.size()) return false;
+  for (const auto& [c, j] : shadow_bins_[bin]) {
+    const BezierSegment& other = curves[static_cast<std::size_t>(c)].segments[static_cast<std::size_t>(j)];
+    double y_max = other.control[0].y();
+    for (int k = 1; k <= other.degree; ++k) y_max = std::max(y_max, other.control[k].y());
+    if (y_max <= p.y() + tolerance) continue;
+    ray_roots_.clear();
+    coordinate_crossings(other, 0, p.x(), ray_roots_);
+    for (const double s : ray_roots_) {
+      if (other.point(s).y() > p.y() + tolerance) return true;
+    }
+  }
+  return false;
+}
+
 int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
                              std::span<Vec2> forces) {
   const auto n = static_cast<std::size_t>(grid.n_nodes());
@@ -311,7 +390,50 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
   BoundaryLoadResult result;
   const TractionLaw law = spec.traction_law(load_factor);
   const GaussRule& rule = gauss_rule(spec.quadrature.gauss_points);
-  const bool upward_only = spec.faces == LoadedFaces::kUpward;
+  const bool upward_only = spec.faces != LoadedFaces::kAll;
+  const bool top_only = spec.faces == LoadedFaces::kTop;
+  if (top_only) index_shadows(curves);
+  // Adds a loaded part; for kTop only its sub-parts that nothing lies above (the part is cut
+  // at the x of every vertex and turning point of the curves, where shadows begin and end).
+  auto add_part = [&](const BezierSegment& segment, double t0, double t1) {
+    if (!top_only) {
+      add_unit(segment, t0, t1, law, spec.quadrature, rule);
+      result.exact_force += exact_part_force(segment, t0, t1, law);
+      return;
+    }
+    shadow_cuts_.clear();
+    const double xa = segment.point(t0).x(), xb = segment.point(t1).x();
+    const auto lo = std::upper_bound(turning_x_.begin(), turning_x_.end(), std::min(xa, xb));
+    const auto hi = std::lower_bound(turning_x_.begin(), turning_x_.end(), std::max(xa, xb));
+    for (auto it = lo; it < hi; ++it) {
+      ray_roots_.clear();
+      coordinate_crossings(segment, 0, *it, ray_roots_);
+      for (const double t : ray_roots_)
+        if (t > t0 && t < t1) shadow_cuts_.push_back(t);
+    }
+    shadow_cuts_.push_back(t0);
+    shadow_cuts_.push_back(t1);
+    sort_unique(shadow_cuts_);
+    double run_start = -1.0, run_end = -1.0;
+    for (std::size_t k = 0; k + 1 < shadow_cuts_.size(); ++k) {
+      const double a = shadow_cuts_[k], b = shadow_cuts_[k + 1];
+      if (shadowed(curves, segment, 0.5 * (a + b))) continue;
+      if (run_end == a) {
+        run_end = b;
+        continue;
+      }
+      if (run_end > run_start) {
+        add_unit(segment, run_start, run_end, law, spec.quadrature, rule);
+        result.exact_force += exact_part_force(segment, run_start, run_end, law);
+      }
+      run_start = a;
+      run_end = b;
+    }
+    if (run_end > run_start) {
+      add_unit(segment, run_start, run_end, law, spec.quadrature, rule);
+      result.exact_force += exact_part_force(segment, run_start, run_end, law);
+    }
+  };
   std::vector<double>& cuts = filter_breaks_;
   for (const auto& curve : curves) {
     for (const auto& segment : curve.segments) {
@@ -340,14 +462,12 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
         if (part_end == cuts[p]) {
           part_end = cuts[p + 1];
         } else {
-          if (part_end > part_start)
-            add_unit(segment, part_start, part_end, law, spec.quadrature, rule);
+          if (part_end > part_start) add_part(segment, part_start, part_end);
           part_start = cuts[p];
           part_end = cuts[p + 1];
         }
       }
-      if (part_end > part_start)
-        add_unit(segment, part_start, part_end, law, spec.quadrature, rule);
+      if (part_end > part_start) add_part(segment, part_start, part_end);
     }
   }
   result.off_grid_force = off_grid_;

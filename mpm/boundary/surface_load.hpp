@@ -65,7 +65,10 @@ enum class BoundaryLoadType { kVerticalPressure, kFollowerPressure, kTraction };
 /// kFixed: x_range stays where it is in space (thesis 6.2). kMaterial: the solver moves
 /// x_range with the material (this library uses the x_range it is given).
 enum class LoadInterval { kFixed, kMaterial };
-enum class LoadedFaces { kAll, kUpward };
+/// kAll: every part; kUpward: parts with n_y > 0 (thesis 6.2); kTop: upward parts seen from
+/// above, i.e. with no boundary above them (the upper envelope: wiggles of a detected vertical
+/// face, overhangs and the floors of closed holes carry no load).
+enum class LoadedFaces { kAll, kUpward, kTop };
 
 /// t(n) = normal_scale (.) n + fixed_traction, kPa (see the header comment).
 struct TractionLaw {
@@ -85,7 +88,7 @@ struct BoundaryLoadSpec {
   double pressure = 0.0;         ///< kPa at full load (vertical / follower pressure)
   Vec2 traction = Vec2::Zero();  ///< kPa at full load (kTraction)
   std::optional<Vec2> x_range;   ///< m, (x_min, x_max); none = the whole boundary
-  LoadedFaces faces = LoadedFaces::kUpward;
+  LoadedFaces faces = LoadedFaces::kTop;
   CurveKind curve = CurveKind::kLinear;  ///< how the solver builds the curves from contours
   QuadratureOptions quadrature;
   bool redistribute_lost_load = false;
@@ -101,7 +104,11 @@ struct NodalForce {
 };
 
 struct BoundaryLoadResult {
-  Vec2 total_force = Vec2::Zero();     ///< kN/m: sum of this load's nodal forces (on the grid)
+  Vec2 total_force = Vec2::Zero();  ///< kN/m: sum of this load's nodal forces (on the grid)
+  /// kN/m: the exact resultant of the load on the loaded parts of the curves (eq. 6.13 per
+  /// part: normal_scale (.) (Delta y, -Delta x) + fixed_traction x length): the target that
+  /// total_force + off_grid_force must equal.
+  Vec2 exact_force = Vec2::Zero();
   double total_moment = 0.0;           ///< kN m/m about (0, 0): sum x_I x f_I (counter-clockwise +)
   Vec2 lost_force = Vec2::Zero();      ///< kN/m: part on nodes with zero mass (before moving it)
   double lost_moment = 0.0;            ///< kN m/m about (0, 0) of lost_force
@@ -154,6 +161,16 @@ class BoundaryLoadIntegrator {
   std::vector<NodalForce> unit_;       // contributions of the current unit (eq. 6.15 scaling)
   std::vector<double> breaks_;         // scratch: cell-edge parameters
   std::vector<double> filter_breaks_;  // scratch: x-range and face cuts
+  // kTop: the x of every vertex and turning point of the curves (sorted), the curves' segments
+  // binned by x, and scratch for the shadow cuts.
+  void index_shadows(const std::vector<CompositeBezier>& curves);
+  bool shadowed(const std::vector<CompositeBezier>& curves, const BezierSegment& segment,
+                double t) const;
+  std::vector<double> turning_x_;
+  std::vector<std::vector<std::pair<int, int>>> shadow_bins_;
+  double shadow_x0_ = 0.0, shadow_bin_width_ = 1.0;
+  std::vector<double> shadow_cuts_;
+  mutable std::vector<double> ray_roots_;
   Vec2 off_grid_ = Vec2::Zero();
 };
 

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <set>
 
+#include "mpm/boundary/load_input.hpp"
 #include "mpm/core/json_input.hpp"
 
 namespace pfm {
@@ -371,8 +372,15 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       const std::string target =
           v.choice_or("apply_on", {"grid_top_nodes", "detected_boundary"}, "grid_top_nodes");
       if (target == "detected_boundary") {
-        // Keys are validated by the boundary-load module (mpm/boundary).
         load.apply_on = LoadTarget::kDetectedBoundary;
+        load.surface = boundary::parse_boundary_load(v);
+        load.type = v.at("type").as_string();
+        load.pressure = load.surface->pressure;
+        if (load.surface->x_range) {
+          load.x0 = load.surface->x_range->x();
+          load.x1 = load.surface->x_range->y();
+        }
+        if (v.has("time_function")) load.time_function = parse_time_function(v.at("time_function"));
         c.loads.push_back(std::move(load));
         continue;
       }
@@ -432,7 +440,22 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
 
   if (const auto d = root.find("detection")) {
     d->require(d->is_object(), "expected an object");
-    c.detection = d->raw();
+    DetectionSpec detection;
+    detection.every_steps = d->int_or("every_steps", 1);
+    if (d->has("every_steps"))
+      d->at("every_steps").require(detection.every_steps >= 1, "must be a whole number >= 1");
+    // The rest of the block is the detector configuration; errors keep their JSON pointers.
+    nlohmann::json config = d->raw();
+    config.erase("every_steps");
+    detection.detector = parse_detector_config(JsonView(config, d->file(), d->pointer()));
+    c.detection = std::move(detection);
+  } else {
+    for (std::size_t k = 0; k < c.loads.size(); ++k) {
+      if (c.loads[k].apply_on == LoadTarget::kDetectedBoundary) {
+        c.detection = DetectionSpec{};  // the improved detector, every step
+        break;
+      }
+    }
   }
   return c;
 }

@@ -7,9 +7,11 @@
 #include <string>
 #include <vector>
 
+#include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/grid.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/shape_functions.hpp"
+#include "mpm/detect/detector.hpp"
 
 namespace pfm {
 
@@ -72,12 +74,14 @@ struct TimeFunction {
 enum class LoadTarget { kGridTopNodes, kDetectedBoundary };
 
 struct LoadSpec {
-  std::string type = "vertical_pressure";
-  double pressure = 0.0;  ///< kPa
-  double x0 = 0.0, x1 = 0.0;
+  std::string type = "vertical_pressure";  ///< vertical_pressure, follower_pressure, traction
+  double pressure = 0.0;                   ///< kPa (the two pressures)
+  double x0 = 0.0, x1 = 0.0;               ///< m, the loaded interval (when given)
   LoadTarget apply_on = LoadTarget::kGridTopNodes;
   TimeFunction time_function;
-  nlohmann::json raw;  ///< the entry as written, for the boundary-load module
+  /// Loads on the detected boundary: the full specification (mpm/boundary/load_input.hpp).
+  std::optional<boundary::BoundaryLoadSpec> surface;
+  nlohmann::json raw;  ///< the entry as written
 };
 
 enum class Scheme { kMUSL, kUSL };
@@ -99,6 +103,13 @@ struct OutputSpec {
   double timeseries_interval = 0.0;  ///< s
 };
 
+/// The "detection" block: the detector configuration of parse_detector_config (mpm/detect)
+/// plus how often it runs.
+struct DetectionSpec {
+  int every_steps = 1;  ///< detect every k steps (and at every output step)
+  DetectorConfig detector;
+};
+
 struct Case {
   std::string file;  ///< path it was read from
   nlohmann::json source;
@@ -114,7 +125,9 @@ struct Case {
   SolverSpec solver;
   TimeSpec time;
   OutputSpec output;
-  std::optional<nlohmann::json> detection;  ///< validated by the detection module
+  /// Boundary detection during the run ("detection" block; required by detected-boundary
+  /// loads, which default it to the improved detector every step).
+  std::optional<DetectionSpec> detection;
 };
 
 /// Read and validate a case file. Throws InputError naming the file and JSON pointer.

@@ -203,6 +203,7 @@ void MpmSolver::run_step() {
   t0 = Clock::now();
   update_grid();
   times_.update_grid += seconds_since(t0);
+  if (velocity_hook_) velocity_hook_(time_, dt_, grid_);
 
   t0 = Clock::now();
   grid_to_particles<W>();

@@ -67,6 +67,10 @@ struct EnergyBalance {
 using ExternalForceHook =
     std::function<void(double time, const GridState& grid_state, std::vector<Vec2>& force)>;
 
+/// Observer of the updated grid velocities (after the grid update, before grid-to-particles):
+/// surface markers ride on them (thesis eq. 4.6-4.7). `dt` is the step being taken.
+using GridVelocityHook = std::function<void(double time, double dt, const GridState& grid_state)>;
+
 class MpmSolver {
  public:
   /// Builds particles from the case bodies, the constraints and the grid-aligned loads.
@@ -100,6 +104,7 @@ class MpmSolver {
   EnergyBalance energy() const;
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
+  void set_grid_velocity_hook(GridVelocityHook hook) { velocity_hook_ = std::move(hook); }
   /// Override the local damping coefficient (used by gravity loading).
   void set_damping(double coefficient) { damping_ = coefficient; }
   /// Replace the time step (must not exceed critical_dt(); checked).
@@ -143,6 +148,7 @@ class MpmSolver {
   double damping_ = 0.0;
   StageTimes times_;
   ExternalForceHook hook_;
+  GridVelocityHook velocity_hook_;
   std::vector<TopNodeLoad> top_loads_;
 
   // Per-step work arrays.

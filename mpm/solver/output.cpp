@@ -164,6 +164,89 @@ void ParticleSeriesWriter::write_xdmf() const {
   write_file_atomically(directory_ + "/particles.xdmf", x.str());
 }
 
+BoundarySeriesWriter::BoundarySeriesWriter(std::string directory)
+    : directory_(std::move(directory)) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const std::string path = directory_ + "/boundary.h5";
+  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+}
+
+BoundarySeriesWriter::~BoundarySeriesWriter() {
+  if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
+}
+
+void BoundarySeriesWriter::write(double time, long step,
+                                 const std::vector<std::vector<Vec2>>& loops,
+                                 const std::vector<bool>& closed) {
+  std::vector<double> position, loop_of_point;
+  std::vector<long long> segments;
+  for (std::size_t k = 0; k < loops.size(); ++k) {
+    const auto first = static_cast<long long>(loop_of_point.size());
+    const auto count = static_cast<long long>(loops[k].size());
+    for (const Vec2& x : loops[k]) {
+      position.insert(position.end(), {x.x(), x.y(), 0.0});
+      loop_of_point.push_back(static_cast<double>(k));
+    }
+    for (long long i = 0; i + 1 < count; ++i)
+      segments.insert(segments.end(), {first + i, first + i + 1});
+    if (closed[k] && count > 2) segments.insert(segments.end(), {first + count - 1, first});
+  }
+  char name[32];
+  std::snprintf(name, sizeof name, "step_%08ld", step);
+  const hid_t group =
+      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
+  write_dataset(group, "position", position, n_points, 3);
+  write_dataset(group, "loop", loop_of_point, n_points, 1);
+  {
+    hsize_t dims[2] = {n_segments, 2};
+    const hid_t space = H5Screate_simple(2, dims, nullptr);
+    const hid_t set =
+        H5Dcreate2(group, "segments", H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (set < 0) throw std::runtime_error("HDF5: cannot create dataset segments");
+    if (n_segments > 0) {
+      check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, segments.data()),
+            "segments");
+    }
+    H5Dclose(set);
+    H5Sclose(space);
+  }
+  H5Gclose(group);
+  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), "flush");
+  times_.push_back(time);
+  groups_.push_back(name);
+  points_.push_back(n_points);
+  segments_.push_back(n_segments);
+  write_xdmf();
+}
+
+void BoundarySeriesWriter::write_xdmf() const {
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
+    << "<Grid Name=\"boundary\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (std::size_t s = 0; s < times_.size(); ++s) {
+    if (segments_[s] == 0) continue;  // no boundary at this step: nothing to draw
+    const std::string& g = groups_[s];
+    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
+      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
+      << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << segments_[s]
+      << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << segments_[s]
+      << " 2\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">boundary.h5:/" << g
+      << "/segments</DataItem></Topology>\n"
+      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << points_[s]
+      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
+      << "/position</DataItem></Geometry>\n"
+      << "<Attribute Name=\"loop\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem "
+      << "Dimensions=\"" << points_[s]
+      << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
+      << "/loop</DataItem></Attribute>\n</Grid>\n";
+  }
+  x << "</Grid>\n</Domain>\n</Xdmf>\n";
+  write_file_atomically(directory_ + "/boundary.xdmf", x.str());
+}
+
 std::string particles_csv(const Particles& particles) {
   std::ostringstream out;
   out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body\n";

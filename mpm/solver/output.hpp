@@ -40,6 +40,30 @@ class ParticleSeriesWriter {
   std::vector<std::size_t> counts_;
 };
 
+/// Boundary time series beside the particles: boundary.h5 (one group per output step) +
+/// boundary.xdmf (a temporal collection of Polyline grids with 2-node segments; a closed loop
+/// includes its closing segment). Per step: position (P x 3, z = 0), segments (S x 2, int64
+/// point indices), loop (P, the loop number of each point, as in the boundary CSV).
+class BoundarySeriesWriter {
+ public:
+  explicit BoundarySeriesWriter(std::string directory);
+  ~BoundarySeriesWriter();
+  BoundarySeriesWriter(const BoundarySeriesWriter&) = delete;
+  BoundarySeriesWriter& operator=(const BoundarySeriesWriter&) = delete;
+
+  /// loops[k] is a polyline; closed[k] says whether it closes on itself.
+  void write(double time, long step, const std::vector<std::vector<Vec2>>& loops,
+             const std::vector<bool>& closed);
+
+ private:
+  void write_xdmf() const;
+  std::string directory_;
+  long file_ = -1;  // hid_t
+  std::vector<double> times_;
+  std::vector<std::string> groups_;
+  std::vector<std::size_t> points_, segments_;
+};
+
 /// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body).
 std::string particles_csv(const Particles& particles);
 

@@ -10,9 +10,11 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
 
@@ -105,6 +107,7 @@ int run_case(const Case& c, const RunOptions& options) {
   const int threads = options.threads > 0 ? options.threads : omp_get_num_procs();
   omp_set_num_threads(threads);
   MpmSolver solver(c);  // may throw InputError: nothing created yet
+  BoundaryCoupling coupling(c);
   prepare_output_directory(options.out_dir);
   const std::string dir = options.out_dir;
 
@@ -116,12 +119,47 @@ int run_case(const Case& c, const RunOptions& options) {
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
 
   std::ostringstream series;
-  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y\n";
+  const bool surface_loads = coupling.has_surface_loads();
+  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
+  if (surface_loads) {
+    series << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
+              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
+  }
+  series << '\n';
   auto record = [&](const MpmSolver& s) {
     const EnergyBalance e = s.energy();
     series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
            << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
-           << ',' << fmt(e.momentum.y()) << '\n';
+           << ',' << fmt(e.momentum.y());
+    if (surface_loads) {
+      const SurfaceLoadDiagnostics& d = coupling.diagnostics();
+      for (const Vec2& f : {d.target, d.applied, d.lost, d.off_grid})
+        series << ',' << fmt(f.x()) << ',' << fmt(f.y());
+      series << ',' << d.loaded_nodes << ',' << d.lost_nodes;
+    }
+    series << '\n';
+  };
+  nlohmann::json outputs = nlohmann::json::array();
+  std::unique_ptr<BoundarySeriesWriter> boundary_writer;
+  auto write_output = [&](ParticleSeriesWriter& writer) {
+    writer.write(solver.time(), solver.step_count(), solver.particles());
+    nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
+    if (coupling.detection_enabled()) {
+      const DetectedBoundary& boundary = coupling.current_boundary();
+      char name[40];
+      std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
+      write_file_atomically(dir + "/" + name, boundary_csv(boundary));
+      std::vector<std::vector<Vec2>> loops;
+      std::vector<bool> closed;
+      for (const Contour& contour : boundary.contours) {
+        loops.push_back(contour.points);
+        closed.push_back(contour.closed);
+      }
+      if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(dir);
+      boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
+      entry["boundary"] = name;
+    }
+    outputs.push_back(entry);
   };
 
   const auto wall_start = std::chrono::steady_clock::now();
@@ -131,8 +169,9 @@ int run_case(const Case& c, const RunOptions& options) {
   try {
     solver.initialise_stress();
     initial_steps = solver.initial_stress_steps();
+    coupling.attach(solver);
     ParticleSeriesWriter writer(dir);
-    writer.write(solver.time(), solver.step_count(), solver.particles());
+    write_output(writer);
     record(solver);
     const double end = c.time.end_time;
     const double eps = 1e-9 * solver.dt();
@@ -147,7 +186,7 @@ int run_case(const Case& c, const RunOptions& options) {
         while (next_series <= t + eps) next_series += c.output.timeseries_interval;
       }
       if (t >= next_output - eps || k + 1 == n_steps) {
-        writer.write(t, solver.step_count(), solver.particles());
+        write_output(writer);
         write_file_atomically(dir + "/timeseries.csv", series.str());
         while (next_output <= t + eps) next_output += c.output.interval;
       }
@@ -186,6 +225,22 @@ int run_case(const Case& c, const RunOptions& options) {
                       {"grid_to_particles", st.grid_to_particles},
                       {"remap", st.remap},
                       {"stress", st.stress}}}};
+  if (coupling.detection_enabled()) {
+    // The in-step parts of these run inside external_forces (the hook); detections for output
+    // steps run outside the step.
+    const CouplingTimes& ct = coupling.times();
+    run["summary"]["stage_seconds"]["detect"] = ct.detect;
+    run["summary"]["stage_seconds"]["bezier"] = ct.bezier;
+    run["summary"]["stage_seconds"]["traction"] = ct.traction;
+    run["summary"]["detection"] = {
+        {"calls", ct.detections},
+        {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
+        {"every_steps", c.detection->every_steps}};
+    nlohmann::json ends = nlohmann::json::array();
+    for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
+    if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
+  }
+  run["outputs"] = outputs;
   const EnergyBalance e = solver.energy();
   run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
                               {"external_work", e.external_work},

@@ -3,8 +3,12 @@
 // Output directory (created only once the case is valid):
 //   run.json              provenance (git revision, build type, command, case copy) + summary
 //   particles.h5/.xdmf    particle time series (ParaView: open particles.xdmf)
-//   timeseries.csv        time, kinetic energy, works, momentum, load diagnostics
+//   timeseries.csv        time, kinetic energy, works, momentum; with loads on the detected
+//                         boundary also their target, applied, lost and off-grid forces (kN/m)
 //   final_particles.csv   the final particle state
+//   boundary_<step>.csv   with a detection block, per output step (step with 8 digits): the
+//                         detected boundary, columns loop,x,y (mpm/detect/contour.hpp order)
+//   boundary.h5/.xdmf     the same boundaries as polylines (ParaView: open beside particles)
 #pragma once
 
 #include <string>

@@ -30,7 +30,7 @@ TEST(BoundaryLoadInput, ThesisLoadWithDefaults) {
   EXPECT_EQ(spec.pressure, 100.0);
   ASSERT_TRUE(spec.x_range.has_value());
   EXPECT_EQ(*spec.x_range, Vec2(5.0, 10.0));
-  EXPECT_EQ(spec.faces, LoadedFaces::kUpward);
+  EXPECT_EQ(spec.faces, LoadedFaces::kTop);
   EXPECT_EQ(spec.curve, CurveKind::kLinear);
   EXPECT_EQ(spec.quadrature.mode, IntegrationMode::kExact);
   EXPECT_EQ(spec.quadrature.gauss_points, 5);

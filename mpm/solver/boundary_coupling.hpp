@@ -1,0 +1,109 @@
+// The MPM step coupled with boundary detection and loads on the detected boundary (thesis 6.2).
+//
+// In the external-force stage of step n (particles at time t_n, nodal masses known):
+//   1. detect    every `detection.every_steps` steps (and whenever an output needs a fresh
+//                boundary) the detector of the case runs on the particles (positions, current
+//                volumes, deformation gradients); between detections the last boundary is used;
+//   2. bezier    each surface load builds its composite curves from the contours (its "curve");
+//   3. traction  the load at the time function's factor is integrated into nodal forces,
+//                f_I = int N_I t dGamma (mpm/boundary/surface_load.hpp), and added to the grid.
+// After the grid update the Surface Marker Method's markers (if that detector runs) ride on the
+// updated grid velocities.
+//
+// Load intervals carried by the material (interval "material"): at the start, each end x_e of
+// x_range is tied to the particle of the body's top layer whose x is closest to x_e (ties: the
+// lower id); the end then moves with that particle's horizontal displacement.
+//
+// Diagnostics per step and load (kN/m): target = the exact resultant of the load on the loaded
+// parts of the curves; applied = the sum of the nodal forces on the grid; lost = the part on
+// nodes without mass (moved to nodes with mass when redistribute_lost_load is set; reported
+// before moving). applied + off-grid = target to round-off.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "mpm/boundary/bezier.hpp"
+#include "mpm/boundary/surface_load.hpp"
+#include "mpm/detect/detector.hpp"
+#include "mpm/solver/case.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+
+namespace pfm {
+
+/// Summed over the detected-boundary loads, at the last step that applied them (kN/m).
+struct SurfaceLoadDiagnostics {
+  Vec2 target = Vec2::Zero();
+  Vec2 applied = Vec2::Zero();
+  Vec2 lost = Vec2::Zero();
+  Vec2 off_grid = Vec2::Zero();
+  int loaded_nodes = 0;
+  int lost_nodes = 0;
+};
+
+/// Wall-clock seconds of the coupling's stages, accumulated over the run.
+struct CouplingTimes {
+  double detect = 0.0;
+  double bezier = 0.0;
+  double traction = 0.0;
+  long detections = 0;
+};
+
+class BoundaryCoupling {
+ public:
+  /// Does nothing unless the case has a detection block or detected-boundary loads.
+  explicit BoundaryCoupling(const Case& c);
+  BoundaryCoupling(const BoundaryCoupling&) = delete;
+  BoundaryCoupling& operator=(const BoundaryCoupling&) = delete;
+
+  bool detection_enabled() const { return case_.detection.has_value(); }
+  bool has_surface_loads() const { return !loads_.empty(); }
+
+  /// Installs the solver hooks; `solver` must outlive this object's use. Ties material-carried
+  /// load intervals to their particles (call after initialise_stress: the particles' reference
+  /// positions are then final).
+  void attach(MpmSolver& solver);
+
+  /// The boundary of the particles as they are now (detects unless the last detection was at
+  /// this step).
+  const DetectedBoundary& current_boundary();
+  const DetectedBoundary& last_boundary() const { return boundary_; }
+  const SurfaceLoadDiagnostics& diagnostics() const { return diagnostics_; }
+  const CouplingTimes& times() const { return times_; }
+  const DetectionTimings& last_detection_timings() const { return detection_timings_; }
+  /// Ids of the particles that carry the ends of material load intervals (-1: fixed interval).
+  std::vector<std::array<long, 2>> interval_particles() const;
+
+ private:
+  struct SurfaceLoad {
+    std::size_t case_index = 0;
+    boundary::BoundaryLoadSpec spec;
+    TimeFunction time_function;
+    std::array<long, 2> end_particle = {-1, -1};
+    std::array<double, 2> end_x0 = {0.0, 0.0};  ///< the ends' particles' initial x, m
+  };
+
+  void detect_now();
+  void apply_loads(double time, const GridState& grid_state, std::vector<Vec2>& force);
+  void tie_material_intervals();
+
+  const Case& case_;
+  MpmSolver* solver_ = nullptr;
+  double initial_spacing_ = 0.0;
+  std::vector<SurfaceLoad> loads_;
+  DetectorState detector_state_;
+  DetectionTimings detection_timings_;
+  DetectedBoundary boundary_;
+  long detected_at_step_ = -1;
+  std::vector<boundary::CompositeBezier> curves_;
+  boundary::BoundaryLoadIntegrator integrator_;
+  std::vector<Vec2> load_force_;  ///< per node, scratch
+  SurfaceLoadDiagnostics diagnostics_;
+  CouplingTimes times_;
+};
+
+/// boundary CSV text "loop,x,y" of the contours (contour.hpp order; loops numbered from 0).
+std::string boundary_csv(const DetectedBoundary& boundary);
+
+}  // namespace pfm

@@ -1,0 +1,111 @@
+// Loads on the detected boundary inside the MPM step (issue: "Composite Bezier boundaries and
+// exact surface traction", checks 6 and 7).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+#include "mpm/solver/boundary_coupling.hpp"
+#include "mpm/solver/case.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+
+namespace pfm {
+namespace {
+
+double total_mass(const Particles& particles) {
+  return std::accumulate(particles.mass.begin(), particles.mass.end(), 0.0);
+}
+
+// The thesis's bearing block (cases/bearing_block.json): q_v = 50 kPa on [5, 10] m on the
+// detected top surface. Every step the nodal forces of the load sum to q_v x 5 m, lost load
+// included, and the grid's external forces are exactly gravity plus that load.
+void check_bearing_block_load(bool redistribute) {
+  Case c = read_case("cases/bearing_block.json");
+  c.loads[0].surface->redistribute_lost_load = redistribute;
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  solver.initialise_stress();
+  coupling.attach(solver);
+  const double q = 50.0, width = 5.0, expected = -q * width;
+  const double weight = -c.gravity.g * total_mass(solver.particles());
+  double worst = 0.0, worst_grid = 0.0, largest_lost = 0.0;
+  for (int step = 0; step < 60; ++step) {
+    solver.step();
+    const SurfaceLoadDiagnostics& d = coupling.diagnostics();
+    worst = std::max({worst, std::abs(d.applied.y() - expected) / std::abs(expected),
+                      std::abs(d.target.y() - expected) / std::abs(expected),
+                      std::abs(d.applied.x()) / std::abs(expected)});
+    EXPECT_EQ(d.off_grid, Vec2::Zero());
+    largest_lost = std::max(largest_lost, std::abs(d.lost.y()));
+    Vec2 grid_total = Vec2::Zero();
+    for (const Vec2& f : solver.grid_state().external_force) grid_total += f;
+    worst_grid = std::max(worst_grid, std::abs(grid_total.y() - (weight + expected)) /
+                                          std::abs(weight + expected));
+  }
+  std::printf("bearing block (redistribute %d): max |sum f - q b| / (q b) = %.2e, grid total "
+              "error %.2e, largest lost load %.3f kN/m\n",
+              redistribute ? 1 : 0, worst, worst_grid, largest_lost);
+  EXPECT_LE(worst, 1e-9);
+  EXPECT_LE(worst_grid, 1e-9);
+}
+
+TEST(BoundaryCoupling, BearingBlockForcesSumToPressureTimesWidth) {
+  check_bearing_block_load(false);
+}
+
+TEST(BoundaryCoupling, BearingBlockForcesSumWithLostLoadRedistributed) {
+  check_bearing_block_load(true);
+}
+
+// Oedometric column (E = 1e4 kPa, nu = 0.15, H = 5 m, 1 m wide between rollers) with a
+// surcharge q = 20 kPa on its detected top surface, damped to rest:
+//   settlement of the top = q H / M + gamma H^2 / (2 M).
+TEST(BoundaryCoupling, ColumnWithSurchargeOnDetectedTopSettlesToTheAnalyticValue) {
+  const double height = 5.0, q = 20.0, gamma = 20.0;
+  const nlohmann::json j = nlohmann::json::parse(R"({
+    "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [4, 13]},
+    "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                   "poisson_ratio": 0.15, "unit_weight": 20.0}],
+    "bodies": [{"name": "column", "material": "soil", "rectangle": [[0.5, 0.0], [1.5, 5.0]],
+                "points_per_cell": 2, "placement": "equal"}],
+    "gravity": {"g": 9.81, "ramp_time": 0.5},
+    "node_sets": [{"name": "left_wall", "box": [[0.5, 0.0], [0.5, 6.5]]},
+                  {"name": "right_wall", "box": [[1.5, 0.0], [1.5, 6.5]]}],
+    "boundary_conditions": [{"where": "bottom", "fix": "xy"}, {"where": "left_wall", "fix": "x"},
+                            {"where": "right_wall", "fix": "x"}],
+    "loads": [{"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 20.0,
+               "x_range": [0.5, 1.5], "time_function": {"type": "ramp", "ramp_time": 0.5}}],
+    "detection": {"method": "improved", "every_steps": 10},
+    "solver": {"scheme": "musl", "shape_function": "linear", "damping": 0.2},
+    "time": {"end_time": 4.0, "cfl": 0.5}
+  })");
+  const Case c = parse_case(j, "column_surcharge");
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  coupling.attach(solver);
+  while (solver.time() < c.time.end_time) solver.step();
+  const double m = elastic_parameters(c.materials[0].model).constrained_modulus();
+  const double exact = -(q * height / m + gamma * height * height / (2.0 * m));
+  const Particles& p = solver.particles();
+  double top_y0 = 0.0;
+  for (const Vec2& x : p.reference_position) top_y0 = std::max(top_y0, x.y());
+  // The top row of particles sits h/4 below the surface: u(y0) = q y0 / M + gamma (H y0 -
+  // y0^2 / 2) / M there.
+  const double y0 = top_y0;
+  const double exact_row = -(q * y0 / m + gamma * (height * y0 - 0.5 * y0 * y0) / m);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    if (p.reference_position[k].y() < top_y0 - 1e-9) continue;
+    const double u = p.position[k].y() - p.reference_position[k].y();
+    worst = std::max(worst, std::abs(u - exact_row) / std::abs(exact_row));
+  }
+  std::printf("column with surcharge: top settlement %.5f m (surface exact %.5f m), top-row "
+              "error %.2e\n",
+              exact_row * (1.0 + worst), exact, worst);
+  EXPECT_LE(worst, 0.01);
+  EXPECT_NEAR(coupling.diagnostics().applied.y(), -q * 1.0, 1e-9 * q);
+}
+
+}  // namespace
+}  // namespace pfm
