@@ -1,6 +1,8 @@
 // pfm-mpm: the command-line tool.
 //
 //   pfm-mpm run CASE.json --out DIR [--solver mpm|ulfem] [--threads N] [--quiet]
+//               [--checkpoint-steps N] [--checkpoint-seconds T]
+//   pfm-mpm run --restart DIR [--threads N]      continue a killed run from its checkpoint
 //   pfm-mpm validate CASE.json
 //   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR
 //
@@ -26,8 +28,17 @@ int main(int argc, char** argv) {
   std::string case_file;
   bool quiet = false;
   CLI::App* run = app.add_subcommand("run", "run a case file");
-  run->add_option("case", case_file, "case file (JSON)")->required();
-  run->add_option("--out", options.out_dir, "output directory")->required();
+  std::string restart_dir;
+  run->add_option("case", case_file, "case file (JSON)");
+  run->add_option("--out", options.out_dir, "output directory");
+  run->add_option("--restart", restart_dir,
+                  "continue the run in this output directory from its latest checkpoint");
+  run->add_option("--checkpoint-steps", options.checkpoint_steps,
+                  "write checkpoint.h5 every N steps (default: off)")
+      ->check(CLI::Range(0L, 1000000000L));
+  run->add_option("--checkpoint-seconds", options.checkpoint_seconds,
+                  "write checkpoint.h5 every T seconds of wall time (default 600, 0: off)")
+      ->check(CLI::Range(0.0, 1e9));
   run->add_option("--threads", options.threads, "threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   run->add_flag("--quiet", quiet, "no progress line");
@@ -64,6 +75,25 @@ int main(int argc, char** argv) {
     }
     if (*detect) return pfm::run_detect_command(particles_csv, detect_config, detect_out);
     options.progress = !quiet;
+    if (!restart_dir.empty()) {
+      if (!case_file.empty() || !options.out_dir.empty())
+        throw pfm::InputError("--restart DIR takes the case and the output directory from DIR");
+      if (solver_name != "mpm") throw pfm::InputError("--restart: only the MPM solver restarts");
+      const nlohmann::json run_json = pfm::read_json_file(restart_dir + "/run.json");
+      if (!run_json.contains("case") || !run_json.contains("provenance"))
+        throw pfm::InputError(restart_dir + "/run.json: not a pfm-mpm run (no case)");
+      if (run_json.value("status", "") == "completed")
+        throw pfm::InputError(restart_dir + ": the run has completed; nothing to restart");
+      const pfm::Case c =
+          pfm::parse_case(run_json.at("case"), run_json.at("provenance").value("case_file", ""));
+      options.out_dir = restart_dir;
+      options.restart = true;
+      const int status = pfm::run_case(c, options);
+      if (status == pfm::kExitOk) std::cout << "results: " << options.out_dir << "\n";
+      return status;
+    }
+    if (case_file.empty() || options.out_dir.empty())
+      throw pfm::InputError("run: give CASE.json and --out DIR (or --restart DIR)");
     const pfm::Case c = pfm::read_case(case_file);
     const int status =
         solver_name == "ulfem" ? pfm::run_ulfem_case(c, options) : pfm::run_case(c, options);

@@ -38,6 +38,7 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
     surface.spec = *load.surface;
     surface.time_function = load.time_function;
     loads_.push_back(surface);
+    current_range_.push_back(surface.spec.x_range);
   }
   load_force_.assign(static_cast<std::size_t>(c.grid.n_nodes()), Vec2::Zero());
 }
@@ -111,9 +112,12 @@ void BoundaryCoupling::apply_loads(double time, const GridState& grid_state,
                                    std::vector<Vec2>& force) {
   diagnostics_ = SurfaceLoadDiagnostics{};
   const Particles& particles = solver_->particles();
+  const bool keep = case_.output.nodal_loads;
+  if (keep) nodal_forces_.clear();
   boundary::CurveKind built = boundary::CurveKind::kLinear;
   bool have_curves = false;
-  for (SurfaceLoad& load : loads_) {
+  for (std::size_t k = 0; k < loads_.size(); ++k) {
+    SurfaceLoad& load = loads_[k];
     auto start = Clock::now();
     if (!have_curves || built != load.spec.curve) {
       curves_ = boundary::make_composite_beziers(boundary_.contours, load.spec.curve);
@@ -130,9 +134,10 @@ void BoundaryCoupling::apply_loads(double time, const GridState& grid_state,
           particles.position[static_cast<std::size_t>(load.end_particle[1])].x() - load.end_x0[1];
       spec.x_range = Vec2(load.spec.x_range->x() + shift0, load.spec.x_range->y() + shift1);
     }
+    current_range_[k] = spec.x_range;
     std::fill(load_force_.begin(), load_force_.end(), Vec2::Zero());
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves_, spec, load.time_function.factor(time), grid_state.mass, load_force_);
+        curves_, spec, load.time_function.factor(time), grid_state.mass, load_force_, keep);
     for (std::size_t n = 0; n < force.size(); ++n) force[n] += load_force_[n];
     diagnostics_.target += result.exact_force;
     diagnostics_.applied += result.total_force;
@@ -140,7 +145,75 @@ void BoundaryCoupling::apply_loads(double time, const GridState& grid_state,
     diagnostics_.off_grid += result.off_grid_force;
     diagnostics_.loaded_nodes += result.n_loaded_nodes;
     diagnostics_.lost_nodes += result.n_lost_nodes;
+    if (keep) {
+      nodal_forces_.insert(nodal_forces_.end(), result.nodal_forces.begin(),
+                           result.nodal_forces.end());
+    }
     times_.traction += seconds_since(start);
+  }
+  if (keep && loads_.size() > 1) {
+    // One entry per node, summed over the loads in load order.
+    std::stable_sort(nodal_forces_.begin(), nodal_forces_.end(),
+                     [](const auto& a, const auto& b) { return a.node < b.node; });
+    std::size_t out = 0;
+    for (std::size_t i = 0; i < nodal_forces_.size(); ++i) {
+      if (out > 0 && nodal_forces_[out - 1].node == nodal_forces_[i].node) {
+        nodal_forces_[out - 1].force += nodal_forces_[i].force;
+      } else {
+        nodal_forces_[out++] = nodal_forces_[i];
+      }
+    }
+    nodal_forces_.resize(out);
+  }
+}
+
+void BoundaryCoupling::save(CheckpointFile& file) const {
+  file.put("coupling/detector/shape", flatten(detector_state_.shape));
+  file.put("coupling/detector/previous_deformation", flatten(detector_state_.previous_deformation));
+  file.put("coupling/detector/n_calls", static_cast<double>(detector_state_.n_calls));
+  std::vector<double> points, counts, closed;
+  for (const Contour& contour : boundary_.contours) {
+    for (const Vec2& x : contour.points) points.insert(points.end(), {x.x(), x.y()});
+    counts.push_back(static_cast<double>(contour.points.size()));
+    closed.push_back(contour.closed ? 1.0 : 0.0);
+  }
+  file.put("coupling/boundary/points", points);
+  file.put("coupling/boundary/counts", counts);
+  file.put("coupling/boundary/closed", closed);
+  file.put("coupling/detected_at_step", static_cast<double>(detected_at_step_));
+  std::vector<double> ends;
+  for (const SurfaceLoad& load : loads_) {
+    ends.insert(ends.end(),
+                {static_cast<double>(load.end_particle[0]),
+                 static_cast<double>(load.end_particle[1]), load.end_x0[0], load.end_x0[1]});
+  }
+  file.put("coupling/load_ends", ends);
+}
+
+void BoundaryCoupling::restore(const CheckpointFile& file) {
+  detector_state_.shape = unflatten<Mat2>(file.get("coupling/detector/shape"));
+  detector_state_.previous_deformation =
+      unflatten<Mat2>(file.get("coupling/detector/previous_deformation"));
+  detector_state_.n_calls = static_cast<std::size_t>(file.scalar("coupling/detector/n_calls"));
+  const std::vector<double>& points = file.get("coupling/boundary/points");
+  const std::vector<double>& counts = file.get("coupling/boundary/counts");
+  const std::vector<double>& closed = file.get("coupling/boundary/closed");
+  boundary_.contours.clear();
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    Contour contour;
+    contour.closed = closed.at(k) != 0.0;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(counts[k]); ++i, next += 2)
+      contour.points.emplace_back(points.at(next), points.at(next + 1));
+    boundary_.contours.push_back(std::move(contour));
+  }
+  detected_at_step_ = static_cast<long>(file.scalar("coupling/detected_at_step"));
+  const std::vector<double>& ends = file.get("coupling/load_ends");
+  if (ends.size() != 4 * loads_.size())
+    throw InputError("checkpoint: coupling/load_ends does not match the case's loads");
+  for (std::size_t k = 0; k < loads_.size(); ++k) {
+    loads_[k].end_particle = {static_cast<long>(ends[4 * k]), static_cast<long>(ends[4 * k + 1])};
+    loads_[k].end_x0 = {ends[4 * k + 2], ends[4 * k + 3]};
   }
 }
 

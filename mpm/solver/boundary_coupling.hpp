@@ -21,6 +21,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,7 @@
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
+#include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 
 namespace pfm {
@@ -72,6 +74,17 @@ class BoundaryCoupling {
   const SurfaceLoadDiagnostics& diagnostics() const { return diagnostics_; }
   const CouplingTimes& times() const { return times_; }
   const DetectionTimings& last_detection_timings() const { return detection_timings_; }
+  /// The nodal forces of the surface loads at the last step (kept when the case asks for
+  /// output.nodal_loads), summed over the loads, sorted by node.
+  const std::vector<boundary::NodalForce>& nodal_forces() const { return nodal_forces_; }
+  /// The x_range of surface load k at the last step (moved with the material for interval
+  /// "material"); none for a load without x_range.
+  std::optional<Vec2> current_x_range(std::size_t k) const { return current_range_[k]; }
+  /// Checkpoints: the detector's state (kernel shapes, markers), the last boundary and when it
+  /// was found, and the particles that carry material intervals.
+  void save(CheckpointFile& file) const;
+  /// Restores what save() wrote; call after attach().
+  void restore(const CheckpointFile& file);
   /// Ids of the particles that carry the ends of material load intervals (-1: fixed interval).
   std::vector<std::array<long, 2>> interval_particles() const;
 
@@ -101,6 +114,8 @@ class BoundaryCoupling {
   std::vector<Vec2> load_force_;  ///< per node, scratch
   SurfaceLoadDiagnostics diagnostics_;
   CouplingTimes times_;
+  std::vector<boundary::NodalForce> nodal_forces_;
+  std::vector<std::optional<Vec2>> current_range_;
 };
 
 /// boundary CSV text "loop,x,y" of the contours (contour.hpp order; loops numbered from 0).

@@ -427,7 +427,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
 
   c.output.interval = c.time.end_time / 20.0;
   if (const auto o = root.find("output")) {
-    o->expect_object({"interval", "timeseries_interval"});
+    o->expect_object({"interval", "timeseries_interval", "nodal_loads"});
+    if (const auto nodal = o->find("nodal_loads")) c.output.nodal_loads = nodal->as_bool();
     c.output.interval = o->number_or("interval", c.output.interval);
     if (o->has("interval")) o->at("interval").require(c.output.interval > 0.0, "must be > 0");
     c.output.timeseries_interval = o->number_or("timeseries_interval", c.output.interval / 10.0);

@@ -101,6 +101,9 @@ struct TimeSpec {
 struct OutputSpec {
   double interval = 0.0;             ///< s
   double timeseries_interval = 0.0;  ///< s
+  /// Write the nodal forces of the detected-boundary loads at each output step
+  /// (nodal_loads_<step>.csv, thesis figure 6.6).
+  bool nodal_loads = false;
 };
 
 /// The "detection" block: the detector configuration of parse_detector_config (mpm/detect)

@@ -110,6 +110,37 @@ class MpmSolver {
   /// Replace the time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
 
+  /// The scalars that carry from step to step besides the particles (checkpoints: with the
+  /// particles they are the complete state; the grid is rebuilt every step).
+  struct Counters {
+    double time = 0.0;
+    long step = 0;
+    double dt = 0.0;
+    double damping = 0.0;
+    bool loads_active = true;
+    bool gravity_full = false;
+    long initial_stress_steps = 0;
+    double external_work = 0.0, internal_work = 0.0, damping_work = 0.0;
+  };
+  Counters counters() const {
+    return {time_,         step_,         dt_,           damping_,
+            loads_active_, gravity_full_, initial_stress_steps_, external_work_,
+            internal_work_, damping_work_};
+  }
+  /// Restores counters() of a checkpoint (after the particles have been restored).
+  void restore(const Counters& n) {
+    time_ = n.time;
+    step_ = n.step;
+    dt_ = n.dt;
+    damping_ = n.damping;
+    loads_active_ = n.loads_active;
+    gravity_full_ = n.gravity_full;
+    initial_stress_steps_ = n.initial_stress_steps;
+    external_work_ = n.external_work;
+    internal_work_ = n.internal_work;
+    damping_work_ = n.damping_work;
+  }
+
   /// Nodes on the initial top surface and their consistent nodal force per unit pressure for
   /// a grid_top_nodes load (exposed for tests).
   struct TopNodeLoad {

@@ -36,6 +36,51 @@ std::string fmt(double v) {
   return buffer;
 }
 
+std::string step_group(long step) {
+  char name[32];
+  std::snprintf(name, sizeof name, "step_%08ld", step);
+  return name;
+}
+
+/// Rebuilds `directory`/`file_name` with only the objects `names` of the old file (copied in
+/// order), written to a temporary file and renamed; returns the reopened file (read-write).
+hid_t rebuild_keeping(const std::string& directory, const std::string& file_name,
+                      const std::vector<std::string>& names) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const std::string path = directory + "/" + file_name, temporary = path + ".rebuild";
+  const hid_t old_file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (old_file < 0) throw std::runtime_error("restart: cannot open " + path);
+  const hid_t new_file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (new_file < 0) {
+    H5Fclose(old_file);
+    throw std::runtime_error("restart: cannot create " + temporary);
+  }
+  for (const std::string& name : names) {
+    if (H5Ocopy(old_file, name.c_str(), new_file, name.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) {
+      H5Fclose(old_file);
+      H5Fclose(new_file);
+      throw std::runtime_error("restart: " + path + " has no readable " + name);
+    }
+  }
+  H5Fclose(old_file);
+  H5Fclose(new_file);
+  std::filesystem::rename(temporary, path);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (file < 0) throw std::runtime_error("restart: cannot reopen " + path);
+  return file;
+}
+
+std::size_t dataset_rows(hid_t file, const std::string& name) {
+  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  if (set < 0) throw std::runtime_error("restart: no dataset " + name);
+  const hid_t space = H5Dget_space(set);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  H5Sclose(space);
+  H5Dclose(set);
+  return static_cast<std::size_t>(dims[0]);
+}
+
 }  // namespace
 
 void write_file_atomically(const std::string& path, const std::string& text) {
@@ -56,6 +101,21 @@ ParticleSeriesWriter::ParticleSeriesWriter(std::string directory)
   const std::string path = directory_ + "/particles.h5";
   file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error("cannot create " + path);
+}
+
+ParticleSeriesWriter::ParticleSeriesWriter(std::string directory,
+                                           const std::vector<std::pair<double, long>>& keep)
+    : directory_(std::move(directory)) {
+  std::vector<std::string> names;
+  if (!keep.empty()) names.push_back("connectivity");
+  for (const auto& [time, step] : keep) names.push_back(step_group(step));
+  file_ = rebuild_keeping(directory_, "particles.h5", names);
+  for (const auto& [time, step] : keep) {
+    times_.push_back(time);
+    groups_.push_back(step_group(step));
+    counts_.push_back(dataset_rows(static_cast<hid_t>(file_), groups_.back() + "/id"));
+  }
+  write_xdmf();
 }
 
 ParticleSeriesWriter::~ParticleSeriesWriter() {
@@ -170,6 +230,21 @@ BoundarySeriesWriter::BoundarySeriesWriter(std::string directory)
   const std::string path = directory_ + "/boundary.h5";
   file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error("cannot create " + path);
+}
+
+BoundarySeriesWriter::BoundarySeriesWriter(std::string directory,
+                                           const std::vector<std::pair<double, long>>& keep)
+    : directory_(std::move(directory)) {
+  std::vector<std::string> names;
+  for (const auto& [time, step] : keep) names.push_back(step_group(step));
+  file_ = rebuild_keeping(directory_, "boundary.h5", names);
+  for (const auto& [time, step] : keep) {
+    times_.push_back(time);
+    groups_.push_back(step_group(step));
+    points_.push_back(dataset_rows(static_cast<hid_t>(file_), groups_.back() + "/loop"));
+    segments_.push_back(dataset_rows(static_cast<hid_t>(file_), groups_.back() + "/segments"));
+  }
+  write_xdmf();
 }
 
 BoundarySeriesWriter::~BoundarySeriesWriter() {

@@ -23,6 +23,9 @@ void write_file_atomically(const std::string& path, const std::string& text);
 class ParticleSeriesWriter {
  public:
   explicit ParticleSeriesWriter(std::string directory);
+  /// Resumes the series of a restarted run: particles.h5 is rebuilt with only the given
+  /// output steps (time, step) of the old file, in that order (later steps are dropped).
+  ParticleSeriesWriter(std::string directory, const std::vector<std::pair<double, long>>& keep);
   ~ParticleSeriesWriter();
   ParticleSeriesWriter(const ParticleSeriesWriter&) = delete;
   ParticleSeriesWriter& operator=(const ParticleSeriesWriter&) = delete;
@@ -47,6 +50,8 @@ class ParticleSeriesWriter {
 class BoundarySeriesWriter {
  public:
   explicit BoundarySeriesWriter(std::string directory);
+  /// Resumes the series of a restarted run (as ParticleSeriesWriter).
+  BoundarySeriesWriter(std::string directory, const std::vector<std::pair<double, long>>& keep);
   ~BoundarySeriesWriter();
   BoundarySeriesWriter(const BoundarySeriesWriter&) = delete;
   BoundarySeriesWriter& operator=(const BoundarySeriesWriter&) = delete;

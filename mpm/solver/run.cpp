@@ -11,10 +11,12 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
+#include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
 
@@ -108,14 +110,27 @@ int run_case(const Case& c, const RunOptions& options) {
   omp_set_num_threads(threads);
   MpmSolver solver(c);  // may throw InputError: nothing created yet
   BoundaryCoupling coupling(c);
-  prepare_output_directory(options.out_dir);
   const std::string dir = options.out_dir;
+  const std::string checkpoint_path = dir + "/checkpoint.h5";
 
   nlohmann::json run;
-  run["provenance"] = provenance(c.file, options.command_line);
-  run["provenance"]["threads"] = threads;
-  run["case"] = c.source;
-  run["status"] = "running";
+  std::optional<CheckpointFile> restart;
+  if (options.restart) {
+    // Continue from the latest checkpoint: nothing is touched until it has been read.
+    restart = CheckpointFile::read(checkpoint_path);
+    run = read_json_file(dir + "/run.json");
+    run["status"] = "running";
+    run["restarts"].push_back({{"utc", utc_now()},
+                               {"from_step", static_cast<long>(restart->scalar("solver/step"))},
+                               {"command", options.command_line},
+                               {"threads", threads}});
+  } else {
+    prepare_output_directory(options.out_dir);
+    run["provenance"] = provenance(c.file, options.command_line);
+    run["provenance"]["threads"] = threads;
+    run["case"] = c.source;
+    run["status"] = "running";
+  }
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
 
   std::ostringstream series;
@@ -141,6 +156,52 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
+  double next_output = c.output.interval, next_series = c.output.timeseries_interval;
+  auto save_checkpoint = [&]() {
+    CheckpointFile file;
+    put_particles(file, solver.particles());
+    const MpmSolver::Counters n = solver.counters();
+    file.put("solver/time", n.time);
+    file.put("solver/step", static_cast<double>(n.step));
+    file.put("solver/dt", n.dt);
+    file.put("solver/damping", n.damping);
+    file.put("solver/loads_active", n.loads_active ? 1.0 : 0.0);
+    file.put("solver/gravity_full", n.gravity_full ? 1.0 : 0.0);
+    file.put("solver/initial_stress_steps", static_cast<double>(n.initial_stress_steps));
+    file.put("solver/external_work", n.external_work);
+    file.put("solver/internal_work", n.internal_work);
+    file.put("solver/damping_work", n.damping_work);
+    coupling.save(file);
+    file.put("run/next_output", next_output);
+    file.put("run/next_series", next_series);
+    file.put_text("run/timeseries", series.str());
+    file.put_text("run/outputs", outputs.dump());
+    file.write(checkpoint_path);
+  };
+  auto restore_checkpoint = [&](const CheckpointFile& file) {
+    get_particles(file, solver.particles());
+    if (solver.particles().size() != solver.particles().mass.size())
+      throw InputError(checkpoint_path + ": inconsistent particle arrays");
+    MpmSolver::Counters n;
+    n.time = file.scalar("solver/time");
+    n.step = static_cast<long>(file.scalar("solver/step"));
+    n.dt = file.scalar("solver/dt");
+    n.damping = file.scalar("solver/damping");
+    n.loads_active = file.scalar("solver/loads_active") != 0.0;
+    n.gravity_full = file.scalar("solver/gravity_full") != 0.0;
+    n.initial_stress_steps = static_cast<long>(file.scalar("solver/initial_stress_steps"));
+    n.external_work = file.scalar("solver/external_work");
+    n.internal_work = file.scalar("solver/internal_work");
+    n.damping_work = file.scalar("solver/damping_work");
+    solver.restore(n);
+    coupling.attach(solver);
+    coupling.restore(file);
+    next_output = file.scalar("run/next_output");
+    next_series = file.scalar("run/next_series");
+    series.str(file.text("run/timeseries"));
+    series.seekp(0, std::ios_base::end);
+    outputs = nlohmann::json::parse(file.text("run/outputs"));
+  };
   auto write_output = [&](ParticleSeriesWriter& writer) {
     writer.write(solver.time(), solver.step_count(), solver.particles());
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
@@ -159,6 +220,23 @@ int run_case(const Case& c, const RunOptions& options) {
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
       entry["boundary"] = name;
     }
+    if (c.output.nodal_loads && coupling.has_surface_loads()) {
+      // The forces applied in the last step (thesis figure 6.6), with the nodal masses then.
+      std::ostringstream csv;
+      csv << "node,i,j,x,y,fx,fy,mass\n";
+      const int nnx = c.grid.n_nodes_x();
+      for (const auto& f : coupling.nodal_forces()) {
+        const int i = f.node % nnx, j = f.node / nnx;
+        const Vec2 x = c.grid.node_position(i, j);
+        csv << f.node << ',' << i << ',' << j << ',' << fmt(x.x()) << ',' << fmt(x.y()) << ','
+            << fmt(f.force.x()) << ',' << fmt(f.force.y()) << ','
+            << fmt(solver.grid_state().mass[static_cast<std::size_t>(f.node)]) << '\n';
+      }
+      char name[40];
+      std::snprintf(name, sizeof name, "nodal_loads_%08ld.csv", solver.step_count());
+      write_file_atomically(dir + "/" + name, csv.str());
+      entry["nodal_loads"] = name;
+    }
     outputs.push_back(entry);
   };
 
@@ -167,18 +245,30 @@ int run_case(const Case& c, const RunOptions& options) {
   int status = kExitOk;
   std::string message;
   try {
-    solver.initialise_stress();
+    std::unique_ptr<ParticleSeriesWriter> writer_owner;
+    if (restart) {
+      restore_checkpoint(*restart);
+      std::vector<std::pair<double, long>> keep;
+      for (const auto& entry : outputs)
+        keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
+      writer_owner = std::make_unique<ParticleSeriesWriter>(dir, keep);
+      if (coupling.detection_enabled())
+        boundary_writer = std::make_unique<BoundarySeriesWriter>(dir, keep);
+    } else {
+      solver.initialise_stress();
+      coupling.attach(solver);
+      writer_owner = std::make_unique<ParticleSeriesWriter>(dir);
+      write_output(*writer_owner);
+      record(solver);
+    }
     initial_steps = solver.initial_stress_steps();
-    coupling.attach(solver);
-    ParticleSeriesWriter writer(dir);
-    write_output(writer);
-    record(solver);
+    ParticleSeriesWriter& writer = *writer_owner;
     const double end = c.time.end_time;
     const double eps = 1e-9 * solver.dt();
     const long n_steps = static_cast<long>(std::ceil(end / solver.dt() - 1e-9));
-    double next_output = c.output.interval, next_series = c.output.timeseries_interval;
     Progress progress(options.progress);
-    for (long k = 0; k < n_steps; ++k) {
+    auto last_checkpoint = std::chrono::steady_clock::now();
+    for (long k = solver.step_count(); k < n_steps; ++k) {
       solver.step();
       const double t = solver.time();
       if (t >= next_series - eps || k + 1 == n_steps) {
@@ -189,6 +279,16 @@ int run_case(const Case& c, const RunOptions& options) {
         write_output(writer);
         write_file_atomically(dir + "/timeseries.csv", series.str());
         while (next_output <= t + eps) next_output += c.output.interval;
+      }
+      const bool by_steps =
+          options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
+      const bool by_time =
+          options.checkpoint_seconds > 0.0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint)
+                  .count() >= options.checkpoint_seconds;
+      if ((by_steps || by_time) && k + 1 < n_steps) {
+        save_checkpoint();
+        last_checkpoint = std::chrono::steady_clock::now();
       }
       progress.update(solver.step_count(), t, end);
     }

@@ -9,6 +9,7 @@
 //   boundary_<step>.csv   with a detection block, per output step (step with 8 digits): the
 //                         detected boundary, columns loop,x,y (mpm/detect/contour.hpp order)
 //   boundary.h5/.xdmf     the same boundaries as polylines (ParaView: open beside particles)
+//   checkpoint.h5         the complete state at the latest checkpoint (for --restart)
 #pragma once
 
 #include <string>
@@ -22,6 +23,12 @@ struct RunOptions {
   int threads = 0;           ///< 0: all cores
   bool progress = true;      ///< progress line on a terminal (never when CI is set)
   std::string command_line;  ///< recorded in run.json
+  /// Checkpoint (checkpoint.h5) every this many steps (0: not by steps) and/or every this many
+  /// seconds of wall time (0: not by time).
+  long checkpoint_steps = 0;
+  double checkpoint_seconds = 600.0;
+  /// Continue the run in out_dir from its checkpoint (the case comes from its run.json).
+  bool restart = false;
 };
 
 /// Exit codes of the command-line tool.

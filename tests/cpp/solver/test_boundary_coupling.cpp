@@ -40,12 +40,13 @@ void check_bearing_block_load(bool redistribute) {
     largest_lost = std::max(largest_lost, std::abs(d.lost.y()));
     Vec2 grid_total = Vec2::Zero();
     for (const Vec2& f : solver.grid_state().external_force) grid_total += f;
-    worst_grid = std::max(worst_grid, std::abs(grid_total.y() - (weight + expected)) /
-                                          std::abs(weight + expected));
+    worst_grid = std::max(
+        worst_grid, std::abs(grid_total.y() - (weight + expected)) / std::abs(weight + expected));
   }
-  std::printf("bearing block (redistribute %d): max |sum f - q b| / (q b) = %.2e, grid total "
-              "error %.2e, largest lost load %.3f kN/m\n",
-              redistribute ? 1 : 0, worst, worst_grid, largest_lost);
+  std::printf(
+      "bearing block (redistribute %d): max |sum f - q b| / (q b) = %.2e, grid total "
+      "error %.2e, largest lost load %.3f kN/m\n",
+      redistribute ? 1 : 0, worst, worst_grid, largest_lost);
   EXPECT_LE(worst, 1e-9);
   EXPECT_LE(worst_grid, 1e-9);
 }
@@ -76,7 +77,7 @@ TEST(BoundaryCoupling, ColumnWithSurchargeOnDetectedTopSettlesToTheAnalyticValue
                             {"where": "right_wall", "fix": "x"}],
     "loads": [{"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 20.0,
                "x_range": [0.5, 1.5], "time_function": {"type": "ramp", "ramp_time": 0.5}}],
-    "detection": {"method": "improved", "every_steps": 10},
+    "detection": {"method": "improved", "every_steps": 25},
     "solver": {"scheme": "musl", "shape_function": "linear", "damping": 0.2},
     "time": {"end_time": 4.0, "cfl": 0.5}
   })");
@@ -100,11 +101,63 @@ TEST(BoundaryCoupling, ColumnWithSurchargeOnDetectedTopSettlesToTheAnalyticValue
     const double u = p.position[k].y() - p.reference_position[k].y();
     worst = std::max(worst, std::abs(u - exact_row) / std::abs(exact_row));
   }
-  std::printf("column with surcharge: top settlement %.5f m (surface exact %.5f m), top-row "
-              "error %.2e\n",
-              exact_row * (1.0 + worst), exact, worst);
+  std::printf(
+      "column with surcharge: top settlement %.5f m (surface exact %.5f m), top-row "
+      "error %.2e\n",
+      exact_row * (1.0 + worst), exact, worst);
   EXPECT_LE(worst, 0.01);
   EXPECT_NEAR(coupling.diagnostics().applied.y(), -q * 1.0, 1e-9 * q);
+}
+
+// An interval carried by the material follows the particles that start under its ends; a fixed
+// interval stays where it is. Displacing the whole body rigidly by dx moves the material
+// interval by exactly dx, and the applied load stays q x width.
+TEST(BoundaryCoupling, MaterialIntervalFollowsTheParticlesUnderItsEnds) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [24, 12]},
+    "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                   "poisson_ratio": 0.3, "unit_weight": 20.0}],
+    "bodies": [{"name": "block", "material": "soil", "rectangle": [[2.0, 0.5], [8.0, 3.5]]}],
+    "gravity": {"g": 0.0},
+    "loads": [{"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 10.0,
+               "x_range": [4.0, 6.0], "interval": "material"},
+              {"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 10.0,
+               "x_range": [4.0, 6.0]}],
+    "detection": {"method": "improved"},
+    "output": {"nodal_loads": true},
+    "time": {"end_time": 1.0}
+  })");
+  const Case c = parse_case(j, "material_interval");
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  coupling.attach(solver);
+  const auto ids = coupling.interval_particles();
+  ASSERT_EQ(ids.size(), 2u);
+  ASSERT_GE(ids[0][0], 0);
+  EXPECT_EQ(ids[1][0], -1);  // fixed interval
+  // The end particles: top row, x closest to the ends (spacing 0.25 m: x = 3.875 or 4.125 and
+  // 5.875 or 6.125; the lower id wins a tie).
+  const Particles& p = solver.particles();
+  for (int e = 0; e < 2; ++e) {
+    const Vec2 x = p.position[static_cast<std::size_t>(ids[0][e])];
+    EXPECT_NEAR(x.y(), 3.375, 1e-12);
+    EXPECT_NEAR(std::abs(x.x() - (e == 0 ? 4.0 : 6.0)), 0.125, 1e-12);
+  }
+  const double dx = 1.0;
+  for (Vec2& x : solver.particles().position) x.x() += dx;
+  solver.step();
+  const Vec2 moved = *coupling.current_x_range(0), fixed = *coupling.current_x_range(1);
+  EXPECT_NEAR(moved.x(), 4.0 + dx, 1e-12);
+  EXPECT_NEAR(moved.y(), 6.0 + dx, 1e-12);
+  EXPECT_EQ(fixed, Vec2(4.0, 6.0));
+  EXPECT_NEAR(coupling.diagnostics().applied.y(), -2.0 * 10.0 * 2.0, 1e-9 * 40.0);
+  // The nodal forces kept for plots sum to the applied load, one entry per node.
+  Vec2 sum = Vec2::Zero();
+  for (std::size_t k = 0; k < coupling.nodal_forces().size(); ++k) {
+    sum += coupling.nodal_forces()[k].force;
+    if (k > 0) EXPECT_LT(coupling.nodal_forces()[k - 1].node, coupling.nodal_forces()[k].node);
+  }
+  EXPECT_NEAR(sum.y(), coupling.diagnostics().applied.y(), 1e-12 * 40.0);
 }
 
 }  // namespace

@@ -1,0 +1,67 @@
+// Checkpoints: the complete state of a run in one HDF5 file (checkpoint.h5 in the output
+// directory), so that `pfm-mpm run --restart DIR` continues a killed run and ends bitwise where
+// the uninterrupted run ends.
+//
+// The file is a flat set of named datasets: arrays of doubles (IEEE 754 binary64, so values
+// round-trip bitwise; integers are stored exactly below 2^53) and texts (bytes). It is written
+// to checkpoint.h5.tmp and renamed, so a reader sees the previous checkpoint or the new one,
+// never half of one.
+#pragma once
+
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mpm/solver/particles.hpp"
+
+namespace pfm {
+
+class CheckpointFile {
+ public:
+  void put(const std::string& name, std::span<const double> values);
+  void put(const std::string& name, double value) { put(name, std::span<const double>(&value, 1)); }
+  void put_text(const std::string& name, const std::string& text);
+
+  bool has(const std::string& name) const;
+  /// The array `name`; InputError naming the file and the dataset when it is missing.
+  const std::vector<double>& get(const std::string& name) const;
+  /// A single value (an array of length 1).
+  double scalar(const std::string& name) const;
+  const std::string& text(const std::string& name) const;
+
+  /// Writes `path`.tmp, then renames it to `path`.
+  void write(const std::string& path) const;
+  /// Reads a checkpoint; InputError when the file is missing, unreadable or not a checkpoint.
+  static CheckpointFile read(const std::string& path);
+
+ private:
+  std::string file_;  ///< where it was read from (messages)
+  std::map<std::string, std::vector<double>> numbers_;
+  std::map<std::string, std::string> texts_;
+};
+
+/// Every particle field under "particles/<field>".
+void put_particles(CheckpointFile& file, const Particles& particles);
+/// Restores every particle field; InputError if a field is missing or its length differs.
+void get_particles(const CheckpointFile& file, Particles& particles);
+
+/// Flattens arrays of Eigen fixed-size vectors/matrices (column-major) and back.
+template <typename T>
+std::vector<double> flatten(const std::vector<T>& values) {
+  std::vector<double> out;
+  out.reserve(values.size() * static_cast<std::size_t>(T::SizeAtCompileTime));
+  for (const T& v : values) out.insert(out.end(), v.data(), v.data() + T::SizeAtCompileTime);
+  return out;
+}
+template <typename T>
+std::vector<T> unflatten(const std::vector<double>& data) {
+  constexpr auto size = static_cast<std::size_t>(T::SizeAtCompileTime);
+  std::vector<T> out(data.size() / size);
+  for (std::size_t k = 0; k < out.size(); ++k)
+    std::copy(data.begin() + static_cast<std::ptrdiff_t>(k * size),
+              data.begin() + static_cast<std::ptrdiff_t>((k + 1) * size), out[k].data());
+  return out;
+}
+
+}  // namespace pfm

@@ -1,0 +1,102 @@
+"""Checkpoint and restart (issue "Reliability", check 1).
+
+A run of the bearing block with detection and traction on the detected boundary (load interval
+carried by the material, so the coupling's state matters) is killed with SIGKILL at a random
+step after its first checkpoint and continued with ``pfm-mpm run --restart``. The final state
+and every output must be bitwise identical to the uninterrupted run's.
+"""
+
+import json
+import random
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+
+def short_bearing_block(tmp_path):
+    case = json.loads((ROOT / "cases" / "bearing_block.json").read_text())
+    case["time"]["end_time"] = 0.4
+    case["output"] = {"interval": 0.05, "timeseries_interval": 0.01, "nodal_loads": True}
+    case["loads"][0]["interval"] = "material"
+    case["loads"][0]["redistribute_lost_load"] = True
+    case["detection"] = {"method": "improved", "every_steps": 3}
+    path = tmp_path / "bearing_block_short.json"
+    path.write_text(json.dumps(case))
+    return path
+
+
+def h5_datasets(path):
+    values = {}
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset):
+            values[name] = np.asarray(obj[()])
+
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+    return values
+
+
+def assert_same_outputs(reference, restarted):
+    names = sorted(p.name for p in reference.iterdir() if p.suffix == ".csv")
+    assert names == sorted(p.name for p in restarted.iterdir() if p.suffix == ".csv")
+    for name in names:
+        assert (reference / name).read_bytes() == (restarted / name).read_bytes(), name
+    for h5 in ("particles.h5", "boundary.h5"):
+        a, b = h5_datasets(reference / h5), h5_datasets(restarted / h5)
+        assert sorted(a) == sorted(b), h5
+        for name in a:
+            assert a[name].tobytes() == b[name].tobytes(), f"{h5}:{name}"
+    for xdmf in ("particles.xdmf", "boundary.xdmf"):
+        assert (reference / xdmf).read_text() == (restarted / xdmf).read_text(), xdmf
+    run_a = json.loads((reference / "run.json").read_text())
+    run_b = json.loads((restarted / "run.json").read_text())
+    assert run_a["outputs"] == run_b["outputs"]
+    assert run_b["status"] == "completed" and len(run_b["restarts"]) == 1
+    assert run_a["summary"]["n_steps"] == run_b["summary"]["n_steps"]
+
+
+def test_killed_run_restarts_bitwise(pfm_binary, tmp_path):
+    case = short_bearing_block(tmp_path)
+    reference, killed = tmp_path / "reference", tmp_path / "killed"
+    common = ["--quiet", "--checkpoint-steps", "4"]
+    subprocess.run([pfm_binary, "run", case, "--out", reference, "--threads", "2", *common],
+                   check=True, capture_output=True)
+    n_steps = json.loads((reference / "run.json").read_text())["summary"]["n_steps"]
+
+    # Kill at a random moment after the first checkpoint (seeded: reproducible).
+    process = subprocess.Popen([pfm_binary, "run", case, "--out", killed, "--threads", "1",
+                                *common], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not (killed / "checkpoint.h5").exists():
+        assert process.poll() is None, "run ended before its first checkpoint"
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+    time.sleep(random.Random(7).uniform(0.0, 0.3))
+    process.send_signal(signal.SIGKILL)
+    assert process.wait() == -signal.SIGKILL, "the run finished before it could be killed"
+    with h5py.File(killed / "checkpoint.h5", "r") as f:
+        step = int(f["n:solver|step"][0])
+    assert 0 < step < n_steps
+
+    subprocess.run([pfm_binary, "run", "--restart", killed, "--threads", "2", "--quiet"],
+                   check=True, capture_output=True)
+    assert_same_outputs(reference, killed)
+
+
+def test_restart_without_checkpoint_is_an_input_error(pfm_binary, tmp_path):
+    case = short_bearing_block(tmp_path)
+    out = tmp_path / "complete"
+    subprocess.run([pfm_binary, "run", case, "--out", out, "--quiet"], check=True,
+                   capture_output=True)
+    done = subprocess.run([pfm_binary, "run", "--restart", out], capture_output=True, text=True)
+    assert done.returncode == 2 and "nothing to restart" in done.stderr
+    missing = subprocess.run([pfm_binary, "run", "--restart", tmp_path / "nowhere"],
+                             capture_output=True, text=True)
+    assert missing.returncode == 2 and "run.json" in missing.stderr
