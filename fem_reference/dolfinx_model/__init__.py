@@ -11,11 +11,32 @@ CLI: python3 -m fem_reference.dolfinx_model CASE.json --out DIR [--mode static|e
 """
 from .case import Case, CaseError, read_case, case_from_dict
 from .model import Model, NoConvergence
-from .analysis import (run_static, run_explicit, initial_stress, write_boundary_csv,
-                       write_curve_csv, write_series_csv, FieldWriter, StaticResult,
-                       ExplicitResult)
+from .analysis import (
+    run_static,
+    run_explicit,
+    initial_stress,
+    write_boundary_csv,
+    write_curve_csv,
+    write_series_csv,
+    FieldWriter,
+    StaticResult,
+    ExplicitResult,
+)
 
-__all__ = ["Case", "CaseError", "read_case", "case_from_dict", "Model", "NoConvergence",
-           "run_static", "run_explicit", "initial_stress", "write_boundary_csv",
-           "write_curve_csv", "write_series_csv", "FieldWriter", "StaticResult",
-           "ExplicitResult"]
+__all__ = [
+    "Case",
+    "CaseError",
+    "read_case",
+    "case_from_dict",
+    "Model",
+    "NoConvergence",
+    "run_static",
+    "run_explicit",
+    "initial_stress",
+    "write_boundary_csv",
+    "write_curve_csv",
+    "write_series_csv",
+    "FieldWriter",
+    "StaticResult",
+    "ExplicitResult",
+]

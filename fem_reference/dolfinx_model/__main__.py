@@ -8,56 +8,135 @@ import os
 import sys
 
 
+def ignored_keys(case, mode):
+    """Case keys this run does not use, each as "/json/pointer: reason"."""
+    out = list(case.ignored)
+    if mode == "static":
+        raw = case.raw
+        why = "explicit mode only (the static run is quasi-static load control)"
+        for key in raw.get("time", {}):
+            out.append(f"/time/{key}: {why}")
+        if "damping" in raw.get("solver", {}):
+            out.append(f"/solver/damping: {why}")
+        if "ramp_time" in raw.get("gravity", {}):
+            out.append(f"/gravity/ramp_time: {why}")
+        for k, load in enumerate(raw.get("loads", [])):
+            if "time_function" in load:
+                out.append(f"/loads/{k}/time_function: {why}")
+    return out
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python3 -m fem_reference.dolfinx_model",
-                                     description="dolfinx reference model of a pfm-mpm case")
+    parser = argparse.ArgumentParser(
+        prog="python3 -m fem_reference.dolfinx_model",
+        description="dolfinx reference model of a pfm-mpm case",
+    )
     parser.add_argument("case", help="case JSON file (schema: README.md)")
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--mode", choices=("static", "explicit"), default="static")
-    parser.add_argument("--steps", type=int, default=10,
-                        help="static: load increments to full load")
-    parser.add_argument("--collapse", action="store_true",
-                        help="static: keep increasing the load until Newton fails (collapse load)")
-    parser.add_argument("--max-factor", type=float, default=10.0,
-                        help="collapse search: largest load multiplier tried")
-    parser.add_argument("--min-step", type=float, default=1e-3,
-                        help="smallest load-factor increment before giving up")
+    parser.add_argument(
+        "--steps", type=int, default=10, help="static: load increments to full load"
+    )
+    parser.add_argument(
+        "--collapse",
+        action="store_true",
+        help="static: keep increasing the load until Newton fails (collapse load)",
+    )
+    parser.add_argument(
+        "--max-factor",
+        type=float,
+        default=10.0,
+        help="collapse search: largest load multiplier tried",
+    )
+    parser.add_argument(
+        "--min-step",
+        type=float,
+        default=1e-3,
+        help="smallest load-factor increment before giving up",
+    )
     parser.add_argument("--gravity-steps", type=int, default=1)
-    parser.add_argument("--initial-stress", choices=("zero", "k0", "gravity"),
-                        help="override the case's initial_stress.method")
-    parser.add_argument("--degree", type=int, choices=(1, 2), help="displacement degree "
-                        "(static default 2, explicit default 1)")
-    parser.add_argument("--element-size", type=float, help="mesh size (default: grid cell size)")
-    parser.add_argument("--refine-size", type=float, help="finer mesh size at the load ends")
-    parser.add_argument("--refine-distance", type=float, help="extent of the refinement (m)")
-    parser.add_argument("--quads", action="store_true",
-                        help="quadrilateral mesh (gmsh recombination; Q2 / Q1 elements)")
-    parser.add_argument("--updated-lagrangian", action="store_true",
-                        help="move the mesh with every converged increment (UL)")
-    parser.add_argument("--kappa-measure", choices=("plastic_shear", "von_mises"),
-                        default="plastic_shear", help="softening variable (see material.py)")
-    parser.add_argument("--end-time", type=float, help="explicit: override time.end_time")
-    parser.add_argument("--snapshot-times", type=float, nargs="*", default=None,
-                        help="explicit: times of boundary CSVs (default 0.625 1.25 and the end)")
-    parser.add_argument("--probe", action="append", default=[], metavar="NAME:X,Y",
-                        help="extra displacement probe at the nearest node, e.g. crest:12,10")
+    parser.add_argument(
+        "--initial-stress",
+        choices=("zero", "k0", "gravity"),
+        help="override the case's initial_stress.method",
+    )
+    parser.add_argument(
+        "--degree",
+        type=int,
+        choices=(1, 2),
+        help="displacement degree " "(static default 2, explicit default 1)",
+    )
+    parser.add_argument(
+        "--element-size", type=float, help="mesh size (default: grid cell size)"
+    )
+    parser.add_argument(
+        "--refine-size", type=float, help="finer mesh size at the load ends"
+    )
+    parser.add_argument(
+        "--refine-distance", type=float, help="extent of the refinement (m)"
+    )
+    parser.add_argument(
+        "--quads",
+        action="store_true",
+        help="quadrilateral mesh (gmsh recombination; Q2 / Q1 elements)",
+    )
+    parser.add_argument(
+        "--updated-lagrangian",
+        action="store_true",
+        help="move the mesh with every converged increment (UL)",
+    )
+    parser.add_argument(
+        "--kappa-measure",
+        choices=("plastic_shear", "von_mises"),
+        default="plastic_shear",
+        help="softening variable (see material.py)",
+    )
+    parser.add_argument(
+        "--end-time", type=float, help="explicit: override time.end_time"
+    )
+    parser.add_argument(
+        "--snapshot-times",
+        type=float,
+        nargs="*",
+        default=None,
+        help="explicit: times of boundary CSVs (default 0.625 1.25 and the end)",
+    )
+    parser.add_argument(
+        "--probe",
+        action="append",
+        default=[],
+        metavar="NAME:X,Y",
+        help="extra displacement probe at the nearest node, e.g. crest:12,10",
+    )
     parser.add_argument("--no-fields", action="store_true", help="skip the XDMF fields")
     args = parser.parse_args(argv)
     logging.getLogger().setLevel(logging.WARNING)
 
     from .case import CaseError, read_case
+
     try:
         case = read_case(args.case)
     except CaseError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    from .analysis import (FieldWriter, run_explicit, run_static, write_boundary_csv,
-                           write_curve_csv, write_series_csv)
+    from .analysis import (
+        FieldWriter,
+        run_explicit,
+        run_static,
+        write_boundary_csv,
+        write_curve_csv,
+        write_series_csv,
+    )
     from .model import Model, NoConvergence
 
-    options = dict(element_size=args.element_size, refine_size=args.refine_size,
-                   refine_distance=args.refine_distance, quads=args.quads,
-                   updated_lagrangian=args.updated_lagrangian, kappa_measure=args.kappa_measure)
+    options = dict(
+        element_size=args.element_size,
+        refine_size=args.refine_size,
+        refine_distance=args.refine_distance,
+        quads=args.quads,
+        updated_lagrangian=args.updated_lagrangian,
+        kappa_measure=args.kappa_measure,
+    )
     degree = args.degree or (2 if args.mode == "static" else 1)
     model = Model(case, degree=degree, **options)
     for spec in args.probe:
@@ -65,9 +144,19 @@ def main(argv=None):
         x, y = (float(v) for v in xy.split(","))
         model.add_probe(name, (x, y))
     os.makedirs(args.out, exist_ok=True)
-    summary = {"case": os.path.abspath(args.case), "mode": args.mode, "degree": degree,
-               "cells": int(model.n_cells), "options": options}
-    fields = None if args.no_fields else FieldWriter(model, os.path.join(args.out, "fields.xdmf"))
+    summary = {
+        "case": os.path.abspath(args.case),
+        "mode": args.mode,
+        "degree": degree,
+        "cells": int(model.n_cells),
+        "options": options,
+        "ignored": ignored_keys(case, args.mode),
+    }
+    fields = (
+        None
+        if args.no_fields
+        else FieldWriter(model, os.path.join(args.out, "fields.xdmf"))
+    )
     if args.mode == "static":
         counter = {"k": 0}
 
@@ -77,27 +166,47 @@ def main(argv=None):
             counter["k"] += 1
 
         try:
-            result = run_static(case, steps=args.steps, collapse=args.collapse,
-                                max_factor=args.max_factor, min_step=args.min_step,
-                                initial_stress_method=args.initial_stress,
-                                gravity_steps=args.gravity_steps, model=model, on_step=on_step)
+            result = run_static(
+                case,
+                steps=args.steps,
+                collapse=args.collapse,
+                max_factor=args.max_factor,
+                min_step=args.min_step,
+                initial_stress_method=args.initial_stress,
+                gravity_steps=args.gravity_steps,
+                model=model,
+                on_step=on_step,
+            )
         except NoConvergence as err:
             if fields:
                 fields.close()
-            write_boundary_csv(model.boundary_loops(), os.path.join(args.out, "boundary.csv"))
+            write_boundary_csv(
+                model.boundary_loops(), os.path.join(args.out, "boundary.csv")
+            )
             print(f"error: {err}", file=sys.stderr)
             return 4
         write_curve_csv(result.curve, os.path.join(args.out, "load_settlement.csv"))
-        summary.update(initial_stress=result.initial_stress, collapse_load=result.collapse_load,
-                       converged_to_full_load=result.converged_to_full_load,
-                       newton_iterations=result.newton_iterations, runtime_s=result.runtime,
-                       final_settlement=result.curve[-1][1] if result.curve else None)
+        summary.update(
+            initial_stress=result.initial_stress,
+            collapse_load=result.collapse_load,
+            converged_to_full_load=result.converged_to_full_load,
+            newton_iterations=result.newton_iterations,
+            runtime_s=result.runtime,
+            final_settlement=result.curve[-1][1] if result.curve else None,
+        )
     else:
-        times = args.snapshot_times if args.snapshot_times is not None else [0.625, 1.25]
+        times = (
+            args.snapshot_times if args.snapshot_times is not None else [0.625, 1.25]
+        )
         end = args.end_time or case.end_time
         times = sorted({t for t in times if t <= end + 1e-12} | {end})
-        result = run_explicit(case, end_time=end, initial_stress_method=args.initial_stress,
-                              snapshot_times=times, model=model)
+        result = run_explicit(
+            case,
+            end_time=end,
+            initial_stress_method=args.initial_stress,
+            snapshot_times=times,
+            model=model,
+        )
         write_series_csv(result.series, os.path.join(args.out, "timeseries.csv"))
         for t, loops in result.snapshots.items():
             write_boundary_csv(loops, os.path.join(args.out, f"boundary_t{t:.4f}.csv"))
@@ -107,14 +216,19 @@ def main(argv=None):
     if fields:
         fields.close()
     write_boundary_csv(model.boundary_loops(), os.path.join(args.out, "boundary.csv"))
-    summary["probes"] = {name: [float(v) for v in model.probe_displacement(name)]
-                         for name in model.probes}
+    summary["probes"] = {
+        name: [float(v) for v in model.probe_displacement(name)]
+        for name in model.probes
+    }
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(json.dumps(summary, indent=2))
     if args.mode == "static" and not summary.get("converged_to_full_load", True):
-        print("warning: Newton failed before the full load; outputs hold the last converged "
-              "state (exit code 3)", file=sys.stderr)
+        print(
+            "warning: Newton failed before the full load; outputs hold the last converged "
+            "state (exit code 3)",
+            file=sys.stderr,
+        )
         return 3
     return 0
 

@@ -17,17 +17,23 @@ from .model import Model, NoConvergence
 class StaticResult:
     """Results of run_static. Settlements are downward displacements (m, positive down) of the
     first load's strip centre measured from the start of the load phase."""
+
     model: Model
     initial_stress: str
-    curve: list = field(default_factory=list)  # (load kPa, settlement m, total settlement m)
-    collapse_load: float | None = None  # last converged pressure of the first load (kPa)
+    # (load kPa, settlement m, total settlement m)
+    curve: list = field(default_factory=list)
+    # last converged pressure of the first load (kPa)
+    collapse_load: float | None = None
     converged_to_full_load: bool = True
     newton_iterations: int = 0
     runtime: float = 0.0
-    probes: dict = field(default_factory=dict)  # name -> displacement (ux, uy) at the end
+    # name -> displacement (ux, uy) at the end
+    probes: dict = field(default_factory=dict)
 
 
-def initial_stress(model: Model, method: str, k0=None, gravity_steps=1, rtol=1e-8, min_step=1e-3):
+def initial_stress(
+    model: Model, method: str, k0=None, gravity_steps=1, rtol=1e-8, min_step=1e-3
+):
     """Apply the initial-stress procedure. Returns Newton iterations used.
 
     zero:    unstressed start; gravity is then switched on in `gravity_steps` increments
@@ -46,7 +52,9 @@ def initial_stress(model: Model, method: str, k0=None, gravity_steps=1, rtol=1e-
         try:
             return model.solve_step(1.0, 0.0, rtol=rtol)
         except NoConvergence as err:
-            raise NoConvergence(f"K0 initial stress: no equilibrium found ({err})") from err
+            raise NoConvergence(
+                f"K0 initial stress: no equilibrium found ({err})"
+            ) from err
     factor, step = 0.0, 1.0 / max(gravity_steps, 1)
     while factor < 1.0 - 1e-12:
         trial = min(1.0, factor + step)
@@ -66,9 +74,20 @@ def initial_stress(model: Model, method: str, k0=None, gravity_steps=1, rtol=1e-
     return iterations
 
 
-def run_static(case, steps=10, collapse=False, max_factor=10.0, min_step=1e-3,
-               initial_stress_method=None, gravity_steps=1, rtol=1e-8, max_iterations=25,
-               model=None, on_step=None, **model_options):
+def run_static(
+    case,
+    steps=10,
+    collapse=False,
+    max_factor=10.0,
+    min_step=1e-3,
+    initial_stress_method=None,
+    gravity_steps=1,
+    rtol=1e-8,
+    max_iterations=25,
+    model=None,
+    on_step=None,
+    **model_options,
+):
     """Quasi-static incremental analysis of a case (load control with Newton).
 
     The loads (all case loads together, factor lambda times their pressure) go from 0 to 1 in
@@ -86,10 +105,12 @@ def run_static(case, steps=10, collapse=False, max_factor=10.0, min_step=1e-3,
     method = initial_stress_method or case.initial_stress
     k0 = case.k0
     result = StaticResult(model, method)
-    result.newton_iterations += initial_stress(model, method, k0, gravity_steps, rtol, min_step)
-    probe = "load0_centre" if case.loads else None
+    result.newton_iterations += initial_stress(
+        model, method, k0, gravity_steps, rtol, min_step
+    )
+    probe = "load0_centre" if "load0_centre" in model.probes else None
     base = model.probe_displacement(probe)[1] if probe else 0.0
-    q_ref = case.loads[0].pressure if case.loads else 0.0
+    q_ref = case.loads[0].magnitude if case.loads else 0.0
 
     def record(factor):
         if probe:
@@ -104,7 +125,9 @@ def run_static(case, steps=10, collapse=False, max_factor=10.0, min_step=1e-3,
     while case.loads and factor < target - 1e-12:
         trial = min(factor + step, target)
         try:
-            result.newton_iterations += model.solve_step(1.0, trial, rtol, max_iterations)
+            result.newton_iterations += model.solve_step(
+                1.0, trial, rtol, max_iterations
+            )
         except NoConvergence:
             step *= 0.5
             if step < min_step:
@@ -126,14 +149,22 @@ class ExplicitResult:
     model: Model
     dt: float
     n_steps: int
-    series: list = field(default_factory=list)  # (t, load kPa, settlement m, kinetic energy kJ)
+    # (t, load kPa, settlement m, kinetic energy kJ)
+    series: list = field(default_factory=list)
     runtime: float = 0.0
     snapshots: dict = field(default_factory=dict)  # time -> boundary loops
     probe_history: dict = field(default_factory=dict)  # probe name -> [(t, ux, uy)]
 
 
-def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times=(),
-                 series_interval=None, model=None, **model_options):
+def run_explicit(
+    case,
+    end_time=None,
+    initial_stress_method=None,
+    snapshot_times=(),
+    series_interval=None,
+    model=None,
+    **model_options,
+):
     """Lumped-mass explicit dynamics (central differences), P1 triangles (one point per cell)
     or Q1 quadrilaterals (2 x 2 points) by default.
 
@@ -146,6 +177,7 @@ def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times
     mass of P2 triangles has zero and negative entries."""
     import ufl
     from dolfinx import fem
+
     if isinstance(case, (str, os.PathLike)):
         case = read_case(case)
     start = wallclock.perf_counter()
@@ -161,12 +193,17 @@ def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times
     ones = fem.Function(model.V)
     ones.x.array[:] = 1.0
     mass_form = fem.form(model.rho * ufl.inner(ones, v_test) * model.dx)
-    mass = fem.petsc.assemble_vector(mass_form).array.copy()  # row sums of the consistent mass
+    mass = fem.petsc.assemble_vector(
+        mass_form
+    ).array.copy()  # row sums of the consistent mass
     # critical time step
     height = model.cell_heights()
     g = case.g if case.g > 0 else 9.81
-    cp = max(np.sqrt(m.material.constrained_modulus / (m.material.unit_weight / g))
-             for m in model.models if m.material.unit_weight > 0)
+    cp = max(
+        np.sqrt(m.material.constrained_modulus / (m.material.unit_weight / g))
+        for m in model.models
+        if m.material.unit_weight > 0
+    )
     dt = case.dt if case.dt else case.cfl * height.min() / cp
     end_time = end_time or case.end_time
     n_steps = int(np.ceil(end_time / dt - 1e-9))
@@ -175,7 +212,7 @@ def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times
     fixed = model.constrained
     alpha = case.damping
     result = ExplicitResult(model, dt, n_steps)
-    probe = "load0_centre" if case.loads else None
+    probe = "load0_centre" if "load0_centre" in model.probes else None
     base = model.probe_displacement(probe)[1] if probe else 0.0
     snapshot_steps = {int(round(t / dt)): t for t in snapshot_times}
     series_every = max(1, int(round((series_interval or end_time / 200) / dt)))
@@ -184,7 +221,9 @@ def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times
     def gravity_at(t):
         if grav_now is not None:
             return grav_now
-        return min(1.0, t / case.gravity_ramp_time) if case.gravity_ramp_time > 0 else 1.0
+        return (
+            min(1.0, t / case.gravity_ramp_time) if case.gravity_ramp_time > 0 else 1.0
+        )
 
     def load_fraction(load, t):
         tf = load.time_function
@@ -192,20 +231,23 @@ def run_explicit(case, end_time=None, initial_stress_method=None, snapshot_times
             return min(1.0, t / tf["ramp_time"])
         return 1.0
 
-    model.load_factor.value = 1.0  # each load follows its own time function
+    model.load_factor = 1.0  # each load follows its own time function
 
     for n in range(n_steps + 1):
         t = n * dt
         model.gravity_factor.value = gravity_at(t)
-        for constant, load in zip(model.pressures, case.loads):
-            constant.value = load.pressure * load_fraction(load, t)
+        for k, load in enumerate(case.loads):
+            model.load_fractions[k] = load_fraction(load, t)
         model._to_quadrature(model.sig_q, model.stress, 4)
-        residual = model._assemble_residual().array  # f_int - f_ext (zero on fixed dofs)
+        # f_int - f_ext (zero on fixed dofs)
+        residual = model._assemble_residual().array
         force = -residual
         if n % series_every == 0 or n == n_steps:
-            ke = 0.5 * np.sum(mass * velocity ** 2)
+            ke = 0.5 * np.sum(mass * velocity**2)
             settle = base - model.probe_displacement(probe)[1] if probe else 0.0
-            first_load = float(model.pressures[0].value) if case.loads else 0.0
+            first_load = (
+                case.loads[0].magnitude * model.load_fractions[0] if case.loads else 0.0
+            )
             result.series.append((t, first_load, settle, ke))
             for name in model.probes:
                 ux, uy = model.probe_displacement(name)
@@ -259,13 +301,16 @@ class FieldWriter:
     def __init__(self, model: Model, path):
         from dolfinx import fem, io
         from mpi4py import MPI
+
         self.model = model
         msh = model.mesh
         self.V1 = fem.VectorFunctionSpace(msh, ("CG", 1))
         self.u1 = fem.Function(self.V1, name="displacement")
         dg0v = fem.VectorFunctionSpace(msh, ("DG", 0), dim=4)
         self.sig = fem.Function(dg0v, name="stress_xx_yy_xy_zz")
-        self.kap = fem.Function(fem.FunctionSpace(msh, ("DG", 0)), name="plastic_strain")
+        self.kap = fem.Function(
+            fem.FunctionSpace(msh, ("DG", 0)), name="plastic_strain"
+        )
         self.sig_dofs = dg0v.dofmap.list.array.reshape(model.n_cells)
         self.kap_dofs = self.kap.function_space.dofmap.list.array.reshape(model.n_cells)
         self.file = io.XDMFFile(MPI.COMM_SELF, str(path), "w")

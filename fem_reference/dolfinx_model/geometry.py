@@ -41,8 +41,15 @@ def surface_height(polygons, x):
     return top
 
 
-def build_mesh(case, element_size=None, refine_size=None, refine_distance=None,
-               quads=False, extra_split_x=(), verbose=False):
+def build_mesh(
+    case,
+    element_size=None,
+    refine_size=None,
+    refine_distance=None,
+    quads=False,
+    extra_split_x=(),
+    verbose=False,
+):
     """Mesh the case bodies with gmsh and convert to dolfinx.
 
     element_size: target size (default: the grid cell size). refine_size / refine_distance: a
@@ -57,9 +64,14 @@ def build_mesh(case, element_size=None, refine_size=None, refine_distance=None,
     tol = 1e-9 * max(1.0, case.cell_size)
     split = list(extra_split_x)
     for load in case.loads:
-        x0, x1 = load.x_range
-        split += [x0, x1, 0.5 * (x0 + x1)]
-    polygons = [_split_polygon(body.polygon, split, tol) for body in case.bodies]
+        if load.x_range is not None:
+            x0, x1 = load.x_range
+            split += [x0, x1, 0.5 * (x0 + x1)]
+    unique = []
+    for x in sorted(split):
+        if not unique or x - unique[-1] > tol:  # several loads may share an end
+            unique.append(x)
+    polygons = [_split_polygon(body.polygon, unique, tol) for body in case.bodies]
 
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
@@ -79,7 +91,9 @@ def build_mesh(case, element_size=None, refine_size=None, refine_distance=None,
     occ.synchronize()
     claimed = set()
     for k, tags in enumerate(body_surfaces):
-        tags = [t for t in tags if t not in claimed]  # overlaps belong to the first body
+        tags = [
+            t for t in tags if t not in claimed
+        ]  # overlaps belong to the first body
         claimed.update(tags)
         gmsh.model.addPhysicalGroup(2, tags, k + 1)
     gmsh.option.setNumber("Mesh.CharacteristicLengthMax", h)
@@ -87,6 +101,8 @@ def build_mesh(case, element_size=None, refine_size=None, refine_distance=None,
     if refine_size is not None:
         load_pts = []
         for load in case.loads:
+            if load.x_range is None:
+                continue
             x0, x1 = load.x_range
             ys = surface_height(polygons, [x0, x1])
             for x, y in zip((x0, x1), ys):
@@ -106,7 +122,8 @@ def build_mesh(case, element_size=None, refine_size=None, refine_distance=None,
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     if quads:
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)  # 8 (quad Delaunay) segfaults in gmsh 4.8
+        # 8 (quad Delaunay) segfaults in gmsh 4.8
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(2)
     if quads and 2 in gmsh.model.mesh.getElementTypes(2):
         # triangles left over: split everything into quadrilaterals at half the size

@@ -48,9 +48,13 @@ class ElasticPlasticModel:
         if material.model == "tresca":
             phi = psi = 0.0
         else:
-            phi, psi = np.radians(material.friction_angle), np.radians(material.dilation_angle)
+            phi, psi = np.radians(material.friction_angle), np.radians(
+                material.dilation_angle
+            )
         self.sin_phi, self.cos_phi, self.sin_psi = np.sin(phi), np.cos(phi), np.sin(psi)
-        self.tension_cutoff = material.tension_cutoff if material.model == "mohr_coulomb" else None
+        self.tension_cutoff = (
+            material.tension_cutoff if material.model == "mohr_coulomb" else None
+        )
         self.cohesion = material.cohesion
         if kappa_measure not in ("plastic_shear", "von_mises"):
             raise ValueError("kappa_measure must be plastic_shear or von_mises")
@@ -61,7 +65,9 @@ class ElasticPlasticModel:
     def elastic_matrix(self):
         """3x3 plane-strain matrix for (sxx, syy, sxy) against (exx, eyy, gxy)."""
         lam, mu = self.lam, self.mu
-        return np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+        return np.array(
+            [[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]]
+        )
 
     def trial(self, stress, dstrain):
         lam, mu = self.lam, self.mu
@@ -94,8 +100,11 @@ class ElasticPlasticModel:
     def _tension_limit_slope(self, c):
         if self.tension_cutoff is None or self.sin_phi == 0.0:
             return np.zeros_like(c)
-        return np.where(c * self.cos_phi / self.sin_phi < self.tension_cutoff,
-                        self.cos_phi / self.sin_phi, 0.0)
+        return np.where(
+            c * self.cos_phi / self.sin_phi < self.tension_cutoff,
+            self.cos_phi / self.sin_phi,
+            0.0,
+        )
 
     def _planes(self):
         """Yield planes in the ordered principal frame: name -> (a, b, is_shear)."""
@@ -116,8 +125,15 @@ class ElasticPlasticModel:
         """Sets of active planes, tried in this order (as mpm/core/materials.cpp)."""
         sets = [["F13"], ["F13", "F23"], ["F13", "F12"]]
         if self.tension_cutoff is not None:
-            sets += [["T1"], ["F13", "T1"], ["T1", "T2"], ["F13", "F12", "T1"],
-                     ["F13", "T1", "T2"], ["F13", "F23", "T1"], ["T1", "T2", "T3"]]
+            sets += [
+                ["T1"],
+                ["F13", "T1"],
+                ["T1", "T2"],
+                ["F13", "F12", "T1"],
+                ["F13", "T1", "T2"],
+                ["F13", "F23", "T1"],
+                ["T1", "T2", "T3"],
+            ]
         if self.sin_psi > 0.0:
             sets.append(["F13", "F23", "F12"])
         return sets
@@ -132,16 +148,23 @@ class ElasticPlasticModel:
         shear = np.array([planes[k][2] for k in names])
         DB = B @ self.D
         ADB = A @ DB.T
-        weight = np.where(shear, B.max(axis=1) - B.min(axis=1), 0.0)  # d kappa / d dlambda_j
+        # d kappa / d dlambda_j
+        weight = np.where(shear, B.max(axis=1) - B.min(axis=1), 0.0)
         a_s = A @ s_trial.T  # (m, n)
 
         def limits(c):
-            return np.where(shear[:, None], 2.0 * self.cos_phi * c[None, :],
-                            self.tension_limit(c)[None, :]).T  # (n, m)
+            return np.where(
+                shear[:, None],
+                2.0 * self.cos_phi * c[None, :],
+                self.tension_limit(c)[None, :],
+            ).T  # (n, m)
 
         def limit_slopes(c):
-            return np.where(shear[:, None], 2.0 * self.cos_phi,
-                            self._tension_limit_slope(c)[None, :]).T
+            return np.where(
+                shear[:, None],
+                2.0 * self.cos_phi,
+                self._tension_limit_slope(c)[None, :],
+            ).T
 
         def dkappa_of(dlam):
             if self.kappa_measure == "plastic_shear":
@@ -171,9 +194,15 @@ class ElasticPlasticModel:
                 Bdev = (B - B.mean(axis=1, keepdims=True)) * shear[:, None]
                 first = np.sqrt(2.0 / 3.0 * np.sum(Bdev * Bdev, axis=1))
                 safe = np.where(dk > 1e-300, dk, 1.0)
-                ddk = np.where(dk[:, None] > 1e-300, (2.0 / 3.0) * (dev @ Bdev.T) / safe[:, None],
-                               first[None, :])
-            J = -ADB[None, :, :] - (limit_slopes(c) * slope[:, None])[:, :, None] * ddk[:, None, :]
+                ddk = np.where(
+                    dk[:, None] > 1e-300,
+                    (2.0 / 3.0) * (dev @ Bdev.T) / safe[:, None],
+                    first[None, :],
+                )
+            J = (
+                -ADB[None, :, :]
+                - (limit_slopes(c) * slope[:, None])[:, :, None] * ddk[:, None, :]
+            )
             dlam = dlam - np.linalg.solve(J, resid[:, :, None])[:, :, 0]
         sigma = s_trial - dlam @ DB
         return sigma, dlam, dkappa_of(dlam)
@@ -227,7 +256,9 @@ class ElasticPlasticModel:
         triple = np.stack([p + r, p - r, trial[:, 3]], axis=1)
         order = np.argsort(-triple, axis=1, kind="stable")
         s = np.take_along_axis(triple, order, axis=1)
-        yielding = self._violation(s, kappa) > 1e-10 * (1.0 + np.abs(self.cohesion.value(kappa)))
+        yielding = self._violation(s, kappa) > 1e-10 * (
+            1.0 + np.abs(self.cohesion.value(kappa))
+        )
         if np.any(yielding):
             sig, dk = self._return_principal(s[yielding], kappa[yielding])
             back = np.empty_like(sig)

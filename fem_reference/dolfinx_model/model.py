@@ -16,6 +16,7 @@ import dolfinx.fem.petsc  # noqa: F401 (registers fem.petsc)
 from dolfinx import fem, mesh as dmesh
 
 from .geometry import build_mesh, surface_height
+from .loads import SurfaceLoads
 from .material import ElasticPlasticModel
 
 
@@ -31,14 +32,24 @@ def _eps_v(w):
 class Model:
     """Finite element model of a case (static Newton and explicit dynamics share it)."""
 
-    def __init__(self, case, degree=2, element_size=None, refine_size=None, refine_distance=None,
-                 quads=False, updated_lagrangian=False, kappa_measure="plastic_shear",
-                 extra_split_x=()):
+    def __init__(
+        self,
+        case,
+        degree=2,
+        element_size=None,
+        refine_size=None,
+        refine_distance=None,
+        quads=False,
+        updated_lagrangian=False,
+        kappa_measure="plastic_shear",
+        extra_split_x=(),
+    ):
         self.case = case
         self.degree = degree
         self.updated_lagrangian = updated_lagrangian
         self.mesh, self.cell_tags, self.polygons = build_mesh(
-            case, element_size, refine_size, refine_distance, quads, extra_split_x)
+            case, element_size, refine_size, refine_distance, quads, extra_split_x
+        )
         msh = self.mesh
         tdim = msh.topology.dim
         msh.topology.create_connectivity(tdim - 1, tdim)
@@ -51,28 +62,43 @@ class Model:
         basix_cell = basix.CellType.quadrilateral if quads else basix.CellType.triangle
         self.qpoints, self.qweights = basix.make_quadrature(basix_cell, self.qdeg)
         self.nq = len(self.qweights)
-        qe4 = ufl.VectorElement("Quadrature", cell, self.qdeg, dim=4, quad_scheme="default")
-        qe9 = ufl.VectorElement("Quadrature", cell, self.qdeg, dim=9, quad_scheme="default")
+        qe4 = ufl.VectorElement(
+            "Quadrature", cell, self.qdeg, dim=4, quad_scheme="default"
+        )
+        qe9 = ufl.VectorElement(
+            "Quadrature", cell, self.qdeg, dim=9, quad_scheme="default"
+        )
         self.Q4 = fem.FunctionSpace(msh, qe4)
         self.Q9 = fem.FunctionSpace(msh, qe9)
         self.qdofs = self.Q4.dofmap.list.array.reshape(self.n_cells, self.nq).ravel()
-        self.dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": self.qdeg,
-                                                          "quadrature_scheme": "default"})
+        self.dx = ufl.Measure(
+            "dx",
+            domain=msh,
+            metadata={"quadrature_degree": self.qdeg, "quadrature_scheme": "default"},
+        )
         # materials per quadrature point
         body_of_cell = np.zeros(self.n_cells, dtype=np.int32)
         body_of_cell[self.cell_tags.indices] = self.cell_tags.values - 1
-        self.models = [ElasticPlasticModel(case.materials[b.material], kappa_measure)
-                       for b in case.bodies]
+        self.models = [
+            ElasticPlasticModel(case.materials[b.material], kappa_measure)
+            for b in case.bodies
+        ]
         self.point_body = np.repeat(body_of_cell, self.nq)
-        self.groups = [np.nonzero(self.point_body == k)[0] for k in range(len(self.models))]
+        self.groups = [
+            np.nonzero(self.point_body == k)[0] for k in range(len(self.models))
+        ]
         gamma = np.array([m.material.unit_weight for m in self.models])
         dg0 = fem.FunctionSpace(msh, ("DG", 0))
-        self.dg0_dofs = dg0.dofmap.list.array.reshape(self.n_cells)  # DG0 dof of each cell
+        # DG0 dof of each cell
+        self.dg0_dofs = dg0.dofmap.list.array.reshape(self.n_cells)
         self.rho = fem.Function(dg0)
         g = case.g if case.g > 0 else 9.81
-        self.rho.x.array[self.dg0_dofs] = gamma[body_of_cell] / g  # t/m^3 (unit weight / g)
+        # t/m^3 (unit weight / g)
+        self.rho.x.array[self.dg0_dofs] = gamma[body_of_cell] / g
         self.unit_weight = fem.Function(dg0)
-        self.unit_weight0 = (gamma[body_of_cell] if case.g > 0 else 0.0 * gamma[body_of_cell])
+        self.unit_weight0 = (
+            gamma[body_of_cell] if case.g > 0 else 0.0 * gamma[body_of_cell]
+        )
         self.unit_weight.x.array[self.dg0_dofs] = self.unit_weight0
         self.area0 = self.cell_areas()
 
@@ -85,17 +111,26 @@ class Model:
         self.sig_q = fem.Function(self.Q4)
         self.tan_q = fem.Function(self.Q9)
         self.gravity_factor = fem.Constant(msh, PETSc.ScalarType(0.0))
-        self.load_factor = fem.Constant(msh, PETSc.ScalarType(0.0))
+        # load k acts with load_factor x load_fractions[k] x its magnitude (static: the common
+        # load factor; explicit: load_factor 1 and each load's time function)
+        self.load_factor = 0.0
+        self.load_fractions = np.ones(len(case.loads))
+        self.geometry_version = 0  # incremented whenever the mesh moves (UL)
 
         # expressions evaluated at the quadrature points
-        self.grad_expr = fem.Expression(ufl.as_vector(
-            [self.du[0].dx(0), self.du[0].dx(1), self.du[1].dx(0), self.du[1].dx(1)]), self.qpoints)
+        self.grad_expr = fem.Expression(
+            ufl.as_vector(
+                [self.du[0].dx(0), self.du[0].dx(1), self.du[1].dx(0), self.du[1].dx(1)]
+            ),
+            self.qpoints,
+        )
         self.x_expr = fem.Expression(ufl.SpatialCoordinate(msh), self.qpoints)
         self.cells = np.arange(self.n_cells, dtype=np.int32)
 
         self._setup_boundary()
         self._setup_forms()
         self._setup_tracking()
+        self._setup_loads()
 
     # ------------------------------------------------------------------ setup
     def _setup_boundary(self):
@@ -103,10 +138,12 @@ class Model:
         fdim = msh.topology.dim - 1
         gx0, gy0, gx1, gy1 = case.grid_box
         tol = 1e-6 * case.cell_size
-        lines = {"left": lambda x: np.isclose(x[0], gx0, atol=tol),
-                 "right": lambda x: np.isclose(x[0], gx1, atol=tol),
-                 "bottom": lambda x: np.isclose(x[1], gy0, atol=tol),
-                 "top": lambda x: np.isclose(x[1], gy1, atol=tol)}
+        lines = {
+            "left": lambda x: np.isclose(x[0], gx0, atol=tol),
+            "right": lambda x: np.isclose(x[0], gx1, atol=tol),
+            "bottom": lambda x: np.isclose(x[1], gy0, atol=tol),
+            "top": lambda x: np.isclose(x[1], gy1, atol=tol),
+        }
         self.bcs = []
         self.fixed_dofs = []  # (component, dof indices in the blocked numbering)
         for where, fix in case.boundary_conditions:
@@ -115,76 +152,71 @@ class Model:
                 facets = dmesh.locate_entities_boundary(msh, fdim, lines[where])
                 for comp in comps:
                     dofs = fem.locate_dofs_topological(self.V.sub(comp), fdim, facets)
-                    self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V.sub(comp)))
+                    self.bcs.append(
+                        fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V.sub(comp))
+                    )
                     self.fixed_dofs.append(dofs)
             else:
                 (bx0, by0), (bx1, by1) = case.node_sets[where]
-                inside = lambda x: ((x[0] >= bx0 - tol) & (x[0] <= bx1 + tol)
-                                    & (x[1] >= by0 - tol) & (x[1] <= by1 + tol))
+                inside = lambda x: (
+                    (x[0] >= bx0 - tol)
+                    & (x[0] <= bx1 + tol)
+                    & (x[1] >= by0 - tol)
+                    & (x[1] <= by1 + tol)
+                )
                 for comp in comps:
                     sub = self.V.sub(comp)
                     collapsed, _ = sub.collapse()
                     dofs = fem.locate_dofs_geometrical((sub, collapsed), inside)
-                    self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), dofs[0], sub))
+                    self.bcs.append(
+                        fem.dirichletbc(PETSc.ScalarType(0.0), dofs[0], sub)
+                    )
                     self.fixed_dofs.append(dofs[0])
-        self.constrained = (np.unique(np.concatenate(self.fixed_dofs)) if self.fixed_dofs
-                            else np.zeros(0, dtype=np.int32))
+        self.constrained = (
+            np.unique(np.concatenate(self.fixed_dofs))
+            if self.fixed_dofs
+            else np.zeros(0, dtype=np.int32)
+        )
 
-        # loaded facets: exterior facets facing up (outward n_y > 0) with midpoint in x_range
+        # exterior facets, oriented with the material on the left (the loads act on them)
         exterior = dmesh.exterior_facet_indices(msh.topology)
         f2v = msh.topology.connectivity(fdim, 0)
         f2c = msh.topology.connectivity(fdim, fdim + 1)
         c2v = msh.topology.connectivity(fdim + 1, 0)
         xg = msh.geometry.x
         # vertex -> geometry node (P1 geometry: per cell same local order)
-        self.vertex_to_node = np.zeros(msh.topology.index_map(0).size_local, dtype=np.int64)
+        self.vertex_to_node = np.zeros(
+            msh.topology.index_map(0).size_local, dtype=np.int64
+        )
         gdm = msh.geometry.dofmap
         for c in range(self.n_cells):
             self.vertex_to_node[c2v.links(c)] = gdm.links(c)
         self.exterior_facets = []
-        facet_values = []
-        facet_ids = []
         for f in exterior:
             va, vb = f2v.links(f)
             a, b = xg[self.vertex_to_node[va], :2], xg[self.vertex_to_node[vb], :2]
             c = f2c.links(f)[0]
             centroid = xg[self.vertex_to_node[c2v.links(c)], :2].mean(axis=0)
             # orient the facet with the material on the left: (b - a) x (centroid - a) > 0
-            if (b[0] - a[0]) * (centroid[1] - a[1]) - (b[1] - a[1]) * (centroid[0] - a[0]) < 0:
-                va, vb, a, b = vb, va, b, a
+            if (b[0] - a[0]) * (centroid[1] - a[1]) - (b[1] - a[1]) * (
+                centroid[0] - a[0]
+            ) < 0:
+                va, vb = vb, va
             self.exterior_facets.append((va, vb))
-            # outward normal of a->b with the material on the left: (dy, -dx)
-            outward_ny = -(b[0] - a[0])
-            mid_x = 0.5 * (a[0] + b[0])
-            for k, load in enumerate(self.case.loads):
-                if outward_ny > 1e-12 and load.x_range[0] <= mid_x <= load.x_range[1]:
-                    facet_ids.append(f)
-                    facet_values.append(k + 1)
-                    break
-        facet_ids = np.array(facet_ids, dtype=np.int32)
-        facet_values = np.array(facet_values, dtype=np.int32)
-        order = np.argsort(facet_ids)
-        self.facet_tags = dmesh.meshtags(msh, fdim, facet_ids[order], facet_values[order])
 
     def _setup_forms(self):
-        msh = self.mesh
         v = ufl.TestFunction(self.V)
         w = ufl.TrialFunction(self.V)
         sig = ufl.as_vector([self.sig_q[0], self.sig_q[1], self.sig_q[2]])
         C = ufl.as_matrix([[self.tan_q[3 * i + j] for j in range(3)] for i in range(3)])
-        ds = ufl.Measure("ds", domain=msh, subdomain_data=self.facet_tags)
-        n = ufl.FacetNormal(msh)
         body = ufl.as_vector([0.0, -1.0]) * self.unit_weight * self.gravity_factor
         f_ext = ufl.inner(body, v) * self.dx
-        self.pressures = []
-        for k, load in enumerate(self.case.loads):
-            q = fem.Constant(msh, PETSc.ScalarType(load.pressure))
-            self.pressures.append(q)
-            # pressure q acting against the outward normal (normal-only traction)
-            f_ext += -self.load_factor * q * ufl.inner(n, v) * ds(k + 1)
+        # body force only: the surface loads are added as nodal force vectors (load_vector)
         self.f_ext_form = fem.form(f_ext)
         self.residual_form = fem.form(ufl.inner(sig, _eps_v(v)) * self.dx - f_ext)
-        self.tangent_form = fem.form(ufl.inner(ufl.dot(C, _eps_v(w)), _eps_v(v)) * self.dx)
+        self.tangent_form = fem.form(
+            ufl.inner(ufl.dot(C, _eps_v(w)), _eps_v(v)) * self.dx
+        )
         self.A = fem.petsc.create_matrix(self.tangent_form)
         self.b = fem.petsc.create_vector(self.residual_form)
         self.ksp = PETSc.KSP().create(MPI.COMM_SELF)
@@ -198,16 +230,66 @@ class Model:
     def _setup_tracking(self):
         """Probe dofs: P2 vertex dofs found by coordinates (initial configuration)."""
         from scipy.spatial import cKDTree
+
         self.dof_coords0 = self.V.tabulate_dof_coordinates()[:, :2].copy()
         self.dof_tree = cKDTree(self.dof_coords0)
         self.probes = {}
         for k, load in enumerate(self.case.loads):
+            if load.x_range is None:
+                continue
             xc = 0.5 * (load.x_range[0] + load.x_range[1])
             yc = surface_height(self.polygons, [xc])[0]
             self.add_probe(f"load{k}_centre", (xc, yc))
         dist, self.node_dof = self.dof_tree.query(self.mesh.geometry.x[:, :2])
-        assert dist.max() < 1e-9 * max(1.0, self.case.cell_size), "geometry nodes must be dofs"
+        assert dist.max() < 1e-9 * max(
+            1.0, self.case.cell_size
+        ), "geometry nodes must be dofs"
         self.vertex_dof = self.node_dof[self.vertex_to_node]
+
+    def _setup_loads(self):
+        """Exact consistent nodal forces of the case loads on the exterior facets (loads.py)."""
+        vdof = self.vertex_dof
+        rows = []
+        for va, vb in self.exterior_facets:
+            row = [vdof[va], vdof[vb]]
+            if self.degree == 2:
+                mid = 0.5 * (self.dof_coords0[vdof[va]] + self.dof_coords0[vdof[vb]])
+                dist, dof = self.dof_tree.query(mid)
+                assert dist < 1e-9 * max(
+                    1.0, self.case.cell_size
+                ), "mid-side node not found"
+                row.append(dof)
+            rows.append(row)
+        facets = [
+            (self.vertex_to_node[va], self.vertex_to_node[vb])
+            for va, vb in self.exterior_facets
+        ]
+        self.surface_loads = SurfaceLoads(
+            self.case.loads,
+            facets,
+            rows,
+            self.mesh.geometry.x.copy(),
+            self.degree,
+            self.case.cell_size,
+        )
+
+    def load_vector(self, k=None, factor=None):
+        """Nodal forces (numpy, blocked dofs, kN/m) of load k, or of all loads, times their
+        factors (load_factor x load_fractions[k], unless `factor` is given), on the current
+        geometry (UL: the configuration of the last converged increment)."""
+        n = self.u.x.array.size
+        total = np.zeros(n)
+        for j in range(len(self.case.loads)) if k is None else [k]:
+            scale = (
+                factor
+                if factor is not None
+                else self.load_factor * self.load_fractions[j]
+            )
+            if scale != 0.0:
+                total += scale * self.surface_loads.vector(
+                    j, self.mesh.geometry.x, n, self.geometry_version
+                )
+        return total
 
     def add_probe(self, name, point):
         dist, dof = self.dof_tree.query(np.asarray(point, dtype=float))
@@ -238,7 +320,9 @@ class Model:
         new_kappa = np.empty_like(self.kappa)
         tangent = np.empty((self.stress.shape[0], 3, 3))
         for model, idx in zip(self.models, self.groups):
-            s, k, t = model.update_with_tangent(base[idx], self.kappa[idx], dstrain[idx])
+            s, k, t = model.update_with_tangent(
+                base[idx], self.kappa[idx], dstrain[idx]
+            )
             new_stress[idx], new_kappa[idx], tangent[idx] = s, k, t
         return new_stress, new_kappa, tangent
 
@@ -259,15 +343,26 @@ class Model:
             loc.set(0.0)
         fem.petsc.assemble_vector(self.b, self.residual_form)
         self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.case.loads:
+            self.b.array[:] -= self.load_vector()
         fem.petsc.set_bc(self.b, self.bcs, scale=0.0)
         return self.b
 
-    def external_force_norm(self):
+    def external_force(self):
+        """External nodal forces (numpy, kN/m): body force and surface loads at the current
+        factors, constrained dofs included."""
         vec = fem.petsc.assemble_vector(self.f_ext_form)
-        fem.petsc.set_bc(vec, self.bcs, scale=0.0)
-        value = vec.norm()
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = vec.array.copy()
         vec.destroy()
-        return value
+        if self.case.loads:
+            values += self.load_vector()
+        return values
+
+    def external_force_norm(self):
+        values = self.external_force()
+        values[self.constrained] = 0.0
+        return float(np.linalg.norm(values))
 
     def solve_step(self, gravity_factor, load_factor, rtol=1e-8, max_iterations=25):
         """Newton for one increment to the given load factors; commits on success.
@@ -276,7 +371,7 @@ class Model:
         the residual has not improved on its best value for 10 iterations or exceeds 1e6 ||f_ext||.
         Returns the number of iterations; raises NoConvergence (state untouched)."""
         self.gravity_factor.value = gravity_factor
-        self.load_factor.value = load_factor
+        self.load_factor = load_factor
         self.du.x.array[:] = 0.0
         reference = max(self.external_force_norm(), 1e-12)
         best, best_iteration = np.inf, 0
@@ -305,7 +400,8 @@ class Model:
         self.du.x.array[:] = 0.0
         self._to_quadrature(self.sig_q, self.stress, 4)
         raise NoConvergence(
-            f"Newton did not converge (gravity {gravity_factor}, load {load_factor})")
+            f"Newton did not converge (gravity {gravity_factor}, load {load_factor})"
+        )
 
     def _commit(self, stress, kappa):
         self.stress[:] = stress
@@ -321,18 +417,26 @@ class Model:
         values = increment.x.array if hasattr(increment, "x") else increment
         values = values.reshape(-1, 2)
         self.mesh.geometry.x[:, :2] += sign * values[self.node_dof]
-        self.unit_weight.x.array[self.dg0_dofs] = self.unit_weight0 * self.area0 / self.cell_areas()
+        self.geometry_version += 1
+        self.unit_weight.x.array[self.dg0_dofs] = (
+            self.unit_weight0 * self.area0 / self.cell_areas()
+        )
 
     def cell_vertices(self):
         """(n_cells, k, 2) vertex coordinates in cyclic order (current geometry)."""
-        p = self.mesh.geometry.x[self.mesh.geometry.dofmap.array.reshape(self.n_cells, -1), :2]
-        return p[:, [0, 1, 3, 2]] if p.shape[1] == 4 else p  # dolfinx quads: tensor order
+        p = self.mesh.geometry.x[
+            self.mesh.geometry.dofmap.array.reshape(self.n_cells, -1), :2
+        ]
+        # dolfinx quads: tensor order
+        return p[:, [0, 1, 3, 2]] if p.shape[1] == 4 else p
 
     def cell_areas(self):
         """Areas of the straight-sided cells (current geometry)."""
         p = self.cell_vertices()
         q = np.roll(p, -1, axis=1)
-        return 0.5 * np.abs(np.sum(p[:, :, 0] * q[:, :, 1] - q[:, :, 0] * p[:, :, 1], axis=1))
+        return 0.5 * np.abs(
+            np.sum(p[:, :, 0] * q[:, :, 1] - q[:, :, 0] * p[:, :, 1], axis=1)
+        )
 
     def cell_heights(self):
         """Smallest height of each cell: area / longest edge (triangles: x 2)."""
@@ -351,7 +455,9 @@ class Model:
         for model, idx in zip(self.models, self.groups):
             mat = model.material
             gamma = mat.unit_weight if self.case.g > 0 else 0.0
-            coeff = k0 if k0 is not None else mat.poisson_ratio / (1.0 - mat.poisson_ratio)
+            coeff = (
+                k0 if k0 is not None else mat.poisson_ratio / (1.0 - mat.poisson_ratio)
+            )
             sv = -gamma * depth[idx]
             self.stress[idx, 0] = coeff * sv
             self.stress[idx, 1] = sv
@@ -361,7 +467,8 @@ class Model:
 
     def reset_displacements(self):
         """Gravity procedure: keep stress and kappa, set the displacement to zero (and, updated
-        Lagrangian, move the mesh back to the initial geometry, as the MPM resets positions)."""
+        Lagrangian, move the mesh back to the initial geometry, as the MPM resets positions).
+        """
         if self.updated_lagrangian:
             self.move_mesh(self.u, sign=-1.0)
         self.u.x.array[:] = 0.0
@@ -399,8 +506,11 @@ class Model:
             cand = np.nonzero(pts[:, 1] <= low + 1e-12 * max(1.0, abs(low)))[0]
             first = cand[np.argmin(pts[cand, 0])]
             loops.append(np.roll(pts, -first, axis=0))
-        area = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
-                for p in loops]
+        area = [
+            0.5
+            * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+            for p in loops
+        ]
         return [loops[i] for i in np.argsort(-np.abs(area))]
 
     def cell_average(self, values):

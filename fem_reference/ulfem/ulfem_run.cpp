@@ -159,13 +159,29 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
 
   std::ostringstream series;
-  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y\n";
+  // The MPM's columns (mpm/solver/run.cpp); with loads also its load diagnostics, summed over
+  // every load of the case (the UL-FEM applies them all on the mesh edges, nothing is lost).
+  const bool loads = !c.loads.empty();
+  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
+  if (loads) {
+    series << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
+              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
+  }
+  series << '\n';
   auto record = [&](const UlFemSolver& s) {
     const EnergyBalance e = s.energy();
     series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
            << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
-           << ',' << fmt(e.momentum.y()) << '\n';
+           << ',' << fmt(e.momentum.y());
+    if (loads) {
+      const EdgeLoadDiagnostics& d = s.load_diagnostics();
+      for (const Vec2& f : {d.target, d.applied, d.lost, d.off_grid})
+        series << ',' << fmt(f.x()) << ',' << fmt(f.y());
+      series << ',' << d.loaded_nodes << ',' << d.lost_nodes;
+    }
+    series << '\n';
   };
+  nlohmann::json outputs = nlohmann::json::array();
 
   const auto wall_start = std::chrono::steady_clock::now();
   long initial_steps = 0;
@@ -181,8 +197,9 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
                         solver.node_state().velocity);
       char name[48];
-      std::snprintf(name, sizeof name, "/boundary_%08ld.csv", solver.step_count());
-      write_file_atomically(dir + name, boundary_csv(solver.mesh(), solver.node_position()));
+      std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
+      write_file_atomically(dir + "/" + name, boundary_csv(solver.mesh(), solver.node_position()));
+      outputs.push_back({{"step", solver.step_count()}, {"time", t}, {"boundary", name}});
     };
     output(solver.time());
     record(solver);
@@ -242,6 +259,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
                       {"nodes_to_particles", st.grid_to_particles},
                       {"remap", st.remap},
                       {"stress", st.stress}}}};
+  run["outputs"] = outputs;
   const EnergyBalance e = solver.energy();
   run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
                               {"external_work", e.external_work},

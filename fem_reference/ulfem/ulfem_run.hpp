@@ -1,9 +1,13 @@
 // The UL-FEM driver: `pfm-mpm run CASE.json --solver ulfem --out DIR`.
 //
 // Output directory, as pfm::run_case (mpm/solver/run.hpp) plus the exact boundary and the mesh:
-//   run.json                provenance + summary (solver "ulfem", mesh generator and size)
+//   run.json                provenance + summary (solver "ulfem", mesh generator and size) +
+//                           "outputs": [{"step", "time", "boundary"}] per output step
 //   particles.h5/.xdmf      material points (the Gauss points) per output step
-//   timeseries.csv          time, kinetic energy, works, momentum
+//   timeseries.csv          time, kinetic energy, works, momentum (the MPM's columns); with
+//                           loads also load_target_fx/fy, load_applied_fx/fy, load_lost_fx/fy,
+//                           load_off_grid_fx/fy (kN/m), loaded_nodes, lost_nodes, summed over
+//                           the loads (lost and off-grid are 0: the mesh boundary is exact)
 //   final_particles.csv     the final material point state
 //   boundary_<step>.csv     per output step (step with 8 digits): the exact outer boundary of
 //                           the deformed mesh, columns loop,x,y; counter-clockwise (material on

@@ -7,7 +7,7 @@
 //                        (also after every move: an inverted element stops the run)
 //   particles_to_nodes   lumped nodal mass, momentum, internal force  f_I = -sum_p V_p sigma_p
 //                        grad N_I(x_p) on the current geometry
-//   external_forces      gravity m_I g, pressure loads on the current top boundary edges
+//   external_forces      gravity m_I g, the case's loads on the current boundary edges
 //   update_nodes         local (Cundall) damping, acceleration, velocity, constraints
 //                        (the same arithmetic as MpmSolver::update_grid)
 //   nodes_to_particles   particle velocity (FLIP)
@@ -27,13 +27,33 @@
 // touches the grid edge, and a body that does not touch a grid edge gets no constraint from it,
 // as in the MPM. A node set constrains the mesh nodes in its closed box (reference position).
 //
-// Loads: a vertical_pressure of the case (apply_on "grid_top_nodes" or "detected_boundary":
-// the FE boundary is exact, so both act on it) is a normal follower pressure q on the boundary
-// edges that face upwards in the reference configuration (outward normal n_y > 0), over the
-// part of each edge whose current x lies in x_range. Per edge A -> B (material on the left,
-// outward normal n = (dy, -dx) / L) the consistent nodal forces are exact:
-//   f_A = -q (dy, -dx) int (1 - s) ds,  f_B = -q (dy, -dx) int s ds  over the loaded s-range.
-// On a flat top this is the MPM's grid_top_nodes hat integral.
+// Loads: every load of the case acts on the exact boundary edges of the current mesh (the FE
+// boundary is exact, so there is nothing to detect), with the traction law of the MPM's
+// surface loads (mpm/boundary/surface_load.hpp): t(n) = normal_scale (.) n + fixed_traction,
+//   vertical_pressure  normal_scale = (0, -q): t = (0, -q n_y), vertical; resultant
+//                      q x (loaded length in x) on upward faces;
+//   follower_pressure  normal_scale = (-p, -p): t = -p n (p > 0 pushes on the material);
+//   traction           fixed_traction = the given vector, per current length.
+// apply_on "grid_top_nodes" (vertical_pressure only) is treated as the detected-boundary
+// vertical pressure over its x_range with faces "top". For "detected_boundary" loads the
+// entry's x_range (optional except for vertical_pressure), faces and interval are honoured:
+//   faces "all"      every boundary edge;
+//         "upward"   edges whose current outward normal has n_y > 0;
+//         "top"      upward edges, only the parts with no boundary above them (each loaded part
+//                    is cut at the x of every boundary node; a piece is shadowed when the
+//                    vertical through its middle crosses another boundary edge higher up);
+//   interval "fixed"     x_range is in space (on the current x);
+//            "material"  x_range on the reference x of the load phase (the positions after the
+//                        initial stress), so the interval moves with the material.
+// Its curve and quadrature keys (curve,
+// integration, gauss_points, split_at_cell_edges, scale_eq_6_15, redistribute_lost_load) only
+// concern the MPM's Bezier boundary and grid quadrature and do not apply: the edges are straight
+// and the integrals below are exact. Per edge A -> B (material on the left, d = B - A, outward
+// n = (d_y, -d_x) / L), t L = normal_scale (.) (d_y, -d_x) + fixed_traction L is constant along
+// the edge, so with the loaded part s in [s0, s1] (from the x-range) the consistent nodal forces
+// are exact:  f_A = t L int (1 - s) ds,  f_B = t L int s ds.  On a flat top this is the MPM's
+// grid_top_nodes hat integral. Nothing is lost (every boundary node has mass): the diagnostics
+// report target = applied (exact resultant), lost = off-grid = 0.
 #pragma once
 
 #include <array>
@@ -45,11 +65,38 @@
 
 namespace pfm::ulfem {
 
-/// A boundary edge that can carry a pressure: nodes in element order (material on the left).
+/// A boundary edge that can carry a load: nodes in element order (material on the left).
 struct LoadedEdge {
   int from = 0;
   int to = 0;
 };
+
+/// One case load as applied on the mesh edges (see the header comment).
+struct EdgeLoad {
+  std::size_t case_index = 0;
+  Vec2 normal_scale = Vec2::Zero();    ///< kPa at full load
+  Vec2 fixed_traction = Vec2::Zero();  ///< kPa at full load
+  bool has_range = false;
+  double x0 = 0.0, x1 = 0.0;  ///< m
+  boundary::LoadedFaces faces = boundary::LoadedFaces::kTop;
+  bool material_interval = false;  ///< x-range on the reference (load-phase start) x
+  TimeFunction time_function;
+};
+
+/// Summed over the loads at the last step that applied them (kN/m), as the MPM's
+/// SurfaceLoadDiagnostics (mpm/solver/boundary_coupling.hpp).
+struct EdgeLoadDiagnostics {
+  Vec2 target = Vec2::Zero();    ///< exact resultant of the loaded edge parts
+  Vec2 applied = Vec2::Zero();   ///< sum of the nodal forces (= target to round-off)
+  Vec2 lost = Vec2::Zero();      ///< always 0: every mesh node has mass
+  Vec2 off_grid = Vec2::Zero();  ///< always 0
+  int loaded_nodes = 0;          ///< nodes receiving a non-zero load force
+  int lost_nodes = 0;            ///< always 0
+};
+
+/// The case's loads as edge loads; InputError (naming /loads/k) for a load the UL-FEM cannot
+/// apply.
+std::vector<EdgeLoad> edge_loads(const Case& c);
 
 class UlFemSolver {
  public:
@@ -92,7 +139,12 @@ class UlFemSolver {
   const GridState& node_state() const { return nodes_; }
   const Case& case_spec() const { return case_; }
   const StageTimes& stage_times() const { return times_; }
-  const std::vector<LoadedEdge>& top_edges() const { return top_edges_; }
+  /// Every boundary edge of the mesh (the candidates for loads), in boundary_edges() order.
+  const std::vector<LoadedEdge>& boundary_edges() const { return boundary_edges_; }
+  const std::vector<EdgeLoad>& loads() const { return loads_; }
+  /// Load forces of the last step that applied loads (zero before the first, and during the
+  /// gravity loading of the initial stress, which applies none).
+  const EdgeLoadDiagnostics& load_diagnostics() const { return load_diagnostics_; }
   EnergyBalance energy() const;
 
   void set_damping(double coefficient) { damping_ = coefficient; }
@@ -103,7 +155,9 @@ class UlFemSolver {
  private:
   void build_particles();
   void build_constraints();
-  void build_top_edges();
+  void build_boundary_edges();
+  void apply_loads();
+  bool shadowed(double x, double y) const;
   void compute_geometry();
   void particles_to_nodes(bool momentum_only);
   void external_forces();
@@ -126,7 +180,12 @@ class UlFemSolver {
   std::array<Eigen::Matrix<double, 4, 2>, 4> shape_natural_gradient_;
   std::vector<Eigen::Matrix<double, 4, 2>> gradient_;  ///< per point: row I = grad N_I, 1/m
   std::vector<double> det_jacobian_;                   ///< per point, m^2
-  std::vector<LoadedEdge> top_edges_;
+  std::vector<LoadedEdge> boundary_edges_;
+  std::vector<EdgeLoad> loads_;
+  EdgeLoadDiagnostics load_diagnostics_;
+  std::vector<Vec2> load_force_;    ///< per node, scratch of apply_loads
+  std::vector<double> boundary_x_;  ///< sorted x of the boundary nodes, scratch (faces "top")
+  std::vector<double> cut_scratch_;
 
   double time_ = 0.0;
   long step_ = 0;

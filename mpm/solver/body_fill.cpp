@@ -146,4 +146,17 @@ Particles fill_bodies(const Case& c) {
   return particles;
 }
 
+void apply_k0_stress(const Case& c, Particles& particles) {
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const BodySpec& body = c.bodies[static_cast<std::size_t>(particles.body[p])];
+    const MaterialRecord& m = c.materials[static_cast<std::size_t>(particles.material[p])];
+    const double nu = elastic_parameters(m.model).poisson_ratio;
+    const double k0 = c.initial_stress.k0 ? *c.initial_stress.k0 : nu / (1.0 - nu);
+    const Vec2& x = particles.position[p];
+    const double depth = polygon_top(body.polygon, x.x()) - x.y();
+    const double sigma_v = -m.unit_weight * std::max(depth, 0.0);
+    particles.stress[p] = Stress(k0 * sigma_v, sigma_v, 0.0, k0 * sigma_v);
+  }
+}
+
 }  // namespace pfm

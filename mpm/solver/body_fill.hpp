@@ -16,6 +16,11 @@ bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& x);
 /// line through x, or NaN if the line misses the polygon. Used as the local surface for K0.
 double polygon_top(const std::vector<Vec2>& polygon, double x);
 
+/// The K0 procedure (shared by the MPM and the UL-FEM): sigma_v = -unit weight x depth below
+/// the local surface of the point's body polygon (polygon_top), sigma_xx = sigma_zz = K0
+/// sigma_v, sigma_xy = 0; K0 from the case or nu / (1 - nu) of the point's material.
+void apply_k0_stress(const Case& c, Particles& particles);
+
 /// Natural positions in [0, 1] and weights (summing to 1) of the n points of a placement.
 void placement_points_1d(Placement placement, int n, std::vector<double>& position,
                          std::vector<double>& weight);

@@ -202,28 +202,7 @@ TEST(UlFemMesh, PatchTestOnTheDistortedSlopeMesh) {
               worst / expected.norm(), solver.particles().size());
   EXPECT_LE(worst, 1e-12 * expected.norm());
 }
-
-// The pressure stage on a sloping surface: the resultant of the consistent edge forces of a
-// pressure q over [x0, x1] on a surface y(x) is q (y(x1) - y(x0), -(x1 - x0)) (the integral
-// of -q n ds), exactly, wherever the range ends fall inside edges. Slope face y = x - 4.125 on
-// [10.125, 14.125]; range [8.3, 15.7]: y = 6 at 8.3, 10 at 15.7.
-TEST(UlFemMesh, PressureResultantOnTheSlopeIsExact) {
-  Case c = read_case("cases/slope.json");
-  c.gravity.g = 0.0;  // only the surface load acts
-  LoadSpec load;
-  load.pressure = 30.0;
-  load.x0 = 8.3;
-  load.x1 = 15.7;
-  c.loads = {load};
-  UlFemSolver solver(c);
-  solver.step();
-  Vec2 resultant = Vec2::Zero();
-  for (const Vec2& f : solver.node_state().external_force) resultant += f;
-  const Vec2 expected(30.0 * (10.0 - 6.0), -30.0 * (15.7 - 8.3));
-  std::printf("[ulfem pressure] resultant (%.15g, %.15g) kN, expected (%.15g, %.15g) kN\n",
-              resultant.x(), resultant.y(), expected.x(), expected.y());
-  EXPECT_LE((resultant - expected).norm(), 1e-12 * expected.norm());
-}
+// (The load resultants on the slope's edges are tested in test_ulfem_loads.cpp.)
 
 }  // namespace
 }  // namespace pfm::ulfem

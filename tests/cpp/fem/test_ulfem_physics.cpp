@@ -174,8 +174,8 @@ TEST(UlFemPhysics, CollapsingBlockStopsWithSimulationError) {
 // Test 5. Elastic bearing block 15 x 5 m, h = 0.5 m, gravity loading procedure (to a kinetic
 // energy ratio of 1e-14, so that no gravity settlement is left for the load phase), then
 // q_v = 50 kPa on [5, 10] m, damped to rest (kinetic energy 1e-16 of its peak). Vertical
-// equilibrium of the base reactions and the settlement of the strip centre (reported; compared with
-// dolfinx by the Python side).
+// equilibrium of the base reactions (1e-6) and the settlement of the strip centre within 2 % of
+// the dolfinx value.
 TEST(UlFemPhysics, ElasticBearingBlockSettlement) {
   nlohmann::json j = testing::block_case(15.0, 5.0, 0.5, 0, 2);
   j["initial_stress"] = {{"method", "gravity"}, {"kinetic_energy_ratio", 1e-14}};
@@ -208,9 +208,13 @@ TEST(UlFemPhysics, ElasticBearingBlockSettlement) {
       solver.initial_stress_steps(), used, solver.step_count(), settlement, reaction, expected,
       reaction / expected - 1);
   EXPECT_LE(std::abs(reaction / expected - 1.0), 1e-6);
-  // dolfinx (fem_reference/README.md): P2 converged 2.0634e-2 m. Q1 2 x 2 on h = 0.5 m is
-  // stiffer by its discretisation error; the UL geometry changes it by ~0.1 %.
-  EXPECT_NEAR(settlement, 2.0634e-2, 0.03 * 2.0634e-2);
+  // Issue 5 item 2: within 2 % of the dolfinx settlement of the same case, 2.0634e-2 m (P2,
+  // mesh-converged; fem_reference/tests/test_dolfinx_model.py::
+  // test_bearing_block_elastic_settlement asserts that its runs give this value within 0.1 %, and
+  // fem_reference/tests/test_cross_codes.py compares the two codes' actual runs). Q1 2 x 2 on
+  // h = 0.5 m is stiffer by its discretisation error; the UL geometry changes it by ~0.1 %.
+  constexpr double kDolfinxSettlement = 2.0634e-2;  // m
+  EXPECT_NEAR(settlement, kDolfinxSettlement, 0.02 * kDolfinxSettlement);
 }
 
 }  // namespace

@@ -68,6 +68,35 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
   }
   std::sort(boundaries.begin(), boundaries.end());
   EXPECT_EQ(boundaries.size(), 5u);  // t = 0, 0.05, ..., 0.2
+  ASSERT_EQ(run["outputs"].size(), 5u);
+  EXPECT_EQ(run["outputs"][4]["boundary"], fs::path(boundaries.back()).filename().string());
+
+  // timeseries.csv: the MPM's columns, then its load diagnostics; target = applied =
+  // (0, -q B) = (0, -200) kN/m on the flat top, nothing lost.
+  {
+    std::ifstream in(dir + "/timeseries.csv");
+    std::string header, line, last;
+    std::getline(in, header);
+    EXPECT_EQ(header,
+              "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y,"
+              "load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
+              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes");
+    while (std::getline(in, line)) last = line;
+    std::vector<double> v;
+    std::istringstream row(last);
+    for (std::string cell; std::getline(row, cell, ',');) v.push_back(std::stod(cell));
+    ASSERT_EQ(v.size(), 17u);
+    std::printf(
+        "[ulfem run] last timeseries row: target (%g, %g), applied (%g, %g), lost (%g, %g), "
+        "%g loaded nodes\n",
+        v[7], v[8], v[9], v[10], v[11], v[12], v[15]);
+    EXPECT_NEAR(v[8], -200.0, 1e-9);
+    EXPECT_NEAR(v[10], v[8], 1e-12 * 200.0);
+    EXPECT_EQ(v[11], 0.0);
+    EXPECT_EQ(v[12], 0.0);
+    EXPECT_EQ(v[16], 0.0);
+    EXPECT_GE(v[15], 3.0);
+  }
 
   // The final state, recomputed by the solver to compare areas.
   UlFemSolver solver(c);

@@ -1,0 +1,315 @@
+"""The dolfinx model reads the same case files as the C++ codes (README "Case-file reference"):
+the full schema is accepted (detection block, detected-boundary loads, solver / time / output
+keys), unknown keys are refused with their JSON pointer, and surface loads follow the C++ rule
+(vertical_pressure t = (0, -q n_y) on the top faces, follower_pressure t = -p n, traction t),
+integrated exactly on the mesh boundary.
+
+Each test states the fact it checks and its tolerance; run pytest -s to see the figures."""
+import copy
+import glob
+import json
+import os
+
+import numpy as np
+import pytest
+
+from fem_reference.dolfinx_model import (
+    CaseError,
+    Model,
+    case_from_dict,
+    read_case,
+    run_static,
+)
+
+ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+CASES = sorted(glob.glob(os.path.join(ROOT, "cases", "*.json")))
+ELASTIC = {
+    "name": "soil",
+    "model": "linear_elastic",
+    "youngs_modulus": 1e4,
+    "poisson_ratio": 0.15,
+    "unit_weight": 20.0,
+}
+
+
+def shipped(name):
+    with open(os.path.join(ROOT, "cases", name)) as f:
+        return json.load(f)
+
+
+def elastic_bearing_block():
+    """cases/bearing_block.json with the linear elastic soil of the reference tests."""
+    raw = shipped("bearing_block.json")
+    raw["materials"] = [dict(ELASTIC)]
+    return raw
+
+
+def resultant(model, k):
+    """Sum of the nodal forces of load k at full magnitude (kN/m)."""
+    return model.load_vector(k, factor=1.0).reshape(-1, 2).sum(axis=0)
+
+
+# ------------------------------------------------------------------------- parsing
+@pytest.mark.parametrize("path", CASES, ids=[os.path.basename(p) for p in CASES])
+def test_every_shipped_case_parses(path):
+    """Every cases/*.json is read without error (no solve); a detection block and the MPM-only
+    integration keys of detected-boundary loads are accepted and listed as ignored."""
+    assert CASES, "no case files found"
+    case = read_case(path)
+    raw = case.raw
+    if "detection" in raw:
+        assert case.detection == raw["detection"]
+        assert any(item.startswith("/detection:") for item in case.ignored)
+    for k, load in enumerate(raw.get("loads", [])):
+        assert case.loads[k].apply_on == load.get("apply_on", "grid_top_nodes")
+        for key in ("curve", "integration", "gauss_points"):
+            if key in load:
+                assert any(
+                    item.startswith(f"/loads/{k}/{key}:") for item in case.ignored
+                )
+
+
+def test_detected_load_keys_and_defaults():
+    """Every key of a detected-boundary load is accepted, with the C++ defaults (faces "top" for
+    vertical_pressure, "all" otherwise; interval "fixed"; no x_range = the whole boundary).
+    """
+    raw = elastic_bearing_block()
+    full = {
+        "apply_on": "detected_boundary",
+        "type": "vertical_pressure",
+        "pressure": 50.0,
+        "x_range": [5.0, 10.0],
+        "faces": "upward",
+        "curve": "cubic",
+        "integration": "thesis",
+        "gauss_points": 7,
+        "split_at_cell_edges": False,
+        "scale_eq_6_15": True,
+        "redistribute_lost_load": True,
+        "interval": "material",
+        "time_function": {"type": "ramp", "ramp_time": 0.5},
+    }
+    raw["loads"] = [
+        full,
+        {
+            "apply_on": "detected_boundary",
+            "type": "follower_pressure",
+            "pressure": -5.0,
+        },
+        {"apply_on": "detected_boundary", "type": "traction", "traction": [1.0, -2.0]},
+    ]
+    raw["output"]["nodal_loads"] = True
+    raw["detection"] = {
+        "method": "pfm",
+        "every_steps": 4,
+        "pfm": {"kernel_factor": 1.5, "gaussian_size": 3},
+        "improved": {"radius_factor": 1.2},
+    }
+    case = case_from_dict(raw, "full.json")
+    first, follower, traction = case.loads
+    assert (first.faces, first.interval, first.time_function["ramp_time"]) == (
+        "upward",
+        "material",
+        0.5,
+    )
+    assert (follower.faces, follower.interval, follower.x_range) == (
+        "all",
+        "fixed",
+        None,
+    )
+    assert traction.traction == (1.0, -2.0) and traction.pressure is None
+    assert traction.magnitude == pytest.approx(np.sqrt(5.0), rel=1e-15)
+    ignored = "\n".join(case.ignored)
+    for key in ("curve", "integration", "gauss_points", "split_at_cell_edges"):
+        assert f"/loads/0/{key}:" in ignored
+    assert "/output/nodal_loads:" in ignored and "/detection:" in ignored
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda r: r["loads"][0].update(colour="red"), "/loads/0/colour: unknown key"),
+        (lambda r: r["detection"].update(radius=2), "/detection/radius: unknown key"),
+        (
+            lambda r: r["detection"].update(improved={"radius": 2}),
+            "/detection/improved/radius: unknown key",
+        ),
+        (
+            lambda r: r["detection"].update(method="magic"),
+            "/detection/method: must be pfm",
+        ),
+        (lambda r: r["output"].update(colour=1), "/output/colour: unknown key"),
+        (
+            lambda r: r["solver"].update(scheme="rk4"),
+            "/solver/scheme: must be musl, usl",
+        ),
+        (lambda r: r["loads"][0].update(faces="side"), "/loads/0/faces: must be top"),
+        (
+            lambda r: r["loads"][0].update(gauss_points=21),
+            "/loads/0/gauss_points: must be in",
+        ),
+        (
+            lambda r: r["loads"][0].update(traction=[0, 1]),
+            "/loads/0/traction: only used by",
+        ),
+        (lambda r: r["loads"][0].pop("x_range"), "/loads/0/x_range: missing key"),
+        (
+            lambda r: r["loads"][0].update(type="traction", traction=[0, 1]),
+            "/loads/0/pressure: not used by type",
+        ),
+        (lambda r: r["loads"][0].update(apply_on="grid"), "/loads/0/apply_on: must be"),
+        (
+            lambda r: r["loads"][0].update(time_function={"type": "ramp"}),
+            "/loads/0/time_function/ramp_time: missing key",
+        ),
+        (
+            lambda r: r["bodies"][0].update(placement="random"),
+            "/bodies/0/placement: must be",
+        ),
+    ],
+    ids=lambda value: value if isinstance(value, str) else "",
+)
+def test_bad_keys_are_refused_with_their_pointer(edit, message):
+    """Unknown keys and bad values of the new schema parts raise CaseError naming the file and
+    the JSON pointer, as the C++ reader does."""
+    raw = shipped("bearing_block.json")
+    edit(raw)
+    with pytest.raises(CaseError) as err:
+        case_from_dict(raw, "bad.json")
+    assert str(err.value).startswith("bad.json: ") and message in str(err.value)
+
+
+# ------------------------------------------------------------------------- load rule
+def test_detected_vertical_pressure_resultant_and_solve():
+    """cases/bearing_block.json with a linear elastic soil: the detected-boundary vertical
+    pressure has the resultant (0, -q (x1 - x0)) = (0, -250) kN/m to 1e-10 relative (sum of the
+    assembled nodal forces); one elastic solve (gravity switched on, then the load in one step)
+    converges and gives the settlement of the same load applied as grid_top_nodes (1e-12).
+    """
+    raw = elastic_bearing_block()
+    case = case_from_dict(raw, "bearing_block_elastic_detected")
+    model = Model(case, element_size=1.0)
+    force = resultant(model, 0)
+    width = 10.0 - 5.0
+    print(
+        f"\ndetected vertical pressure: resultant ({force[0]:.3e}, {force[1]:.12f}) kN/m"
+    )
+    assert abs(force[1] + 50.0 * width) <= 1e-10 * 50.0 * width
+    assert abs(force[0]) <= 1e-10 * 50.0 * width
+    result = run_static(case, model=model, steps=1)
+    assert result.converged_to_full_load
+    plain = copy.deepcopy(raw)
+    plain["loads"] = [
+        {"type": "vertical_pressure", "pressure": 50.0, "x_range": [5.0, 10.0]}
+    ]
+    plain.pop("detection")
+    reference = run_static(
+        case_from_dict(plain, "grid_top_nodes"), steps=1, element_size=1.0
+    )
+    settlement, expected = result.curve[-1][1], reference.curve[-1][1]
+    print(f"settlement {settlement:.9e} m (grid_top_nodes {expected:.9e} m)")
+    assert abs(settlement - expected) <= 1e-12 * expected
+
+
+# A "C"-like body: base slab 10 x 2 m, a column 0..3 x 2..6 m and an arm 3..5.3 x 4..5 m over
+# the slab, so the slab's top between x = 3 and 5.3 lies under the arm.
+OVERHANG = [
+    [0, 0],
+    [10, 0],
+    [10, 2],
+    [3, 2],
+    [3, 4],
+    [5.3, 4],
+    [5.3, 5],
+    [3, 5],
+    [3, 6],
+    [0, 6],
+]
+
+
+def overhang_case(loads):
+    raw = {
+        "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [20, 14]},
+        "materials": [dict(ELASTIC)],
+        "bodies": [{"name": "c", "material": "soil", "polygon": OVERHANG}],
+        "boundary_conditions": [{"where": "bottom", "fix": "xy"}],
+        "loads": loads,
+        "time": {"end_time": 1.0},
+    }
+    return case_from_dict(raw, "overhang")
+
+
+def test_load_faces_and_types_on_an_overhang():
+    """Exact resultants on the overhang body (q = p = 10 kPa, 1e-10 relative):
+    vertical_pressure "top" = q x the loaded x extent (the upper envelope: x in [0, 10] -> 100;
+    [4, 8]: the arm's top 4..5.3 plus the slab's top 5.3..8 = 40 kN/m); "upward" also loads the
+    slab under the arm (123 and 53 kN/m); on "all" faces in [4, 8] it sums to zero (every
+    vertical line crosses the closed boundary an even number of times: the arm's underside and
+    the base push up); follower_pressure on all faces of a closed boundary sums to zero;
+    traction t on "all" faces in [4, 8] = t x the boundary length there (slab top 4, arm top
+    1.3, arm underside 1.3, arm end face 1, base 4: 11.6 m), clipped inside base facets that
+    the mesh does not split at x = 4, 8."""
+
+    def vp(x_range, faces):
+        return {
+            "apply_on": "detected_boundary",
+            "type": "vertical_pressure",
+            "pressure": 10.0,
+            "x_range": x_range,
+            "faces": faces,
+        }
+
+    loads = [
+        vp([0, 10], "top"),
+        vp([4, 8], "top"),
+        vp([0, 10], "upward"),
+        vp([4, 8], "upward"),
+        vp([4, 8], "all"),
+        {
+            "apply_on": "detected_boundary",
+            "type": "follower_pressure",
+            "pressure": 10.0,
+        },
+        {
+            "apply_on": "detected_boundary",
+            "type": "traction",
+            "traction": [3.0, -4.0],
+            "x_range": [4, 8],
+        },
+    ]
+    case = overhang_case(loads)
+    model = Model(case, degree=2, element_size=0.7)
+    expected = [
+        (0, -100.0),
+        (0, -40.0),
+        (0, -123.0),
+        (0, -53.0),
+        (0, 0),
+        (0, 0),
+        (3.0 * 11.6, -4.0 * 11.6),
+    ]
+    for k, exact in enumerate(expected):
+        got = resultant(model, k)
+        print(f"\nload {k} ({loads[k]['type']}, {loads[k].get('faces', 'all')}): {got}")
+        scale = max(abs(exact[0]) + abs(exact[1]), 100.0)
+        assert np.allclose(got, exact, rtol=0, atol=1e-10 * scale)
+
+
+def test_interval_material_follows_the_material_in_updated_lagrangian():
+    """Updated-Lagrangian geometry stretched by u_x = 0.1 x (mesh moved, as after a converged
+    increment): a vertical pressure q = 50 kPa on [5, 10] m with interval "fixed" still loads
+    x in [5, 10] (resultant -q 5 m), with "material" the ends moved to 5.5 and 11 m (-q 5.5 m),
+    to 1e-10 relative; before the motion (small strain) both are -q 5 m."""
+    raw = elastic_bearing_block()
+    raw["loads"].append(dict(raw["loads"][0], interval="material"))
+    case = case_from_dict(raw, "stretched")
+    model = Model(case, degree=2, element_size=1.0, updated_lagrangian=True)
+    for k in (0, 1):
+        assert abs(resultant(model, k)[1] + 250.0) <= 1e-10 * 250.0
+    stretch = np.zeros_like(model.u.x.array).reshape(-1, 2)
+    stretch[:, 0] = 0.1 * model.dof_coords0[:, 0]
+    model.move_mesh(stretch.ravel())
+    fixed, material = resultant(model, 0)[1], resultant(model, 1)[1]
+    print(f"\nstretched: fixed {fixed:.12f}, material {material:.12f} kN/m")
+    assert abs(fixed + 250.0) <= 1e-10 * 250.0
+    assert abs(material + 275.0) <= 1e-10 * 275.0
