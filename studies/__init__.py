@@ -17,4 +17,11 @@ Command line (the Makefile's ``make study-NAME`` / ``make study`` / ``make repor
     /usr/bin/python3 -m studies report
 """
 
-STUDY_NAMES = ("boundary", "quadrature", "timing", "parametric", "convergence", "benchmarks")
+STUDY_NAMES = (
+    "boundary",
+    "quadrature",
+    "timing",
+    "parametric",
+    "convergence",
+    "benchmarks",
+)

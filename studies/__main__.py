@@ -3,6 +3,7 @@
     python -m studies NAME [--quick] [--scheduler ADDR] [--jobs N]   # one study
     python -m studies all [--quick] [--scheduler ADDR] [--jobs N]    # every study, in order
     python -m studies report [--no-history] [...]                    # build the report
+    python -m studies demo [--case C] [--out D] [--end-time T]       # `make run`
 
 NAME is one of boundary, quadrature, timing, parametric, convergence, benchmarks.
 Exit code: 0 when every study ran or was recorded as "not run" (a prerequisite is missing),
@@ -27,8 +28,11 @@ def run_studies(names, quick: bool, jobs, scheduler) -> int:
         try:
             import dask.distributed  # noqa: F401
         except ImportError as error:
-            print(f"studies: --scheduler {scheduler} given but dask.distributed is not installed "
-                  f"({error}); install python3-distributed or drop --scheduler", file=sys.stderr)
+            print(
+                f"studies: --scheduler {scheduler} given but dask.distributed is not installed "
+                f"({error}); install python3-distributed or drop --scheduler",
+                file=sys.stderr,
+            )
             return 2
     failed = []
     for name in names:
@@ -44,16 +48,34 @@ def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "report":
         from studies.report.build import main as report_main
+
         return report_main(argv[1:])
-    parser = argparse.ArgumentParser(prog="python -m studies", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("name", choices=[*STUDY_NAMES, "all", "report"])
-    parser.add_argument("--quick", action="store_true",
-                        help="the small variant used by `make test` (minutes, not tens of them)")
-    parser.add_argument("--scheduler", metavar="ADDR",
-                        help="Dask distributed scheduler address (e.g. tcp://host:8786)")
-    parser.add_argument("--jobs", type=int, default=None,
-                        help="local worker processes for sweeps (default: all cores)")
+    if argv and argv[0] == "demo":
+        from studies.demo import main as demo_main
+
+        return demo_main(argv[1:])
+    parser = argparse.ArgumentParser(
+        prog="python -m studies",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("name", choices=[*STUDY_NAMES, "all", "report", "demo"])
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="the small variant used by `make test` (minutes, not tens of them)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDR",
+        help="Dask distributed scheduler address (e.g. tcp://host:8786)",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        help="local worker processes for sweeps (default: all cores)",
+    )
     args = parser.parse_args(argv)
     names = STUDY_NAMES if args.name == "all" else (args.name,)
     return run_studies(names, args.quick, args.jobs, args.scheduler)

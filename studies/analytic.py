@@ -14,11 +14,66 @@ def constrained_modulus(youngs_modulus: float, poisson_ratio: float) -> float:
     return youngs_modulus * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
 
 
-def column_surcharge_settlement(height: float, surcharge: float, youngs_modulus: float,
-                                poisson_ratio: float) -> float:
+def column_surcharge_settlement(
+    height: float, surcharge: float, youngs_modulus: float, poisson_ratio: float
+) -> float:
     """Top settlement (m, positive down) of a laterally confined elastic column of height H
     under a surcharge q added to a column already in K0 equilibrium: q H / M."""
     return surcharge * height / constrained_modulus(youngs_modulus, poisson_ratio)
+
+
+def column_settlement(
+    height: float,
+    surcharge: float,
+    unit_weight: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+) -> float:
+    """Top settlement (m, positive down) of a laterally confined elastic column of height H
+    loaded from zero stress by its own weight and a surcharge q (small strain):
+    q H / M + gamma H^2 / (2 M)."""
+    m = constrained_modulus(youngs_modulus, poisson_ratio)
+    return surcharge * height / m + unit_weight * height**2 / (2.0 * m)
+
+
+def column_settlement_large_strain(
+    height: float,
+    surcharge: float,
+    unit_weight: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+) -> float:
+    """The same column with the stress rate M times the logarithmic strain rate (the
+    updated-Lagrangian, Jaumann-rate model of the MPM and the UL-FEM): the weight above the
+    material point at reference height X is gamma (H - X) whatever the deformation, so the
+    stretch is exp(-(q + gamma (H - X)) / M) and the settlement
+    H - (M / gamma) exp(-q / M) (1 - exp(-gamma H / M)); for gamma = 0, H (1 - exp(-q / M)).
+    """
+    m = constrained_modulus(youngs_modulus, poisson_ratio)
+    # Written with expm1 so that stiff soils (strains ~1e-7) do not lose every digit:
+    # H (1 - e^-a) + e^-a (M / gamma) (x - (1 - e^-x)), a = q / M, x = gamma H / M.
+    surcharge_part = -height * math.expm1(-surcharge / m)
+    if unit_weight == 0.0:
+        return surcharge_part
+    x = unit_weight * height / m
+    return surcharge_part + math.exp(-surcharge / m) * (m / unit_weight) * (
+        x + math.expm1(-x)
+    )
+
+
+def column_displacement(
+    y0,
+    height: float,
+    surcharge: float,
+    unit_weight: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+):
+    """Vertical displacement (m, negative down) at reference height y0 (base at 0) of the column
+    of column_settlement (small strain): -(q y0 + gamma (H y0 - y0^2 / 2)) / M."""
+    m = constrained_modulus(youngs_modulus, poisson_ratio)
+    y0 = np.asarray(y0, dtype=float)
+    return -(surcharge * y0 + unit_weight * (height * y0 - 0.5 * y0**2)) / m
 
 
 def column_vertical_stress(y, height: float, surcharge: float, unit_weight: float):
@@ -47,14 +102,23 @@ def prandtl_bearing_capacity(cohesion: float) -> float:
     return (2.0 + math.pi) * cohesion
 
 
-def disk_external_pressure(radius: float, pressure: float, youngs_modulus: float,
-                           poisson_ratio: float) -> dict:
+def disk_external_pressure(
+    radius: float, pressure: float, youngs_modulus: float, poisson_ratio: float
+) -> dict:
     """Plane-strain elastic disk (cylinder) under a uniform external pressure p: homogeneous
     stress srr = stt = -p, szz = -2 nu p, and radial displacement at r = R
     u_r = -p R (1 + nu)(1 - 2 nu) / E."""
     nu = poisson_ratio
-    return {"srr": -pressure, "stt": -pressure, "szz": -2.0 * nu * pressure,
-            "radial_displacement": -pressure * radius * (1 + nu) * (1 - 2 * nu) / youngs_modulus}
+    return {
+        "srr": -pressure,
+        "stt": -pressure,
+        "szz": -2.0 * nu * pressure,
+        "radial_displacement": -pressure
+        * radius
+        * (1 + nu)
+        * (1 - 2 * nu)
+        / youngs_modulus,
+    }
 
 
 def observed_orders(h, errors) -> list:

@@ -69,7 +69,9 @@ def read_loops(path: Path) -> list[Polyline]:
     frame = pd.read_csv(path)
     missing = {"loop", "x", "y"} - set(frame.columns)
     if missing:
-        raise ValueError(f"{path}: loop CSV needs columns loop,x,y; missing {sorted(missing)}")
+        raise ValueError(
+            f"{path}: loop CSV needs columns loop,x,y; missing {sorted(missing)}"
+        )
     loops = []
     for _, group in frame.groupby("loop", sort=False):
         closed = bool(group["closed"].iloc[0]) if "closed" in group else True
@@ -78,12 +80,19 @@ def read_loops(path: Path) -> list[Polyline]:
 
 
 def write_loops(path: Path, loops: Sequence[Polyline]) -> None:
-    rows = [(i, x, y, int(loop.closed)) for i, loop in enumerate(loops) for x, y in loop.points]
-    pd.DataFrame(rows, columns=["loop", "x", "y", "closed"]).to_csv(path, index=False,
-                                                                    float_format="%.17g")
+    rows = [
+        (i, x, y, int(loop.closed))
+        for i, loop in enumerate(loops)
+        for x, y in loop.points
+    ]
+    pd.DataFrame(rows, columns=["loop", "x", "y", "closed"]).to_csv(
+        path, index=False, float_format="%.17g"
+    )
 
 
-def resample(loops: Sequence[Polyline], spacing: float) -> tuple[np.ndarray, np.ndarray]:
+def resample(
+    loops: Sequence[Polyline], spacing: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Samples (m, 2) and trapezoid weights (m,) whose sum is the total length.
 
     Each segment is cut into n = ceil(length / spacing) equal pieces and sampled at its n + 1
@@ -108,8 +117,9 @@ def resample(loops: Sequence[Polyline], spacing: float) -> tuple[np.ndarray, np.
     return np.concatenate(all_points), np.concatenate(all_weights)
 
 
-def closest_on_segments(points: np.ndarray, starts: np.ndarray, ends: np.ndarray
-                        ) -> tuple[np.ndarray, np.ndarray]:
+def closest_on_segments(
+    points: np.ndarray, starts: np.ndarray, ends: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Exact distance from each point to the nearest segment, and that nearest point."""
     if len(starts) == 0:
         raise ValueError("distance to an empty boundary")
@@ -120,21 +130,24 @@ def closest_on_segments(points: np.ndarray, starts: np.ndarray, ends: np.ndarray
     nearest = np.empty((len(points), 2))
     block = max(1, _CHUNK // len(starts))
     for first in range(0, len(points), block):
-        p = points[first:first + block, None, :]                 # (m, 1, 2)
+        p = points[first : first + block, None, :]  # (m, 1, 2)
         t = np.einsum("msk,sk->ms", p - starts[None], direction) / safe
         t = np.clip(np.where(length2 > 0.0, t, 0.0), 0.0, 1.0)
-        foot = starts[None] + t[..., None] * direction[None]     # (m, s, 2)
+        foot = starts[None] + t[..., None] * direction[None]  # (m, s, 2)
         d2 = np.sum((p - foot) ** 2, axis=2)
         best = np.argmin(d2, axis=1)
         rows = np.arange(len(best))
-        distances[first:first + block] = np.sqrt(d2[rows, best])
-        nearest[first:first + block] = foot[rows, best]
+        distances[first : first + block] = np.sqrt(d2[rows, best])
+        nearest[first : first + block] = foot[rows, best]
     return distances, nearest
 
 
 def _all_segments(loops: Sequence[Polyline]) -> tuple[np.ndarray, np.ndarray]:
     parts = [loop.segments() for loop in loops]
-    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    return (
+        np.concatenate([p[0] for p in parts]),
+        np.concatenate([p[1] for p in parts]),
+    )
 
 
 @dataclass
@@ -142,14 +155,20 @@ class DistanceStats:
     mean: Optional[float]
     rms: Optional[float]
     max: Optional[float]
-    length_detected: float   # m of detected boundary in the region
+    length_detected: float  # m of detected boundary in the region
     length_reference: float  # m of reference boundary in the region
-    max_resolution: float    # m, bound on how much the sampled max may miss
+    max_resolution: float  # m, bound on how much the sampled max may miss
 
     def scaled(self, h: float) -> "DistanceStats":
-        f = (lambda v: None if v is None else v / h)
-        return DistanceStats(f(self.mean), f(self.rms), f(self.max), self.length_detected,
-                             self.length_reference, self.max_resolution / h)
+        f = lambda v: None if v is None else v / h
+        return DistanceStats(
+            f(self.mean),
+            f(self.rms),
+            f(self.max),
+            self.length_detected,
+            self.length_reference,
+            self.max_resolution / h,
+        )
 
 
 def _stats(d_a, w_a, d_b, w_b, resolution) -> DistanceStats:
@@ -157,10 +176,16 @@ def _stats(d_a, w_a, d_b, w_b, resolution) -> DistanceStats:
     if total <= 0.0:
         return DistanceStats(None, None, None, 0.0, 0.0, resolution)
     mean = (np.dot(d_a, w_a) + np.dot(d_b, w_b)) / total
-    rms = np.sqrt((np.dot(d_a ** 2, w_a) + np.dot(d_b ** 2, w_b)) / total)
+    rms = np.sqrt((np.dot(d_a**2, w_a) + np.dot(d_b**2, w_b)) / total)
     largest = max(d_a.max(initial=0.0), d_b.max(initial=0.0))
-    return DistanceStats(float(mean), float(rms), float(largest), float(w_a.sum()),
-                         float(w_b.sum()), resolution)
+    return DistanceStats(
+        float(mean),
+        float(rms),
+        float(largest),
+        float(w_a.sum()),
+        float(w_b.sum()),
+        resolution,
+    )
 
 
 @dataclass
@@ -172,24 +197,34 @@ class Region:
 
 def box_region(name: str, lower, upper, description: str = "") -> Region:
     (x0, y0), (x1, y1) = lower, upper
-    return Region(name, lambda p: (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0)
-                  & (p[:, 1] <= y1), description or f"box [{x0}, {x1}] x [{y0}, {y1}]")
+    return Region(
+        name,
+        lambda p: (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1),
+        description or f"box [{x0}, {x1}] x [{y0}, {y1}]",
+    )
 
 
 def disk_region(name: str, centre, radius: float, description: str = "") -> Region:
     cx, cy = centre
-    return Region(name, lambda p: np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= radius,
-                  description or f"disk centre ({cx}, {cy}) radius {radius}")
+    return Region(
+        name,
+        lambda p: np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= radius,
+        description or f"disk centre ({cx}, {cy}) radius {radius}",
+    )
 
 
-def band_region(name: str, start, end, half_width: float, description: str = "") -> Region:
+def band_region(
+    name: str, start, end, half_width: float, description: str = ""
+) -> Region:
     a, b = np.asarray(start, float), np.asarray(end, float)
 
     def contains(p):
         d, _ = closest_on_segments(p, a[None], b[None])
         return d <= half_width
 
-    return Region(name, contains, description or f"within {half_width} of {tuple(a)}-{tuple(b)}")
+    return Region(
+        name, contains, description or f"within {half_width} of {tuple(a)}-{tuple(b)}"
+    )
 
 
 def assign_regions(points: np.ndarray, regions: Sequence[Region]) -> np.ndarray:
@@ -206,8 +241,13 @@ def assign_regions(points: np.ndarray, regions: Sequence[Region]) -> np.ndarray:
     return labels
 
 
-def slope_regions(crest, toe, radius: float = 1.0, band: Optional[float] = None,
-                  load_range: Optional[Sequence[float]] = None) -> list[Region]:
+def slope_regions(
+    crest,
+    toe,
+    radius: float = 1.0,
+    band: Optional[float] = None,
+    load_range: Optional[Sequence[float]] = None,
+) -> list[Region]:
     """Regions of a slope, from its crest and toe corners (m) on the reference boundary.
 
     In order of precedence:
@@ -218,39 +258,60 @@ def slope_regions(crest, toe, radius: float = 1.0, band: Optional[float] = None,
     ``top``           within ``band`` of the crest level, on the crest's side (behind the crest);
     ``bottom``        within ``band`` of the toe level, in front of the toe (the thesis's
                       "bottom of the slope", 5.5.2);
-    ``other``         the rest (fixed base and sides).
+    ``other``         the rest (fixed base and sides, unless left out with ``ignore``).
     ``band`` defaults to ``radius``; the default radius 1 m is 2 h at the thesis's h = 0.5 m.
     """
     band = radius if band is None else band
     (xc, yc), (xt, yt) = crest, toe
-    side = 1.0 if xt >= xc else -1.0   # +1: the slope descends towards +x
+    side = 1.0 if xt >= xc else -1.0  # +1: the slope descends towards +x
     regions = []
     if load_range is not None:
         x0, x1 = load_range
-        regions.append(Region("loaded_strip", lambda p: (np.abs(p[:, 1] - yc) <= band)
-                              & (p[:, 0] >= x0) & (p[:, 0] <= x1),
-                              f"|y - {yc}| <= {band}, x in [{x0}, {x1}]"))
+        regions.append(
+            Region(
+                "loaded_strip",
+                lambda p: (np.abs(p[:, 1] - yc) <= band)
+                & (p[:, 0] >= x0)
+                & (p[:, 0] <= x1),
+                f"|y - {yc}| <= {band}, x in [{x0}, {x1}]",
+            )
+        )
     regions += [
         disk_region("crest", crest, radius),
         disk_region("toe", toe, radius),
         band_region("face", crest, toe, band),
-        Region("top", lambda p: (np.abs(p[:, 1] - yc) <= band) & ((p[:, 0] - xc) * side <= 0),
-               f"|y - {yc}| <= {band}, behind the crest"),
-        Region("bottom", lambda p: (np.abs(p[:, 1] - yt) <= band) & ((p[:, 0] - xt) * side >= 0),
-               f"|y - {yt}| <= {band}, in front of the toe"),
+        Region(
+            "top",
+            lambda p: (np.abs(p[:, 1] - yc) <= band) & ((p[:, 0] - xc) * side <= 0),
+            f"|y - {yc}| <= {band}, behind the crest",
+        ),
+        Region(
+            "bottom",
+            lambda p: (np.abs(p[:, 1] - yt) <= band) & ((p[:, 0] - xt) * side >= 0),
+            f"|y - {yt}| <= {band}, in front of the toe",
+        ),
     ]
     return regions
 
 
-def block_regions(top_y: float, load_range: Sequence[float], band: float = 1.0
-                  ) -> list[Region]:
+def block_regions(
+    top_y: float, load_range: Sequence[float], band: float = 1.0
+) -> list[Region]:
     """Regions of the bearing block: ``loaded_strip`` (within ``band`` of the top level, x in
-    the loaded range), ``top`` (the rest of the top surface), ``other`` (fixed base, sides)."""
+    the loaded range), ``top`` (the rest of the top surface), ``other`` (fixed base, sides).
+    """
     x0, x1 = load_range
     return [
-        Region("loaded_strip", lambda p: (np.abs(p[:, 1] - top_y) <= band) & (p[:, 0] >= x0)
-               & (p[:, 0] <= x1), f"|y - {top_y}| <= {band}, x in [{x0}, {x1}]"),
-        Region("top", lambda p: np.abs(p[:, 1] - top_y) <= band, f"|y - {top_y}| <= {band}"),
+        Region(
+            "loaded_strip",
+            lambda p: (np.abs(p[:, 1] - top_y) <= band)
+            & (p[:, 0] >= x0)
+            & (p[:, 0] <= x1),
+            f"|y - {top_y}| <= {band}, x in [{x0}, {x1}]",
+        ),
+        Region(
+            "top", lambda p: np.abs(p[:, 1] - top_y) <= band, f"|y - {top_y}| <= {band}"
+        ),
     ]
 
 
@@ -265,21 +326,56 @@ class BoundaryDistance:
         """One row per region (``all`` first): metres and, when h is known, units of h."""
         out = []
         for name, stats in [("all", self.overall), *self.regions.items()]:
-            row = {"region": name, "mean_m": stats.mean, "rms_m": stats.rms, "max_m": stats.max}
+            row = {
+                "region": name,
+                "mean_m": stats.mean,
+                "rms_m": stats.rms,
+                "max_m": stats.max,
+            }
             if self.h:
                 s = stats.scaled(self.h)
                 row.update({"mean_h": s.mean, "rms_h": s.rms, "max_h": s.max})
-            row.update({"length_detected_m": stats.length_detected,
-                        "length_reference_m": stats.length_reference,
-                        "max_resolution_m": stats.max_resolution})
+            row.update(
+                {
+                    "length_detected_m": stats.length_detected,
+                    "length_reference_m": stats.length_reference,
+                    "max_resolution_m": stats.max_resolution,
+                }
+            )
             out.append(row)
         return out
 
 
-def boundary_distance(detected: Sequence[Polyline], reference: Sequence[Polyline],
-                      h: Optional[float] = None, spacing: Optional[float] = None,
-                      regions: Sequence[Region] = ()) -> BoundaryDistance:
-    """Mean, RMS and max (Hausdorff) distance between two boundaries, overall and per region."""
+def grid_edge_band(grid: dict, band: float) -> Region:
+    """The points within ``band`` (m) of the edges of a case's grid (``origin``, ``cell_size``,
+    ``n_cells``): where a body rests on the grid edge (fixed base, roller sides) its boundary
+    is the grid line, and detectors cannot see past the field grid there."""
+    (x0, y0), h = grid.get("origin", (0.0, 0.0)), grid["cell_size"]
+    x1, y1 = x0 + grid["n_cells"][0] * h, y0 + grid["n_cells"][1] * h
+    return Region(
+        "grid_edge_band",
+        lambda p: (p[:, 0] <= x0 + band)
+        | (p[:, 0] >= x1 - band)
+        | (p[:, 1] <= y0 + band)
+        | (p[:, 1] >= y1 - band),
+        f"within {band} m of the grid edges",
+    )
+
+
+def boundary_distance(
+    detected: Sequence[Polyline],
+    reference: Sequence[Polyline],
+    h: Optional[float] = None,
+    spacing: Optional[float] = None,
+    regions: Sequence[Region] = (),
+    ignore: Optional[Region] = None,
+) -> BoundaryDistance:
+    """Mean, RMS and max (Hausdorff) distance between two boundaries, overall and per region.
+
+    ``ignore``: samples of either boundary inside this region are left out of every statistic
+    (their distances are not counted); the distances of the other samples are still measured
+    to the whole other boundary (the lengths kept are exact to one sample spacing). Used to leave out the parts of the boundary on the grid edges
+    (grid_edge_band), which the reference has and a detector does not."""
     detected, reference = list(detected), list(reference)
     if spacing is None:
         total = sum(p.length() for p in detected + reference)
@@ -288,14 +384,26 @@ def boundary_distance(detected: Sequence[Polyline], reference: Sequence[Polyline
     b_points, b_weights = resample(reference, spacing)
     d_a, foot_a = closest_on_segments(a_points, *_all_segments(reference))
     d_b, _ = closest_on_segments(b_points, *_all_segments(detected))
-    result = BoundaryDistance(_stats(d_a, a_weights, d_b, b_weights, spacing / 2), h=h,
-                              spacing=spacing)
+    if ignore is not None:
+        keep_a = ~np.asarray(ignore.contains(a_points), dtype=bool)
+        keep_b = ~np.asarray(ignore.contains(b_points), dtype=bool)
+        a_points, a_weights, d_a, foot_a = (
+            a_points[keep_a],
+            a_weights[keep_a],
+            d_a[keep_a],
+            foot_a[keep_a],
+        )
+        b_points, b_weights, d_b = b_points[keep_b], b_weights[keep_b], d_b[keep_b]
+    result = BoundaryDistance(
+        _stats(d_a, a_weights, d_b, b_weights, spacing / 2), h=h, spacing=spacing
+    )
     if regions:
-        label_a = assign_regions(foot_a, regions)   # by the closest reference point
+        label_a = assign_regions(foot_a, regions)  # by the closest reference point
         label_b = assign_regions(b_points, regions)
         for name in [r.name for r in regions] + [OTHER]:
             in_a, in_b = label_a == name, label_b == name
             if in_a.any() or in_b.any():
-                result.regions[name] = _stats(d_a[in_a], a_weights[in_a], d_b[in_b],
-                                              b_weights[in_b], spacing / 2)
+                result.regions[name] = _stats(
+                    d_a[in_a], a_weights[in_a], d_b[in_b], b_weights[in_b], spacing / 2
+                )
     return result

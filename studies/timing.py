@@ -1,82 +1,125 @@
 """What each stage of a step costs, and what detection adds (thesis 5.2).
 
-What it measures: the wall time per step of every stage of the explicit MPM step and of the
-boundary detection, as the median and spread (min, max, interquartile range) of >= 5
-repetitions, for N = 1k to 300k material points on 1 and 2 threads, per detector; the
-detection / step ratio beside the thesis's 0.047 s / 0.048 s (its slope, 3368 points); and the
-throughput in particle-steps per second.
+What it measures: the wall time per step of every stage of the explicit MPM step (run.json
+``summary.stage_seconds``: locate, particles_to_grid, external_forces, update_grid,
+grid_to_particles, remap, stress) and of the boundary stages (detect, bezier, traction), as
+the median and spread (min, max, quartiles) of 5 repetitions, for N = 1k to 300k material
+points on 1 and 2 threads; the detection cost per call (``summary.detection``) against one
+MPM step beside the thesis's 0.047 s / 0.048 s (its slope, 3368 points), for every detector on
+the slope; the throughput in particle-steps per second.
+
+Cases: a block of soil (4 points per cell, linear elastic, gravity, K0 start, h = 0.5 m)
+sized to N points, run for a fixed number of steps with a fixed dt (about 3e6 particle-steps
+per run, at least 10 and at most 100 steps) with the improved detector every step, and the slope
+(``cases/slope.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. Runs are
+never cached (every repetition is a fresh process) and run one at a time (parallel runs would
+time each other). The library baseline (scikit-image) does not run inside pfm-mpm: its cost is
+the ``summary.json`` timing of ``studies.detectors.skimage_detector`` on the slope's points.
+Release build expected (provenance records the build type).
 
 Why: the thesis's claim is that PFM costs about one explicit step. Cost per step and its
 scaling with N and threads decide whether detecting the boundary at every step is affordable.
 
-Cases: a block of soil (4 points per cell, linear elastic, gravity, K0 start) sized to N points,
-run for a fixed number of steps with a fixed dt, and the slope case (``cases/slope.json``, the
-thesis-sized problem) for the headline numbers. Runs are never cached (every repetition is a
-fresh process); Release build expected (provenance records the build type).
-
-Reproduce: ``make study-timing`` = ``/usr/bin/python3 -m studies timing [--quick]``; writes
-``stages.csv/.md`` (one row per N, threads, detector, stage), ``scaling.png``.
-Needs ``run.json`` ``summary.stage_seconds`` and ``summary.n_steps`` from ``pfm-mpm run``.
+Reproduce: ``make study-timing`` = ``/usr/bin/python3 -m studies timing [--quick]``
+(quick: N = 1k and 4k, 1 thread, 10 steps; slope with the thesis and improved PFM). Writes
+``stages.csv/.md`` (one row per case, N, threads, detector, stage), ``ratios.csv/.md``
+(detection per call, MPM step, their ratio, particle-steps per second), ``raw_timings.csv``
+and ``scaling.png``.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 
 import numpy as np
 import pandas as pd
 
+from studies.common import detectors as det
 from studies.common.cases import base_case, derive
 from studies.common.outcome import Headline, Metric, StudyOutcome
-from studies.common.outputs import read_summary
-from studies.common.paths import tool_path
-from studies.common.runner import run_mpm
+from studies.common.outputs import final_particles, read_summary, write_detect_input
+from studies.common.paths import PrerequisiteMissing, tool_path
+from studies.common.runner import RunFailed, run_detect, run_mpm
+from studies.common.study import missing_reason
 from studies.common.tables import save_figure, write_table
 from studies.report.headline import DETECTORS
 
 PARTICLE_COUNTS = (1_000, 3_000, 10_000, 30_000, 100_000, 300_000)
 THREADS = (1, 2)
 REPETITIONS = 5
-STEPS = 50
+PARTICLE_STEPS_PER_RUN = 3.0e6
+MIN_STEPS, MAX_STEPS = 10, 100
 QUICK_PARTICLE_COUNTS = (1_000, 4_000)
 QUICK_THREADS = (1,)
 QUICK_STEPS = 10
-# The N x threads sweep runs these two detectors only (the 30 min budget of `make study`);
-# every detector is timed on the slope.
-SWEEP_DETECTORS = ("pfm_thesis", "pfm_improved")
-DETECT_STAGE = "detect"
-THESIS_DETECT_S, THESIS_STEP_S = 0.047, 0.048
+SWEEP_DETECTOR = "pfm_improved"
+QUICK_SLOPE_DETECTORS = ("pfm_thesis", "pfm_improved")
+SLOPE_END_TIME = 0.5  # s: 54 steps of the slope
+QUICK_SLOPE_END_TIME = 0.1  # s: 11 steps
+BOUNDARY_STAGES = ("detect", "bezier", "traction")
+THESIS_DETECT_S, THESIS_STEP_S, THESIS_POINTS = 0.047, 0.048, 3368
 CELL_SIZE = 0.5  # m
 POINTS_PER_CELL = 2  # 2 x 2 = 4 points per cell, as the thesis
 
-EXPECTED_METRICS = ["timing.slope.pfm_improved.detect_to_step_ratio",
-                    "timing.slope.pfm_thesis.detect_to_step_ratio",
-                    "timing.block_100k.mpm_particle_steps_per_s"]
+EXPECTED_METRICS = [
+    "timing.slope.pfm_improved.detect_to_step_ratio",
+    "timing.slope.pfm_thesis.detect_to_step_ratio",
+    "timing.block_100k.mpm_particle_steps_per_s",
+]
 
 
-def block_case(n_particles: int, detector: str, steps: int) -> dict:
+def steps_for(n_particles: int) -> int:
+    return int(
+        min(MAX_STEPS, max(MIN_STEPS, round(PARTICLE_STEPS_PER_RUN / n_particles)))
+    )
+
+
+def block_case(n_particles: int, detector, steps: int) -> dict:
     """A soil block of ~n_particles points (4 per cell, aspect 3:1) with a 1-cell margin."""
-    n_cells = max(1, round(n_particles / POINTS_PER_CELL ** 2))
+    n_cells = max(1, round(n_particles / POINTS_PER_CELL**2))
     ny = max(1, round(math.sqrt(n_cells / 3.0)))
     nx = max(1, round(n_cells / ny))
     youngs, nu, gamma = 1.0e4, 0.3, 20.0
     modulus = youngs * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
-    dt = 0.5 * CELL_SIZE / math.sqrt(modulus / (gamma / 9.81))
-    return {
+    dt = 0.45 * CELL_SIZE / math.sqrt(modulus / (gamma / 9.81))  # 90 % of the CFL limit
+    case = {
         "title": f"timing block {nx} x {ny} cells",
-        "grid": {"origin": [-CELL_SIZE, 0.0], "cell_size": CELL_SIZE, "n_cells": [nx + 2, ny + 2]},
-        "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": youngs,
-                       "poisson_ratio": nu, "unit_weight": gamma}],
-        "bodies": [{"name": "block", "material": "soil", "points_per_cell": POINTS_PER_CELL,
-                    "rectangle": [[0.0, 0.0], [nx * CELL_SIZE, ny * CELL_SIZE]]}],
+        "grid": {
+            "origin": [-CELL_SIZE, 0.0],
+            "cell_size": CELL_SIZE,
+            "n_cells": [nx + 2, ny + 2],
+        },
+        "materials": [
+            {
+                "name": "soil",
+                "model": "linear_elastic",
+                "youngs_modulus": youngs,
+                "poisson_ratio": nu,
+                "unit_weight": gamma,
+            }
+        ],
+        "bodies": [
+            {
+                "name": "block",
+                "material": "soil",
+                "points_per_cell": POINTS_PER_CELL,
+                "rectangle": [[0.0, 0.0], [nx * CELL_SIZE, ny * CELL_SIZE]],
+            }
+        ],
         "initial_stress": {"method": "k0"},
-        "boundary_conditions": [{"where": "bottom", "fix": "xy"}, {"where": "left", "fix": "x"},
-                                {"where": "right", "fix": "x"}],
+        "boundary_conditions": [
+            {"where": "bottom", "fix": "xy"},
+            {"where": "left", "fix": "x"},
+            {"where": "right", "fix": "x"},
+        ],
         "time": {"end_time": steps * dt, "dt": dt},
-        "output": {"interval": steps * dt},
-        "detection": {"method": detector},
+        "output": {"interval": steps * dt, "timeseries_interval": steps * dt},
     }
+    if detector is not None:
+        case["detection"] = det.detection_block(detector)
+    return case
 
 
 def timed_run(case: dict, threads: int) -> dict:
@@ -89,21 +132,86 @@ def timed_run(case: dict, threads: int) -> dict:
 
 
 def stage_rows(summary: dict, label: dict) -> list[dict]:
+    """Seconds per step of every stage, plus ``mpm_step`` (the MPM stages without the boundary
+    stages) and ``detect_per_call`` (summary.detection, when the run detected).
+
+    The boundary stages of the steps (detect, bezier, traction) run inside the
+    ``external_forces`` stage (its hook); the detections for the output at step 0 and for output
+    steps between two detection steps run outside the step. So ``external_forces`` loses the
+    in-step share of the boundary stages, estimated as their total times the fraction
+    ceil(n_steps / every_steps) / calls of the detection calls made inside the steps; the
+    result, ``external_forces_mpm``, is what the step costs without a detected boundary.
+    """
     n_steps = int(summary["n_steps"])
-    stages = dict(summary["stage_seconds"])
-    step_total = sum(v for k, v in stages.items() if k != DETECT_STAGE)
-    stages["mpm_step"] = step_total
-    return [{**label, "stage": stage, "seconds_per_step": seconds / n_steps}
-            for stage, seconds in stages.items()]
+    stage_seconds = dict(summary["stage_seconds"])
+    detection = summary.get("detection") or {}
+    boundary = sum(stage_seconds.get(k, 0.0) for k in BOUNDARY_STAGES)
+    if boundary > 0.0 and detection.get("calls"):
+        every = int(detection.get("every_steps", 1) or 1)
+        in_step = min(1.0, math.ceil(n_steps / every) / float(detection["calls"]))
+        external = stage_seconds.get("external_forces", 0.0)
+        stage_seconds["external_forces_mpm"] = max(0.0, external - in_step * boundary)
+    else:
+        stage_seconds["external_forces_mpm"] = stage_seconds.get("external_forces", 0.0)
+    stages = {k: v / n_steps for k, v in stage_seconds.items()}
+    stages["mpm_step"] = sum(
+        v for k, v in stages.items() if k not in BOUNDARY_STAGES + ("external_forces",)
+    )
+    if detection.get("seconds_per_call") is not None:
+        stages["detect_per_call"] = float(detection["seconds_per_call"])
+    return [
+        {**label, "stage": stage, "seconds_per_step": seconds}
+        for stage, seconds in stages.items()
+    ]
 
 
 def summarise(raw: pd.DataFrame) -> pd.DataFrame:
     keys = [c for c in raw.columns if c not in ("repetition", "seconds_per_step")]
     grouped = raw.groupby(keys)["seconds_per_step"]
-    table = grouped.agg(median="median", min="min", max="max",
-                        q25=lambda s: s.quantile(0.25), q75=lambda s: s.quantile(0.75),
-                        repetitions="count").reset_index()
+    table = grouped.agg(
+        median="median",
+        min="min",
+        max="max",
+        q25=lambda s: s.quantile(0.25),
+        q75=lambda s: s.quantile(0.75),
+        repetitions="count",
+    ).reset_index()
     return table
+
+
+def library_timings(slope: dict, repetitions: int) -> list[dict]:
+    """The library baseline on the slope's initial points: seconds per call from its
+    summary.json (total of its timings), ``repetitions`` uncached calls."""
+    run = run_mpm(derive(slope, {"time": {"end_time": 1e-3}}), threads=1)
+    particles = run.folder / "slope_points.csv"
+    frame = final_particles(run.out)
+    write_detect_input(frame, particles)
+    config = det.detect_config(
+        det.LIBRARY, slope["grid"], slope["grid"]["cell_size"] / POINTS_PER_CELL
+    )
+    rows = []
+    for repetition in range(repetitions):
+        result = run_detect(particles, config, library=True, use_cache=False)
+        try:
+            summary = json.loads((result.out / "summary.json").read_text())
+        finally:
+            shutil.rmtree(result.folder, ignore_errors=True)
+        # Its own stage timings (field, edge points, connection, filters), as pfm-mpm detect:
+        # the Python start-up and file reading are left out.
+        timings = summary.get("timings_s", {})
+        seconds = sum(v for v in timings.values() if isinstance(v, (int, float)))
+        rows.append(
+            {
+                "case": "slope",
+                "n_particles": len(frame),
+                "threads": 1,
+                "detector": det.LIBRARY,
+                "repetition": repetition,
+                "stage": "detect_per_call",
+                "seconds_per_step": float(seconds),
+            }
+        )
+    return rows
 
 
 def run(context) -> StudyOutcome:
@@ -111,80 +219,214 @@ def run(context) -> StudyOutcome:
     quick = context.quick
     counts = QUICK_PARTICLE_COUNTS if quick else PARTICLE_COUNTS
     threads_list = QUICK_THREADS if quick else THREADS
-    steps = QUICK_STEPS if quick else STEPS
-    detectors = SWEEP_DETECTORS if quick else tuple(d for d, _ in DETECTORS)
-    raw = []
+    slope_detectors = QUICK_SLOPE_DETECTORS if quick else tuple(d for d, _ in DETECTORS)
+    outcome = StudyOutcome(study="timing")
+    notes, raw = [], []
+
+    def attempt(label: str, function):
+        try:
+            return function()
+        except (PrerequisiteMissing, RunFailed) as error:
+            reason = missing_reason(error)
+            if reason is None:
+                raise
+            notes.append(f"{label}: needs {reason}")
+            return None
+
     # Timing runs are serial on purpose: parallel runs would measure each other.
+    detector = SWEEP_DETECTOR
     for n in counts:
+        steps = QUICK_STEPS if quick else steps_for(n)
         for threads in threads_list:
-            for detector in SWEEP_DETECTORS:
-                for repetition in range(REPETITIONS):
-                    summary = timed_run(block_case(n, detector, steps), threads)
-                    raw += stage_rows(summary, {"case": "block", "n_particles": int(
-                        summary.get("n_particles", n)), "threads": threads, "detector": detector,
-                        "repetition": repetition})
+            for repetition in range(REPETITIONS):
+                summary = attempt(
+                    f"block N = {n}",
+                    lambda: timed_run(block_case(n, detector, steps), threads),
+                )
+                if summary is None:  # detection not accepted: time the plain MPM
+                    detector = None
+                    summary = timed_run(block_case(n, None, steps), threads)
+                raw += stage_rows(
+                    summary,
+                    {
+                        "case": "block",
+                        "n_particles": int(summary.get("n_particles", n)),
+                        "threads": threads,
+                        "detector": detector or "none",
+                        "repetition": repetition,
+                    },
+                )
     slope, slope_path = base_case("slope")
     context.case_files.append(slope_path)
-    for detector in detectors:
+    end_time = QUICK_SLOPE_END_TIME if quick else SLOPE_END_TIME
+    slope = derive(
+        slope,
+        {
+            "initial_stress": {"method": "k0"},
+            "time": {"end_time": end_time},
+            "output": {"interval": end_time},
+        },
+    )
+    for name in slope_detectors:
+        if not det.in_run(name):
+            rows = attempt(f"slope {name}", lambda: library_timings(slope, REPETITIONS))
+            raw += rows or []
+            continue
         for repetition in range(REPETITIONS):
-            case = derive(slope, {"detection": {"method": detector}})
-            summary = timed_run(case, 1)
-            raw += stage_rows(summary, {"case": "slope", "n_particles": int(
-                summary.get("n_particles", 0)), "threads": 1, "detector": detector,
-                "repetition": repetition})
+            case = derive(slope, {"detection": det.detection_block(name)})
+            summary = attempt(f"slope {name}", lambda: timed_run(case, 1))
+            if summary is None:
+                break
+            raw += stage_rows(
+                summary,
+                {
+                    "case": "slope",
+                    "n_particles": int(summary.get("n_particles", 0)),
+                    "threads": 1,
+                    "detector": name,
+                    "repetition": repetition,
+                },
+            )
+    if not any(r["case"] == "slope" and r["detector"] != det.LIBRARY for r in raw):
+        for repetition in range(REPETITIONS):  # at least the MPM step of the slope
+            summary = timed_run(slope, 1)
+            raw += stage_rows(
+                summary,
+                {
+                    "case": "slope",
+                    "n_particles": int(summary.get("n_particles", 0)),
+                    "threads": 1,
+                    "detector": "none",
+                    "repetition": repetition,
+                },
+            )
     raw = pd.DataFrame(raw)
     raw.to_csv(context.folder / "raw_timings.csv", index=False)
     table = summarise(raw)
-    outcome = StudyOutcome(study="timing")
-    outcome.tables.append(write_table(context.folder, table, "stages",
-                                      "Seconds per step, per stage (median of repetitions)"))
-    ratios = []
-    for (case, n, threads, detector), group in table.groupby(
-            ["case", "n_particles", "threads", "detector"]):
-        per_stage = dict(zip(group["stage"], group["median"]))
-        detect, step = per_stage.get(DETECT_STAGE, np.nan), per_stage["mpm_step"]
-        ratios.append({"case": case, "n_particles": n, "threads": threads, "detector": detector,
-                       "detect_s": detect, "mpm_step_s": step, "detect_to_step_ratio":
-                       detect / step, "mpm_particle_steps_per_s": n / step,
-                       "total_particle_steps_per_s": n / (step + detect)})
-    ratios = pd.DataFrame(ratios)
-    detect_missing = ratios["detect_s"].isna().all()
-    thesis = pd.DataFrame([{"case": "slope (thesis)", "n_particles": 3368, "threads": 1,
-                            "detector": "pfm_thesis", "detect_s": THESIS_DETECT_S,
-                            "mpm_step_s": THESIS_STEP_S, "detect_to_step_ratio":
-                            THESIS_DETECT_S / THESIS_STEP_S, "mpm_particle_steps_per_s":
-                            3368 / THESIS_STEP_S, "total_particle_steps_per_s":
-                            3368 / (THESIS_STEP_S + THESIS_DETECT_S)}])
-    outcome.tables.append(write_table(context.folder, pd.concat([thesis, ratios]), "ratios",
-                                      "Detection against one MPM step; throughput"))
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            table,
+            "stages",
+            "Seconds per step, per stage (median of repetitions; "
+            "detect_per_call: seconds per detection call)",
+        )
+    )
+    ratios = ratio_table(table)
+    slope_step = ratios[(ratios["case"] == "slope") & ratios["mpm_step_s"].notna()][
+        "mpm_step_s"
+    ]
+    if len(slope_step):  # the library's row: its call against the slope's MPM step
+        library = ratios["detector"] == det.LIBRARY
+        ratios.loc[library, "mpm_step_s"] = float(slope_step.median())
+        ratios.loc[library, "detect_to_step_ratio"] = ratios.loc[
+            library, "detect_s"
+        ] / float(slope_step.median())
+    thesis = pd.DataFrame(
+        [
+            {
+                "case": "slope (thesis)",
+                "n_particles": THESIS_POINTS,
+                "threads": 1,
+                "detector": "pfm_thesis",
+                "detect_s": THESIS_DETECT_S,
+                "mpm_step_s": THESIS_STEP_S,
+                "detect_to_step_ratio": THESIS_DETECT_S / THESIS_STEP_S,
+                "mpm_particle_steps_per_s": THESIS_POINTS / THESIS_STEP_S,
+                "total_particle_steps_per_s": THESIS_POINTS
+                / (THESIS_STEP_S + THESIS_DETECT_S),
+            }
+        ]
+    )
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            pd.concat([thesis, ratios]),
+            "ratios",
+            "Detection per call against one MPM step; throughput "
+            "(median of the repetitions)",
+        )
+    )
     for row in ratios[ratios["case"] == "slope"].itertuples(index=False):
-        if detect_missing:
-            note = f"not run: needs a '{DETECT_STAGE}' stage in run.json summary.stage_seconds"
-            outcome.headline += [Headline("cost.detect_per_step", row.detector, None, "s", note),
-                                 Headline("cost.detect_to_step_ratio", row.detector, None, "1",
-                                          note)]
+        if row.detector == "none":
             continue
-        outcome.metrics.append(Metric(f"timing.slope.{row.detector}.detect_to_step_ratio",
-                                      row.detect_to_step_ratio, "1"))
+        if row.detect_s is None or not np.isfinite(row.detect_s):
+            continue
+        outcome.metrics.append(
+            Metric(
+                f"timing.slope.{row.detector}.detect_to_step_ratio",
+                row.detect_to_step_ratio,
+                "1",
+            )
+        )
         outcome.headline += [
             Headline("cost.detect_per_step", row.detector, row.detect_s, "s"),
-            Headline("cost.detect_to_step_ratio", row.detector, row.detect_to_step_ratio, "1")]
-    slope_steps = ratios[ratios["case"] == "slope"]["mpm_step_s"]
-    if len(slope_steps):
-        outcome.headline.append(Headline("cost.mpm_step", "*", float(slope_steps.median()), "s",
-                                         "median over the detectors' runs"))
-    big = ratios[(ratios["case"] == "block") & (ratios["threads"] == 1)]
-    if len(big):
-        row = big.loc[(big["n_particles"] - 100_000).abs().idxmin()]
-        outcome.metrics.append(Metric("timing.block_100k.mpm_particle_steps_per_s",
-                                      float(row["mpm_particle_steps_per_s"]), "1/s",
-                                      f"N = {row['n_particles']}"))
-    outcome.figures.append(save_figure(context.folder, scaling_figure(ratios), "scaling",
-                                       "Seconds per step against N (block), per thread count"))
-    if detect_missing:
-        outcome.reason = (f"partly not run: detection cost needs a '{DETECT_STAGE}' stage in "
-                          f"run.json summary.stage_seconds (MPM stages measured)")
+            Headline(
+                "cost.detect_to_step_ratio", row.detector, row.detect_to_step_ratio, "1"
+            ),
+        ]
+    if len(slope_step):
+        outcome.headline.append(
+            Headline(
+                "cost.mpm_step",
+                "*",
+                float(slope_step.median()),
+                "s",
+                "median over the slope runs",
+            )
+        )
+    single = ratios[(ratios["case"] == "block") & (ratios["threads"] == 1)]
+    if len(single):
+        row = single.loc[(single["n_particles"] - 100_000).abs().idxmin()]
+        outcome.metrics.append(
+            Metric(
+                "timing.block_100k.mpm_particle_steps_per_s",
+                float(row["mpm_particle_steps_per_s"]),
+                "1/s",
+                f"N = {row['n_particles']}",
+            )
+        )
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            scaling_figure(ratios),
+            "scaling",
+            "Seconds per step against N (block), per thread count",
+        )
+    )
+    if notes:
+        outcome.reason = "partly not run: " + "; ".join(dict.fromkeys(notes))
     return outcome
+
+
+def ratio_table(table: pd.DataFrame) -> pd.DataFrame:
+    rows = []
+    for (case, n, threads, detector), group in table.groupby(
+        ["case", "n_particles", "threads", "detector"]
+    ):
+        per_stage = dict(zip(group["stage"], group["median"]))
+        detect = per_stage.get("detect_per_call", np.nan)
+        step = per_stage.get("mpm_step", np.nan)
+        rows.append(
+            {
+                "case": case,
+                "n_particles": n,
+                "threads": threads,
+                "detector": detector,
+                "detect_s": detect,
+                "mpm_step_s": step,
+                "detect_to_step_ratio": detect / step,
+                "mpm_particle_steps_per_s": n / step,
+                "total_particle_steps_per_s": n
+                / (
+                    step
+                    + per_stage.get("detect", 0.0)
+                    + per_stage.get("bezier", 0.0)
+                    + per_stage.get("traction", 0.0)
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def scaling_figure(ratios: pd.DataFrame):
@@ -192,17 +434,32 @@ def scaling_figure(ratios: pd.DataFrame):
 
     figure, axis = plt.subplots(figsize=(7, 4.5))
     block = ratios[ratios["case"] == "block"]
-    for threads, by_threads in block.groupby("threads"):
-        first = by_threads[by_threads["detector"] == by_threads["detector"].iloc[0]]
-        axis.loglog(first["n_particles"], first["mpm_step_s"], "k-o",
-                    label=f"MPM step, {threads} thread(s)", alpha=0.5 + 0.25 * (threads - 1))
-        for detector, group in by_threads.groupby("detector"):
-            axis.loglog(group["n_particles"], group["detect_s"], "--.",
-                        label=f"{detector}, {threads} thread(s)")
-    axis.loglog([3368], [THESIS_STEP_S], "rs", label="thesis MPM step (0.048 s)")
-    axis.loglog([3368], [THESIS_DETECT_S], "r^", label="thesis PFM (0.047 s)")
+    for threads, group in block.groupby("threads"):
+        group = group.sort_values("n_particles")
+        axis.loglog(
+            group["n_particles"],
+            group["mpm_step_s"],
+            "-o",
+            label=f"MPM step, {threads} thread(s)",
+        )
+        if group["detect_s"].notna().any():
+            axis.loglog(
+                group["n_particles"],
+                group["detect_s"],
+                "--s",
+                label=f"detection ({group['detector'].iloc[0]}), {threads} thread(s)",
+            )
+    slope = ratios[(ratios["case"] == "slope") & ratios["detect_s"].notna()]
+    for row in slope.itertuples(index=False):
+        axis.loglog(
+            [row.n_particles], [row.detect_s], "^", label=f"slope: {row.detector}"
+        )
+    axis.loglog(
+        [THESIS_POINTS], [THESIS_STEP_S], "rs", label="thesis MPM step (0.048 s)"
+    )
+    axis.loglog([THESIS_POINTS], [THESIS_DETECT_S], "r^", label="thesis PFM (0.047 s)")
     axis.set_xlabel("material points N")
-    axis.set_ylabel("seconds per step")
+    axis.set_ylabel("seconds per step / per detection call")
     axis.legend(fontsize=6)
     axis.grid(True, which="both", alpha=0.3)
     return figure

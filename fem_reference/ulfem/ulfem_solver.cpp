@@ -670,7 +670,9 @@ std::vector<Vec2> UlFemSolver::node_displacement() const {
   return u;
 }
 
-void UlFemSolver::apply_k0_stress() { pfm::apply_k0_stress(case_, particles_); }
+void UlFemSolver::apply_k0_stress() {
+  pfm::apply_k0_stress(case_, particles_);
+}
 
 void UlFemSolver::initialise_stress() {
   switch (case_.initial_stress.method) {
@@ -689,19 +691,9 @@ void UlFemSolver::initialise_stress() {
   damping_ = case_.initial_stress.damping;
   gravity_full_ = true;
   loads_active_ = false;
-  double peak = 0.0;
-  while (true) {
-    step();
-    const double ke = energy().kinetic_energy;
-    peak = std::max(peak, ke);
-    if (step_ > 10 && peak > 0.0 && ke < case_.initial_stress.kinetic_energy_ratio * peak) break;
-    if (time_ > case_.initial_stress.max_time) {
-      throw SimulationError("gravity loading did not reach kinetic energy ratio " +
-                            std::to_string(case_.initial_stress.kinetic_energy_ratio) + " within " +
-                            std::to_string(case_.initial_stress.max_time) + " s (ratio now " +
-                            std::to_string(ke / peak) + ")");
-    }
-  }
+  damp_to_rest(
+      case_.initial_stress, [this] { step(); }, [this] { return energy().kinetic_energy; },
+      [this] { return time_; }, [this] { return step_; });
   damping_ = saved_damping;
   loads_active_ = true;
   for (std::size_t p = 0; p < particles_.size(); ++p) {

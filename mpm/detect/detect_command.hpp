@@ -1,4 +1,5 @@
-// `pfm-mpm detect PARTICLES.csv CONFIG.json OUT_DIR`: boundary detection on a particle file.
+// `pfm-mpm detect PARTICLES.csv --config CONFIG.json --out OUT_DIR`: boundary detection on a
+// particle file, with any detector of detector.hpp.
 //
 // PARTICLES.csv: a header line naming the columns, then one particle per line. Required columns
 // x, y (m) and volume (m^2); optional F11, F12, F21, F22 (all four or none: the total deformation

@@ -1,4 +1,4 @@
-// Internal interfaces between detector.cpp and the two detector implementations.
+// Internal interfaces between detector.cpp and the detector implementations.
 #pragma once
 
 #include <chrono>
@@ -13,6 +13,15 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
 DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
                                    const ThesisPfmConfig& config, DetectorState& state,
                                    DetectionTimings& timings);
+
+/// Baselines (mpm/detect/baselines/).
+DetectedBoundary detect_surface_markers(const ParticleCloud& cloud, const Grid& grid,
+                                        const DetectorConfig& config, DetectorState& state,
+                                        DetectionTimings& timings);
+DetectedBoundary detect_volume_of_fluid(const ParticleCloud& cloud, const Grid& grid,
+                                        const VofConfig& config, DetectionTimings& timings);
+DetectedBoundary detect_cell_density(const ParticleCloud& cloud, const Grid& grid,
+                                     const DensityConfig& config, DetectionTimings& timings);
 
 /// Seconds since `start`.
 inline double seconds_since(std::chrono::steady_clock::time_point start) {

@@ -112,7 +112,7 @@ ThesisPfmConfig parse_pfm(const JsonView& v) {
 ImprovedConfig parse_improved(const JsonView& v) {
   v.expect_object({"profile", "radius_factor", "level", "guard_factor", "guard_margin",
                    "refinement", "max_refinement", "saddle_rule", "narrow_band", "band_margin",
-                   "root_tolerance", "curvature_correction"});
+                   "root_tolerance", "curvature_correction", "mirror_grid_edges"});
   ImprovedConfig c;
   if (v.has("profile")) {
     const std::string p = v.at("profile").as_choice({"epanechnikov", "biweight", "triweight"});
@@ -157,6 +157,66 @@ ImprovedConfig parse_improved(const JsonView& v) {
   if (v.has("curvature_correction")) {
     c.curvature_correction = v.at("curvature_correction").as_bool();
   }
+  if (v.has("mirror_grid_edges")) c.mirror_grid_edges = v.at("mirror_grid_edges").as_bool();
+  return c;
+}
+
+SmmConfig parse_smm(const JsonView& v) {
+  v.expect_object({"marker_spacing", "initial_contour", "massless_nodes"});
+  SmmConfig c;
+  c.marker_spacing = v.number_or("marker_spacing", c.marker_spacing);
+  if (v.has("marker_spacing")) {
+    v.at("marker_spacing")
+        .require(c.marker_spacing > 0.0 && c.marker_spacing <= 100.0,
+                 "must be in (0, 100] (grid cells)");
+  }
+  if (v.has("initial_contour")) {
+    c.initial_contour = v.at("initial_contour").as_choice({"improved", "pfm"}) == "pfm"
+                            ? DetectorMethod::kPfm
+                            : DetectorMethod::kImproved;
+  }
+  if (v.has("massless_nodes")) {
+    c.massless_nodes = v.at("massless_nodes").as_choice({"renormalise", "zero"}) == "zero"
+                           ? MasslessNodes::kZero
+                           : MasslessNodes::kRenormalise;
+  }
+  return c;
+}
+
+VofConfig parse_vof(const JsonView& v) {
+  v.expect_object({"refinement", "fraction", "mixed_tolerance"});
+  VofConfig c;
+  c.refinement = v.int_or("refinement", c.refinement);
+  if (v.has("refinement")) {
+    v.at("refinement").require(c.refinement >= 1 && c.refinement <= 64, "must be in [1, 64]");
+  }
+  if (v.has("fraction")) {
+    c.fraction = v.at("fraction").as_choice({"volume", "count"}) == "count" ? VofFraction::kCount
+                                                                            : VofFraction::kVolume;
+  }
+  c.mixed_tolerance = v.number_or("mixed_tolerance", c.mixed_tolerance);
+  if (v.has("mixed_tolerance")) {
+    v.at("mixed_tolerance")
+        .require(c.mixed_tolerance >= 0.0 && c.mixed_tolerance < 0.5, "must be in [0, 0.5)");
+  }
+  return c;
+}
+
+DensityConfig parse_density(const JsonView& v) {
+  v.expect_object({"field", "threshold", "refinement"});
+  DensityConfig c;
+  if (v.has("field")) {
+    c.field = v.at("field").as_choice({"nodal", "cell"}) == "cell" ? DensityField::kCell
+                                                                   : DensityField::kNodal;
+  }
+  c.threshold = v.number_or("threshold", c.threshold);
+  if (v.has("threshold")) {
+    v.at("threshold").require(c.threshold > 0.0 && c.threshold < 1.0, "must be in (0, 1)");
+  }
+  c.refinement = v.int_or("refinement", c.refinement);
+  if (v.has("refinement")) {
+    v.at("refinement").require(c.refinement >= 1 && c.refinement <= 64, "must be in [1, 64]");
+  }
   return c;
 }
 
@@ -174,12 +234,9 @@ DetectorConfig parse_detector_config(const JsonView& json) {
                                          : DetectorMethod::kDensity;
   if (const auto v = json.find("pfm")) config.pfm = parse_pfm(*v);
   if (const auto v = json.find("improved")) config.improved = parse_improved(*v);
-  for (const char* key : {"smm", "vof", "density"}) {
-    if (const auto v = json.find(key)) {
-      v->require(v->is_object(), "expected an object");
-      if (method == key) config.baseline = v->raw();
-    }
-  }
+  if (const auto v = json.find("smm")) config.smm = parse_smm(*v);
+  if (const auto v = json.find("vof")) config.vof = parse_vof(*v);
+  if (const auto v = json.find("density")) config.density = parse_density(*v);
   return config;
 }
 
@@ -197,11 +254,14 @@ DetectedBoundary detect(const ParticleCloud& cloud, const Grid& grid, const Dete
       return detail::detect_improved(cloud, grid, config.improved, t);
     case DetectorMethod::kPfm:
       return detail::detect_thesis_pfm(cloud, grid, config.pfm, state, t);
-    default:
-      throw InputError(
-          "detect: method smm/vof/density is provided by the baseline detectors "
-          "(mpm/detect/baselines), not by detect()");
+    case DetectorMethod::kSmm:
+      return detail::detect_surface_markers(cloud, grid, config, state, t);
+    case DetectorMethod::kVof:
+      return detail::detect_volume_of_fluid(cloud, grid, config.vof, t);
+    case DetectorMethod::kDensity:
+      return detail::detect_cell_density(cloud, grid, config.density, t);
   }
+  throw InputError("detect: unknown detector method");
 }
 
 }  // namespace pfm

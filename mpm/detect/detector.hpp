@@ -1,5 +1,6 @@
-// Boundary detection from material points: the thesis' Proximity Field Method (4.4, 5) and an
-// improved detector, behind one entry point detect().
+// Boundary detection from material points behind one entry point detect(): the thesis' Proximity
+// Field Method (4.4, 5), an improved detector and three baselines (Surface Marker Method, Volume
+// of Fluid, cell-density threshold).
 //
 //   particles (+ deformation gradients) -> field on a grid -> edge points -> contours
 //
@@ -92,33 +93,110 @@ struct ImprovedConfig {
   SaddleRule saddle_rule = SaddleRule::kAsymptoticDecider;
   bool narrow_band = true;
   /// Narrow band: grid cells no kernel reaches are skipped (exact); cells whose corners and centre
-  /// all have a field value > level + band_margin (interior) or < level - band_margin with no
-  /// guarded particle inside (exterior) are skipped too, and the rest is dilated by one cell.
-  /// The screening is a heuristic: sub-cell holes or islands it misses would differ from the
-  /// full field (none found in the tests).
+  /// all have phi > level + band_margin (interior) or < level - band_margin with no guarded
+  /// particle inside (exterior) are skipped too. Every fine node of the remaining ("active")
+  /// cells is evaluated (a particle at a time, ImprovedField::evaluate_block), and contours that
+  /// leave the active cells are traced on, fine cell by fine cell, wherever they go. Only
+  /// particles outside the interior cells are tested for guards. The screening is a heuristic:
+  /// a sub-cell hole or island inside a skipped cell would be missed (none found in the tests:
+  /// narrow band and full field agree bitwise on 2000 random clouds).
   double band_margin = 0.4;
   double root_tolerance = 1e-6;       ///< edge crossings to this fraction of the grid cell size
   bool curvature_correction = false;  ///< shift points outwards by kappa a^2 / (2 (2k + 3))
+  /// The edges of the field grid are walls where the body rests on them: across an edge that no
+  /// particle lies beyond, the particles within reach of it are mirrored if the edge is touched
+  /// (a particle closer than one initial spacing) within their reach along it; across both
+  /// edges at a corner too. A body resting on the grid edge (an MPM body on its fixed base or
+  /// between roller sides) then has no boundary along it and its contour ends on the edge. No
+  /// effect on a body clear of the edges (by more than a spacing) or cut by them.
+  bool mirror_grid_edges = true;
+};
+
+/// How advect_surface_markers() treats grid nodes without mass, whose velocity (mv)_i / m_i of
+/// eq. 4.7 is undefined.
+enum class MasslessNodes {
+  /// Left out; the weights of the nodes with mass are renormalised to sum to one (a marker in a
+  /// cell without any node with mass does not move).
+  kRenormalise,
+  /// Taken literally as (mv)_i / m_i = 0: they pull the marker's velocity towards zero.
+  kZero,
+};
+
+/// Surface Marker Method (thesis 3.4.1, 4.2): massless markers on the initial boundary, moved by
+/// the grid velocities (eq. 4.6-4.7) and connected to the same neighbours for ever.
+struct SmmConfig {
+  /// Marker spacing along the initial contour, in grid cells (the thesis' slope: 0.25 m markers
+  /// on 0.5 m cells).
+  double marker_spacing = 0.5;
+  /// Detector giving the initial contour the markers are placed on: kImproved or kPfm (the
+  /// "improved" / "pfm" settings of the same configuration apply).
+  DetectorMethod initial_contour = DetectorMethod::kImproved;
+  MasslessNodes massless_nodes = MasslessNodes::kRenormalise;
+};
+
+/// What the volume of material in a cell is computed from (thesis eq. 4.8).
+enum class VofFraction {
+  kCount,   ///< eq. 4.8: particle count x initial_spacing^2 / cell area (the thesis)
+  kVolume,  ///< sum of the current particle volumes in the cell / cell area
+};
+
+/// Volume of Fluid (thesis 3.4.2, 4.3): cell volume fractions, Sobel normals (eq. 3.36) and a
+/// piecewise-linear interface (PLIC) in every mixed cell.
+struct VofConfig {
+  int refinement = 1;  ///< VOF cell = grid cell / refinement (4.3.1: the MPM grid or finer)
+  /// Counts (the thesis): a full cell stays full while its points are compressed; volumes: a
+  /// compressed cell becomes "mixed" and PLIC opens slivers of void inside the body.
+  VofFraction fraction = VofFraction::kCount;
+  /// Cells with a fraction <= tolerance are empty, >= 1 - tolerance full; the rest are mixed.
+  double mixed_tolerance = 1e-9;
+};
+
+/// The density field the cell-density detector contours.
+enum class DensityField {
+  /// Nodal volume fraction sum_p V_p N_i(x_p) / A_i (linear hat functions; A_i the node's
+  /// tributary area inside the grid, h^2 inside, h^2 / 2 on an edge, h^2 / 4 at a corner): the
+  /// nodal mass of P2G divided by the mass that fills the node's share of the grid.
+  kNodal,
+  /// Cell volume fraction sum_{p in cell} V_p / h^2 (cb-geo/mpm's compute_cell_vol_fraction),
+  /// averaged to the nodes over the (up to four) adjacent cells of the grid.
+  kCell,
+};
+
+/// Cell-density threshold (the free-surface test of cb-geo/mpm and GeoTaichi): material where
+/// the volume fraction exceeds `threshold`, contoured by marching squares.
+struct DensityConfig {
+  DensityField field = DensityField::kNodal;
+  double threshold = 0.5;  ///< volume fraction (cb-geo flags particles below 0.65 - 0.70 of the
+                           ///< full density, GeoTaichi below 0.76; 0.5 puts a flat face exactly)
+  int refinement = 1;      ///< density cell = grid cell / refinement
 };
 
 struct DetectorConfig {
   DetectorMethod method = DetectorMethod::kImproved;
   ThesisPfmConfig pfm;
   ImprovedConfig improved;
-  /// Settings of the baseline detectors ("smm", "vof", "density"), validated by their owners.
-  std::optional<nlohmann::json> baseline;
+  SmmConfig smm;
+  VofConfig vof;
+  DensityConfig density;
 };
 
 /// Parses {"method": "pfm" | "improved" | "smm" | "vof" | "density", "pfm": {...},
-/// "improved": {...}, "smm"/"vof"/"density": {...}}; unknown keys throw InputError with the
-/// JSON pointer.
+/// "improved": {...}, "smm": {...}, "vof": {...}, "density": {...}}; unknown keys throw
+/// InputError with the JSON pointer.
 DetectorConfig parse_detector_config(const JsonView& json);
 
-/// Kernel shapes carried from step to step (thesis large-strain and clamped modes).
+/// State carried from call to call: kernel shapes (thesis large-strain and clamped modes) and the
+/// Surface Marker Method's markers.
 struct DetectorState {
   std::vector<Mat2> shape;                 ///< S per particle (columns: kernel axes), m
   std::vector<Mat2> previous_deformation;  ///< F at the previous call
   std::size_t n_calls = 0;
+  /// Surface markers (kSmm), m: one polyline per initial contour, material on the left, fixed
+  /// connectivity; markers_closed[k] tells whether polyline k closes on itself.
+  std::vector<std::vector<Vec2>> markers;
+  std::vector<bool> markers_closed;
+  bool markers_placed = false;  ///< set by the first detect() with kSmm
+  MasslessNodes massless_nodes = MasslessNodes::kRenormalise;  ///< copied from SmmConfig
 };
 
 /// Wall-clock seconds per stage of the last detect() call, and counters.
@@ -136,16 +214,61 @@ struct DetectionTimings {
 
 /// Detects the boundary of the body the particles represent on `grid` refined as configured.
 /// Throws InputError for inconsistent input (span sizes, non-positive spacing).
+///
+/// kSmm: the first call places markers on the contour of the initial particles (the detector of
+/// SmmConfig::initial_contour) resampled at SmmConfig::marker_spacing and stores them in
+/// `state`; every call returns the current markers as contours (the particles are not used
+/// again). Without advect_surface_markers() between the calls they stay where they were placed.
 DetectedBoundary detect(const ParticleCloud& cloud, const Grid& grid, const DetectorConfig& config,
                         DetectorState& state, DetectionTimings* timings = nullptr);
+
+/// Surface Marker Method, thesis eq. 4.6-4.7: moves every marker of `state` by
+/// x += v(x) dt, v(x) = sum_i N_i(x) v_i with the bilinear shape functions N_i of `grid`, the
+/// nodal velocities v_i = (mv)_i / m_i after the grid update (node_velocity, m/s) and the nodal
+/// masses (node_mass, t; > 0 marks a node with mass). Nodes without mass follow
+/// state.massless_nodes. Markers outside the grid do not move. Call it after every grid update
+/// with that step's dt (s); it does nothing before detect() with kSmm has placed markers.
+/// Throws InputError unless both spans have grid.n_nodes() entries.
+///
+/// Known failure (thesis 4.2.2), measured by studies/detectors: the markers keep their initial
+/// neighbours, so they cannot follow a change of topology (tearing, new surfaces, soil folding
+/// onto itself: loops may cross), and they drift apart where the surface stretches, leaving
+/// long chords; nothing re-seeds them.
+void advect_surface_markers(DetectorState& state, const Grid& grid,
+                            std::span<const Vec2> node_velocity, std::span<const double> node_mass,
+                            double dt);
+
+/// Resamples a polyline at (nearly) uniform arc length: ceil(length / spacing) points for a
+/// closed polyline (at least 3), ceil(length / spacing) + 1 for an open one (ends kept); the
+/// first point is kept. Used to place the surface markers.
+std::vector<Vec2> resample_polyline(std::span<const Vec2> points, bool closed, double spacing);
 
 // ---- building blocks (exposed for tests and studies) ------------------------------------------
 
 /// The improved detector's exact field max(phi, guard) at x (unit: volume fraction).
 class ImprovedField {
  public:
-  ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config);
+  /// Tag of the constructor that leaves the guards undecided (see decide_guards()).
+  struct DeferGuards {};
+
+  /// `walls`: the field grid whose edges mirror the particles (ImprovedConfig::mirror_grid_edges);
+  /// nullptr: none.
+  ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
+                const Grid* walls = nullptr);
+  /// Trusts the cloud (detect() has checked it).
+  ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
+                const Grid* walls = nullptr);
+  /// Guards the particles p with candidate[p] != 0 (all when empty) whose phi(x_p) is
+  /// <= level + guard_margin; the narrow band passes the particles outside the interior cells.
+  /// Call once, before evaluating the field.
+  void decide_guards(std::span<const char> candidate);
+
   double operator()(const Vec2& x) const;
+  /// The field at the n_x x n_y nodes origin + (first_i + a, first_j + b) spacing, row by row
+  /// into `out` (out[b n_x + a]); bitwise equal to operator() at each of these points (the same
+  /// terms added in the same order), but each particle visits only the nodes it covers.
+  void evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j, int n_x,
+                      int n_y, std::vector<double>& out) const;
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;
   /// Largest kernel or guard reach, m.
@@ -157,26 +280,44 @@ class ImprovedField {
   double curvature_moment() const { return curvature_moment_; }
   std::span<const Vec2> positions() const { return position_; }
   std::span<const double> reaches() const { return particle_reach_; }
-  /// Half widths of the axis-aligned box around particle p outside which it adds nothing, m.
+  /// Half widths of the axis-aligned box around particle p outside which it adds nothing (its
+  /// guard included, whether active or not), m.
   Vec2 reach_box(std::size_t p) const { return reach_box_[p]; }
   bool guarded(std::size_t p) const { return guarded_[p] != 0; }
   /// Number of particles whose guard is active.
   std::size_t n_guarded() const { return n_guarded_; }
+  /// Number of mirror images across the grid edges (see ImprovedConfig::mirror_grid_edges).
+  std::size_t n_mirrored() const { return slot_.size() - position_.size(); }
 
  private:
+  // Per particle, by particle index.
   std::vector<Vec2> position_;
-  std::vector<Mat2> kernel_inverse_;   ///< S^-1
-  std::vector<double> kernel_weight_;  ///< V_p C_p
-  std::vector<Mat2> guard_inverse_;
   std::vector<char> guarded_;
   std::vector<Vec2> reach_box_;
-  std::size_t n_guarded_ = 0;
   std::vector<double> particle_reach_;
+  std::vector<double> kernel_reach_;      ///< largest kernel semi-axis, m
+  std::vector<double> smallest_stretch_;  ///< smallest singular value of F
+  // Per particle and mirror image in bin order (slot k holds bins_.particle_at(k); indices past
+  // the particles are mirror images): what the evaluations read.
+  struct Slot {
+    double x, y;                ///< position, m
+    double k00, k01, k10, k11;  ///< S^-1, 1/m
+    double weight;              ///< V_p C_p
+    double guarded;             ///< 1 when the guard is active
+    double half_x, half_y;      ///< half widths of the box around the kernel (and guard), m
+  };
+  std::vector<Slot> slot_;
+  std::size_t n_guarded_ = 0;
   int exponent_ = 3;
   bool guard_ = true;
+  double level_ = 0.5;
+  double guard_margin_ = 0.02;
+  double guard_radius_ = 0.0;  ///< rho0 = guard_factor * initial_spacing / 2, m
+  double guard_scale_ = 0.0;   ///< a0 / rho0: the guard ellipse is the kernel's scaled by it
   double reach_ = 0.0;
   double smallest_guard_axis_ = 0.0;
   double curvature_moment_ = 0.0;
+  int rings_ = 1;  ///< bins searched around a point (bin size = reach / rings)
   ParticleBins bins_;
 };
 

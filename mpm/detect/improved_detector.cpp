@@ -10,75 +10,240 @@
 
 namespace pfm {
 
-ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config)
-    : exponent_(static_cast<int>(config.profile)), guard_(config.guard_factor > 0.0) {
-  detail::check_cloud(cloud);
+ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
+                             const Grid* walls)
+    : ImprovedField((detail::check_cloud(cloud), cloud), config, DeferGuards{}, walls) {
+  decide_guards({});
+}
+
+ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
+                             const Grid* walls)
+    : exponent_(static_cast<int>(config.profile)),
+      guard_(config.guard_factor > 0.0),
+      level_(config.level),
+      guard_margin_(config.guard_margin) {
   const std::size_t n = cloud.position.size();
   const double a0 = config.radius_factor * cloud.initial_spacing;
-  const double rho0 = config.guard_factor * 0.5 * cloud.initial_spacing;
+  guard_radius_ = config.guard_factor * 0.5 * cloud.initial_spacing;
+  guard_scale_ = guard_ ? a0 / guard_radius_ : 0.0;
   position_.assign(cloud.position.begin(), cloud.position.end());
-  kernel_inverse_.resize(n);
-  kernel_weight_.resize(n);
-  guard_inverse_.resize(n);
+  guarded_.assign(n, 0);
   particle_reach_.resize(n);
+  kernel_reach_.resize(n);
   reach_box_.resize(n);
+  smallest_stretch_.resize(n);
   smallest_guard_axis_ = std::numeric_limits<double>::infinity();
   curvature_moment_ = a0 * a0 / (2.0 * exponent_ + 3.0);
   const double mass_constant = (exponent_ + 1.0) / std::numbers::pi;  // C det S, unit mass
+  const bool deformed = !cloud.deformation_gradient.empty();
+  const double guard_reach = std::sqrt(2.0) * guard_radius_;  // guard defined for q_g < 2
+  // Pass 1, by particle: reaches (for the bins, the mirror images and the narrow band).
   for (std::size_t p = 0; p < n; ++p) {
-    const Mat2 f =
-        cloud.deformation_gradient.empty() ? Mat2::Identity() : cloud.deformation_gradient[p];
-    const double det_f = f.determinant();
-    const Mat2 f_inverse = f.inverse();
-    // S = F S0 with S0 = a0 I: the kernel follows the material (no clamping).
-    kernel_inverse_[p] = f_inverse / a0;
-    kernel_weight_[p] = cloud.volume[p] * mass_constant / (a0 * a0 * det_f);
+    if (!deformed) {
+      smallest_stretch_[p] = 1.0;
+      kernel_reach_[p] = a0;
+      particle_reach_[p] = guard_ ? std::max(a0, guard_reach) : a0;
+      reach_box_[p] = Vec2::Constant(particle_reach_[p]);
+      reach_ = std::max(reach_, particle_reach_[p]);
+      continue;
+    }
+    const Mat2& f = cloud.deformation_gradient[p];
     double largest = 0.0, smallest = 0.0;
     detail::singular_values(f, largest, smallest);
-    double reach = a0 * largest;
+    smallest_stretch_[p] = smallest;
+    // Axis-aligned half widths of the kernel ellipse {F a0 u : |u| < 1} and of the guard's
+    // support {F rho0 u : |u|^2 < 2} (counted whether the guard becomes active or not).
+    const Vec2 widths(std::sqrt(f(0, 0) * f(0, 0) + f(0, 1) * f(0, 1)),
+                      std::sqrt(f(1, 0) * f(1, 0) + f(1, 1) * f(1, 1)));
+    kernel_reach_[p] = a0 * largest;
+    double reach = kernel_reach_[p];
+    reach_box_[p] = a0 * widths;
     if (guard_) {
-      guard_inverse_[p] = f_inverse / rho0;
-      reach = std::max(reach, std::sqrt(2.0) * rho0 * largest);  // guard defined for q < 2
+      reach = std::max(reach, guard_reach * largest);
+      reach_box_[p] = reach_box_[p].cwiseMax(guard_reach * widths);
     }
     particle_reach_[p] = reach;
     reach_ = std::max(reach_, reach);
-    // Axis-aligned half widths of the kernel ellipse {F a0 u : |u| < 1}.
-    const Mat2 m = f * f.transpose();
-    reach_box_[p] = a0 * Vec2(std::sqrt(m(0, 0)), std::sqrt(m(1, 1)));
   }
-  bins_ = ParticleBins(position_, reach_ > 0.0 ? reach_ : 1.0);
-  // Guards only where the particle's own phi is not comfortably above the level.
-  guarded_.assign(n, 0);
-  if (guard_) {
-    for (std::size_t p = 0; p < n; ++p) {
-      const Mat2 f =
-          cloud.deformation_gradient.empty() ? Mat2::Identity() : cloud.deformation_gradient[p];
-      double largest = 0.0, smallest = 0.0;
-      detail::singular_values(f, largest, smallest);
-      if (volume_fraction(position_[p]) <= config.level + config.guard_margin) {
-        guarded_[p] = 1;
-        ++n_guarded_;
-        smallest_guard_axis_ = std::min(smallest_guard_axis_, rho0 * smallest);
-        const Mat2 m = f * f.transpose();
-        const Vec2 widths(std::sqrt(m(0, 0)), std::sqrt(m(1, 1)));
-        reach_box_[p] = reach_box_[p].cwiseMax(std::sqrt(2.0) * rho0 * widths);
-      } else {
-        particle_reach_[p] = a0 * largest;  // no guard: the kernel alone
+  // Mirror images across the grid edges that no particle lies beyond (walls): the reflection
+  // R (x - e) + e of the position and R F R of the deformation, R = diag(-1, 1) or diag(1, -1);
+  // near a corner across both edges too. Images are never guarded.
+  struct Image {
+    std::size_t particle;
+    bool in_x, in_y;
+    double ex, ey;  ///< the mirror lines x = ex, y = ey, m
+  };
+  std::vector<Image> images;
+  std::vector<Vec2> all_positions = position_;
+  if (walls != nullptr && n > 0) {
+    Vec2 lo = position_[0], hi = position_[0];
+    for (const Vec2& x : position_) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    const Vec2 g0 = walls->origin, g1 = walls->upper_corner();
+    // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle
+    // closer to it than one initial spacing "touches" it; the touched stretches of the wall are
+    // kept in bins of one spacing along it, and a particle is mirrored across the wall only if
+    // the wall is touched within its reach along the wall (a body near a wall but clear of it
+    // keeps its own boundary there).
+    const bool wall[4] = {lo.x() >= g0.x(), hi.x() <= g1.x(), lo.y() >= g0.y(), hi.y() <= g1.y()};
+    const double spacing = cloud.initial_spacing;
+    const auto distance_to = [&](int w, const Vec2& x) {
+      return w == 0   ? x.x() - g0.x()
+             : w == 1 ? g1.x() - x.x()
+             : w == 2 ? x.y() - g0.y()
+                      : g1.y() - x.y();
+    };
+    const auto along = [&](int w, const Vec2& x) {
+      return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
+    };
+    const double wall_length[2] = {g1.y() - g0.y(), g1.x() - g0.x()};
+    std::vector<char> touched[4];
+    for (int w = 0; w < 4; ++w) {
+      if (!wall[w]) continue;
+      touched[w].assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
+      for (const Vec2& x : position_) {
+        if (distance_to(w, x) >= spacing) continue;
+        const double t = std::clamp(along(w, x) / spacing, 0.0, touched[w].size() - 1.0);
+        touched[w][static_cast<std::size_t>(t)] = 1;
       }
     }
+    const auto mirrored = [&](int w, const Vec2& x, double half_across, double half_along) {
+      if (!wall[w] || distance_to(w, x) >= half_across) return false;
+      const auto& bins = touched[w];
+      const double a = along(w, x);
+      const long b0 = std::max(0L, static_cast<long>(std::floor((a - half_along) / spacing)));
+      const long b1 = std::min(static_cast<long>(bins.size()) - 1,
+                               static_cast<long>(std::floor((a + half_along) / spacing)));
+      for (long b = b0; b <= b1; ++b) {
+        if (bins[static_cast<std::size_t>(b)]) return true;
+      }
+      return false;
+    };
+    for (std::size_t p = 0; p < n; ++p) {
+      const Vec2& x = position_[p];
+      const double half_x = std::max(reach_box_[p].x(), particle_reach_[p]);
+      const double half_y = std::max(reach_box_[p].y(), particle_reach_[p]);
+      int side_x = -1, side_y = -1;  // which wall (0 low, 1 high) the particle is mirrored across
+      if (mirrored(0, x, half_x, half_y)) {
+        side_x = 0;
+      } else if (mirrored(1, x, half_x, half_y)) {
+        side_x = 1;
+      }
+      if (mirrored(2, x, half_y, half_x)) {
+        side_y = 0;
+      } else if (mirrored(3, x, half_y, half_x)) {
+        side_y = 1;
+      }
+      if (side_x < 0 && side_y < 0) continue;
+      const double ex = side_x == 1 ? g1.x() : g0.x(), ey = side_y == 1 ? g1.y() : g0.y();
+      const std::pair<bool, bool> kinds[3] = {{true, false}, {false, true}, {true, true}};
+      for (const auto& [in_x, in_y] : kinds) {
+        if ((in_x && side_x < 0) || (in_y && side_y < 0)) continue;
+        images.push_back({p, in_x, in_y, ex, ey});
+        all_positions.emplace_back(in_x ? 2.0 * ex - x.x() : x.x(),
+                                   in_y ? 2.0 * ey - x.y() : x.y());
+      }
+    }
+  }
+  // Bins of half the largest reach searched two rings out: 6.25 reach^2 of candidates per
+  // evaluation instead of 9 reach^2 with bins of the full reach.
+  rings_ = 2;
+  bins_ = ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
+  // Pass 2, in bin order (the cloud's arrays are read in a few streams): the slots.
+  const auto kernel_of = [&](std::size_t p) {
+    Slot slot{position_[p].x(),
+              position_[p].y(),
+              1.0 / a0,
+              0.0,
+              0.0,
+              1.0 / a0,
+              cloud.volume[p] * mass_constant / (a0 * a0),
+              0.0,
+              a0,
+              a0};
+    if (deformed) {
+      const Mat2& f = cloud.deformation_gradient[p];
+      const double det_f = f.determinant();
+      // S = F S0 with S0 = a0 I: the kernel follows the material (no clamping); S^-1 = F^-1 / a0.
+      const double inverse_scale = 1.0 / (det_f * a0);
+      slot.k00 = f(1, 1) * inverse_scale;
+      slot.k01 = -f(0, 1) * inverse_scale;
+      slot.k10 = -f(1, 0) * inverse_scale;
+      slot.k11 = f(0, 0) * inverse_scale;
+      slot.weight /= det_f;
+      // Half widths of the box around the ellipse {a0 F u : |u| < 1}: a0 |row of F|.
+      slot.half_x = a0 * std::sqrt(f(0, 0) * f(0, 0) + f(0, 1) * f(0, 1));
+      slot.half_y = a0 * std::sqrt(f(1, 0) * f(1, 0) + f(1, 1) * f(1, 1));
+    }
+    return slot;
+  };
+  slot_.resize(all_positions.size());
+  for (std::size_t k = 0; k < slot_.size(); ++k) {
+    const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
+    if (q < n) {
+      slot_[k] = kernel_of(q);
+      continue;
+    }
+    const Image& image = images[q - n];
+    Slot m = kernel_of(image.particle);
+    if (image.in_x) {
+      m.x = 2.0 * image.ex - m.x;
+      m.k01 = -m.k01;
+      m.k10 = -m.k10;
+    }
+    if (image.in_y) {
+      m.y = 2.0 * image.ey - m.y;
+      m.k01 = -m.k01;
+      m.k10 = -m.k10;
+    }
+    slot_[k] = m;
+  }
+}
+
+void ImprovedField::decide_guards(std::span<const char> candidate) {
+  if (!guard_) return;
+  const std::size_t n = position_.size();
+  // Guards only where the particle's own phi is not comfortably above the level; phi is
+  // evaluated before any guard is switched on.
+  std::vector<std::size_t> newly;
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!candidate.empty() && !candidate[p]) continue;
+    if (volume_fraction(position_[p]) <= level_ + guard_margin_) newly.push_back(p);
+  }
+  for (const std::size_t p : newly) {
+    guarded_[p] = 1;
+    ++n_guarded_;
+    smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
+    Slot& slot = slot_[bins_.slot_of(static_cast<int>(p))];
+    slot.guarded = 1.0;
+    // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
+    const double guard_box = std::sqrt(2.0) / guard_scale_;
+    if (guard_box > 1.0) {
+      slot.half_x *= guard_box;
+      slot.half_y *= guard_box;
+    }
+  }
+  // Particles without a guard reach as far as their kernel.
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!guarded_[p]) particle_reach_[p] = kernel_reach_[p];
   }
 }
 
 double ImprovedField::volume_fraction(const Vec2& x) const {
   double phi = 0.0;
-  bins_.for_each_near(x, [&](int p) {
-    const Vec2 u = kernel_inverse_[p] * (x - position_[p]);
-    const double q = u.squaredNorm();
+  const double px = x.x(), py = x.y();
+  bins_.for_each_slot_near(x, rings_, [&](int k) {
+    const Slot& s = slot_[k];
+    const double dx = px - s.x, dy = py - s.y;
+    const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
+    const double q = ux * ux + uy * uy;
     if (q < 1.0) {
       const double w = 1.0 - q;
       double wk = w;
-      for (int k = 1; k < exponent_; ++k) wk *= w;
-      phi += kernel_weight_[p] * wk;
+      for (int e = 1; e < exponent_; ++e) wk *= w;
+      phi += s.weight * wk;
     }
   });
   return phi;
@@ -86,23 +251,79 @@ double ImprovedField::volume_fraction(const Vec2& x) const {
 
 double ImprovedField::operator()(const Vec2& x) const {
   double phi = 0.0, guard = 0.0;
-  bins_.for_each_near(x, [&](int p) {
-    const Vec2 d = x - position_[p];
-    const Vec2 u = kernel_inverse_[p] * d;
-    const double q = u.squaredNorm();
+  const double px = x.x(), py = x.y();
+  bins_.for_each_slot_near(x, rings_, [&](int k) {
+    const Slot& s = slot_[k];
+    const double dx = px - s.x, dy = py - s.y;
+    const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
+    const double q = ux * ux + uy * uy;
     if (q < 1.0) {
       const double w = 1.0 - q;
       double wk = w;
-      for (int k = 1; k < exponent_; ++k) wk *= w;
-      phi += kernel_weight_[p] * wk;
+      for (int e = 1; e < exponent_; ++e) wk *= w;
+      phi += s.weight * wk;
     }
-    if (guarded_[p]) {
-      // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2.
-      const double qg = (guard_inverse_[p] * d).squaredNorm();
+    if (s.guarded != 0.0) {
+      // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2;
+      // G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q.
+      const double qg = guard_scale_ * guard_scale_ * q;
       if (qg < 2.0) guard = std::max(guard, 1.0 - 0.5 * qg);
     }
   });
   return std::max(phi, guard);
+}
+
+void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
+                                   int n_x, int n_y, std::vector<double>& out) const {
+  const std::size_t n_nodes = static_cast<std::size_t>(n_x) * n_y;
+  out.assign(n_nodes, 0.0);
+  std::vector<double> guard(n_nodes, 0.0);
+  if (slot_.empty()) return;
+  // The slots binned within reach of the block, in increasing slot order (the order in which
+  // operator() adds them at any of its nodes).
+  // Node (a, b) sits at origin + (first_i + a, first_j + b) spacing, computed exactly as the
+  // caller of operator() computes it.
+  const auto node_x = [&](int a) {
+    return origin.x() + static_cast<double>(first_i + a) * spacing;
+  };
+  const auto node_y = [&](int b) {
+    return origin.y() + static_cast<double>(first_j + b) * spacing;
+  };
+  const Vec2 lo = Vec2(node_x(0), node_y(0)) - Vec2::Constant(reach_);
+  const Vec2 hi = Vec2(node_x(n_x - 1), node_y(n_y - 1)) + Vec2::Constant(reach_);
+  std::vector<int> slots;
+  bins_.for_each_slot_in_box(lo, hi, [&](int k) { slots.push_back(k); });
+  for (const int k : slots) {
+    const Slot& s = slot_[k];
+    const double half_x = s.half_x, half_y = s.half_y;
+    // One node of slack on each side: the q tests below decide, as in operator().
+    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / spacing)));
+    const int i1 =
+        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / spacing)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / spacing)));
+    const int j1 =
+        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / spacing)));
+    for (int j = j0; j <= j1; ++j) {
+      const double dy = node_y(j) - s.y;
+      for (int i = i0; i <= i1; ++i) {
+        const double dx = node_x(i) - s.x;
+        const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
+        const double q = ux * ux + uy * uy;
+        const std::size_t node = static_cast<std::size_t>(j) * n_x + i;
+        if (q < 1.0) {
+          const double w = 1.0 - q;
+          double wk = w;
+          for (int e = 1; e < exponent_; ++e) wk *= w;
+          out[node] += s.weight * wk;
+        }
+        if (s.guarded != 0.0) {
+          const double qg = guard_scale_ * guard_scale_ * q;
+          if (qg < 2.0) guard[node] = std::max(guard[node], 1.0 - 0.5 * qg);
+        }
+      }
+    }
+  }
+  for (std::size_t node = 0; node < n_nodes; ++node) out[node] = std::max(out[node], guard[node]);
 }
 
 double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
@@ -205,55 +426,57 @@ void correct_curvature(DetectedBoundary& boundary, double moment, double arc) {
 
 }  // namespace
 
+// Values of type T on the fine field grid stored in blocks of r x r, one per coarse (grid) cell,
+// allocated on first use: the narrow band touches few blocks of a large refined grid. Block
+// (bi, bj) holds the fine indices [bi r, bi r + r) x [bj r, bj r + r); the blocks run one past
+// the last coarse cell so the last node row and column have a home.
+template <class T>
+class BlockStore {
+ public:
+  BlockStore(int n_coarse_x, int n_coarse_y, int r, T fill)
+      : n_x_(n_coarse_x + 1),
+        r_(r),
+        fill_(fill),
+        offset_(static_cast<std::size_t>(n_coarse_x + 1) * (n_coarse_y + 1), -1) {}
+  T& at(int i, int j) {
+    const std::size_t block = static_cast<std::size_t>(j / r_) * n_x_ + i / r_;
+    long& offset = offset_[block];
+    if (offset < 0) {
+      offset = static_cast<long>(pool_.size());
+      pool_.resize(pool_.size() + static_cast<std::size_t>(r_) * r_, fill_);
+    }
+    return pool_[offset + static_cast<long>(j % r_) * r_ + i % r_];
+  }
+
+ private:
+  int n_x_, r_;
+  T fill_;
+  std::vector<long> offset_;
+  std::vector<T> pool_;
+};
+
 DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
                                  const ImprovedConfig& config, DetectionTimings& timings) {
   using Clock = std::chrono::steady_clock;
   const auto field_start = Clock::now();
-  const ImprovedField field(cloud, config);
+  ImprovedField field(cloud, config, ImprovedField::DeferGuards{},
+                      config.mirror_grid_edges ? &grid : nullptr);
   const double h = grid.cell_size;
-  int refinement = config.refinement;
-  if (refinement <= 0) {
-    // A field cell whose diagonal fits in the smallest guard semi-axis has all four corners in
-    // the guard ellipse of any particle inside it: that particle is then inside the contour.
-    const double axis = field.smallest_guard_axis();
-    refinement = std::isfinite(axis) ? static_cast<int>(std::ceil(h * std::sqrt(2.0) / axis)) : 4;
-    refinement = std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
-  }
-  timings.refinement = refinement;
-  NodalField geometry;
-  geometry.origin = grid.origin;
-  geometry.spacing = h / refinement;
-  geometry.n_x = grid.n_cells_x * refinement + 1;
-  geometry.n_y = grid.n_cells_y * refinement + 1;
-  const std::size_t n_nodes = static_cast<std::size_t>(geometry.n_x) * geometry.n_y;
-  std::vector<double> node_cache(n_nodes, std::numeric_limits<double>::quiet_NaN());
+  const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
+  const double level = config.level;
   long field_evaluations = 0;
-  bool time_lazy_nodes = false;  // nodes evaluated during the contouring count as field time
-  double lazy_node_seconds = 0.0;
-  const auto node_value = [&](int i, int j) {
-    double& slot = node_cache[static_cast<std::size_t>(j) * geometry.n_x + i];
-    if (std::isnan(slot)) {
-      const auto start = time_lazy_nodes ? Clock::now() : Clock::time_point{};
-      slot = field(geometry.origin + Vec2(i * geometry.spacing, j * geometry.spacing));
-      ++field_evaluations;
-      if (time_lazy_nodes) lazy_node_seconds += seconds_since(start);
-    }
-    return slot;
-  };
-  const int n_fine_x = geometry.n_x - 1, n_fine_y = geometry.n_y - 1;
-  std::vector<int> cells;
-  if (!config.narrow_band) {
-    for (int j = 0; j < geometry.n_y; ++j) {
-      for (int i = 0; i < geometry.n_x; ++i) node_value(i, j);
-    }
-    cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
-    for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
-  } else {
-    // Coarse cells (grid cells) reached by some kernel or guard; the rest is exactly void.
-    const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
-    std::vector<char> reached(static_cast<std::size_t>(ncx) * ncy, 0);
-    const auto positions = field.positions();
-    for (std::size_t p = 0; p < positions.size(); ++p) {
+  const auto positions = field.positions();
+  const std::size_t n_particles = positions.size();
+
+  // 1. Coarse screening on the grid cells (narrow band only), with phi alone (the guards are not
+  //    decided yet; max(phi, guard) >= phi): cells no kernel reaches are exactly void; reached
+  //    cells whose corners and centre all exceed level + band_margin are interior ("deep"),
+  //    those all below level - band_margin are exterior ("far") unless they hold a guarded
+  //    particle. The rest is "active". The screening is a heuristic (detector.hpp).
+  std::vector<char> reached, deep, far;
+  if (config.narrow_band) {
+    reached.assign(static_cast<std::size_t>(ncx) * ncy, 0);
+    for (std::size_t p = 0; p < n_particles; ++p) {
       const Vec2 half = field.reach_box(p);
       const int i0 = std::max(grid.cell_i(positions[p].x() - half.x()), 0);
       const int i1 = std::min(grid.cell_i(positions[p].x() + half.x()), ncx - 1);
@@ -263,62 +486,164 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
         for (int i = i0; i <= i1; ++i) reached[static_cast<std::size_t>(j) * ncx + i] = 1;
       }
     }
-    // Screening of the reached cells: corners and centre all well above the level (interior) or
-    // all well below it with no guarded particle in the cell (exterior) are skipped.
+    // phi at the grid nodes and cell centres, gathered point by point (the coarse nodes are
+    // sparse: a particle would visit few of them, a block evaluation would cost more).
+    std::vector<double> coarse(static_cast<std::size_t>(ncx + 1) * (ncy + 1),
+                               std::numeric_limits<double>::quiet_NaN());
+    const auto coarse_phi = [&](int i, int j) {
+      double& slot = coarse[static_cast<std::size_t>(j) * (ncx + 1) + i];
+      if (std::isnan(slot)) {
+        slot = field.volume_fraction(grid.node_position(i, j));
+        ++field_evaluations;
+      }
+      return slot;
+    };
+    deep.assign(reached.size(), 0);
+    far.assign(reached.size(), 0);
+    const double interior = level + config.band_margin;
+    const double exterior = level - config.band_margin;
+    for (int j = 0; j < ncy; ++j) {
+      for (int i = 0; i < ncx; ++i) {
+        const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
+        if (!reached[c]) continue;
+        const double v[4] = {coarse_phi(i, j), coarse_phi(i + 1, j), coarse_phi(i, j + 1),
+                             coarse_phi(i + 1, j + 1)};
+        bool is_deep = v[0] > interior && v[1] > interior && v[2] > interior && v[3] > interior;
+        bool is_far = v[0] < exterior && v[1] < exterior && v[2] < exterior && v[3] < exterior;
+        if (is_deep || is_far) {
+          const double vc =
+              field.volume_fraction(grid.node_position(i, j) + Vec2(0.5 * h, 0.5 * h));
+          ++field_evaluations;
+          is_deep = is_deep && vc > interior;
+          is_far = is_far && vc < exterior;
+        }
+        deep[c] = is_deep ? 1 : 0;
+        far[c] = is_far ? 1 : 0;
+      }
+    }
+  }
+  // 2. Guards: every particle outside the deep cells is a candidate (all without narrow band).
+  std::vector<char> candidate;
+  if (config.narrow_band) {
+    candidate.assign(n_particles, 1);
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      const int i = grid.cell_i(positions[p].x()), j = grid.cell_j(positions[p].y());
+      if (i >= 0 && j >= 0 && i < ncx && j < ncy && deep[static_cast<std::size_t>(j) * ncx + i]) {
+        candidate[p] = 0;
+      }
+    }
+  }
+  field.decide_guards(candidate);
+  field_evaluations += static_cast<long>(
+      candidate.empty() ? n_particles : std::count(candidate.begin(), candidate.end(), 1));
+
+  int refinement = config.refinement;
+  if (refinement <= 0) {
+    // A field cell whose diagonal fits in the smallest guard semi-axis has all four corners in
+    // the guard ellipse of any particle inside it: that particle is then inside the contour.
+    const double axis = field.smallest_guard_axis();
+    refinement = std::isfinite(axis) ? static_cast<int>(std::ceil(h * std::sqrt(2.0) / axis)) : 4;
+    refinement = std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
+  }
+  const int r = refinement;
+  timings.refinement = r;
+  NodalField geometry;
+  geometry.origin = grid.origin;
+  geometry.spacing = h / r;
+  geometry.n_x = ncx * r + 1;
+  geometry.n_y = ncy * r + 1;
+  const int n_fine_x = geometry.n_x - 1, n_fine_y = geometry.n_y - 1;
+  BlockStore<double> node_cache(ncx, ncy, r, std::numeric_limits<double>::quiet_NaN());
+  const auto node_value = [&](int i, int j) {
+    double& slot = node_cache.at(i, j);
+    if (std::isnan(slot)) {
+      slot = field(Vec2(geometry.origin.x() + static_cast<double>(i) * geometry.spacing,
+                        geometry.origin.y() + static_cast<double>(j) * geometry.spacing));
+      ++field_evaluations;
+    }
+    return slot;
+  };
+  const auto inside = [&](int i, int j) { return node_value(i, j) > level; };
+
+  // 3. The fine cells to contour. Full field: all of them. Narrow band: every fine cell of the
+  //    active coarse cells, then the contours traced on from there: a cell with a sign change
+  //    passes its contour on through every edge whose nodes differ, so a contour that leaves
+  //    the active cells is followed wherever it goes. Seeds for the guards too: for each guarded
+  //    particle the first cell with a sign change to its right.
+  std::vector<int> cells;
+  std::vector<double> block;
+  const auto evaluate_coarse_cell = [&](int i, int j) {
+    field.evaluate_block(geometry.origin, geometry.spacing, i * r, j * r, r + 1, r + 1, block);
+    field_evaluations += static_cast<long>(block.size());
+    for (int b = 0; b <= r; ++b) {
+      for (int a = 0; a <= r; ++a) node_cache.at(i * r + a, j * r + b) = block[b * (r + 1) + a];
+    }
+  };
+  if (!config.narrow_band) {
+    for (int j = 0; j < ncy; ++j) {
+      for (int i = 0; i < ncx; ++i) evaluate_coarse_cell(i, j);
+    }
+    cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
+    for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
+  } else {
+    BlockStore<char> visited(ncx, ncy, r, 0);
+    std::vector<int> queue;
+    const auto push = [&](int i, int j) {
+      if (i < 0 || j < 0 || i >= n_fine_x || j >= n_fine_y) return;
+      char& v = visited.at(i, j);
+      if (v) return;
+      v = 1;
+      queue.push_back(j * n_fine_x + i);
+    };
     std::vector<char> guard_here(reached.size(), 0);
-    for (std::size_t p = 0; p < positions.size(); ++p) {
+    for (std::size_t p = 0; p < n_particles; ++p) {
       if (!field.guarded(p)) continue;
       const int i = grid.cell_i(positions[p].x()), j = grid.cell_j(positions[p].y());
       if (i >= 0 && j >= 0 && i < ncx && j < ncy)
         guard_here[static_cast<std::size_t>(j) * ncx + i] = 1;
     }
-    std::vector<char> active(reached.size(), 0);
-    const double interior = config.level + config.band_margin;
-    const double exterior = config.level - config.band_margin;
+    // Every fine cell of the active coarse cells (their fine nodes are all evaluated, so any
+    // sub-cell island or hole inside them is found), evaluated a cell at a time.
     for (int j = 0; j < ncy; ++j) {
       for (int i = 0; i < ncx; ++i) {
         const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
-        if (!reached[c]) continue;
-        const int fi = i * refinement, fj = j * refinement;
-        const double v[4] = {node_value(fi, fj), node_value(fi + refinement, fj),
-                             node_value(fi, fj + refinement),
-                             node_value(fi + refinement, fj + refinement)};
-        bool deep = v[0] > interior && v[1] > interior && v[2] > interior && v[3] > interior;
-        bool far = !guard_here[c] && v[0] < exterior && v[1] < exterior && v[2] < exterior &&
-                   v[3] < exterior;
-        if (deep || far) {
-          const Vec2 centre = grid.node_position(i, j) + Vec2(0.5 * h, 0.5 * h);
-          const double vc = field(centre);
-          ++field_evaluations;
-          deep = deep && vc > interior;
-          far = far && vc < exterior;
+        if (!reached[c] || deep[c] || (far[c] && !guard_here[c])) continue;
+        evaluate_coarse_cell(i, j);
+        for (int b = 0; b < r; ++b) {
+          for (int a = 0; a < r; ++a) push(i * r + a, j * r + b);
         }
-        active[c] = (deep || far) ? 0 : 1;
       }
     }
-    // Dilate by one coarse cell (within the reached cells) and list the fine cells.
-    std::vector<char> band(active.size(), 0);
-    for (int j = 0; j < ncy; ++j) {
-      for (int i = 0; i < ncx; ++i) {
-        const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
-        if (!reached[c]) continue;
-        bool near = false;
-        for (int dj = -1; dj <= 1 && !near; ++dj) {
-          for (int di = -1; di <= 1 && !near; ++di) {
-            const int ii = i + di, jj = j + dj;
-            near = ii >= 0 && jj >= 0 && ii < ncx && jj < ncy &&
-                   active[static_cast<std::size_t>(jj) * ncx + ii];
-          }
+    const auto sign_change = [&](int i, int j) {
+      const bool a = inside(i, j);
+      return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
+    };
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      if (!field.guarded(p)) continue;
+      int i =
+          static_cast<int>(std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
+      const int j =
+          static_cast<int>(std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
+      if (j < 0 || j >= n_fine_y) continue;
+      for (i = std::max(i, 0); i < n_fine_x; ++i) {
+        if (sign_change(i, j)) {
+          push(i, j);
+          break;
         }
-        band[c] = near ? 1 : 0;
       }
     }
-    for (int fj = 0; fj < n_fine_y; ++fj) {
-      for (int fi = 0; fi < n_fine_x; ++fi) {
-        if (band[static_cast<std::size_t>(fj / refinement) * ncx + fi / refinement]) {
-          cells.push_back(fj * n_fine_x + fi);
-        }
-      }
+    // Trace: a cell with a sign change passes the contour on through each edge whose two nodes
+    // differ; cells reached without a sign change (none in exact arithmetic) are dropped.
+    for (std::size_t q = 0; q < queue.size(); ++q) {
+      const int i = queue[q] % n_fine_x, j = queue[q] / n_fine_x;
+      const bool c00 = inside(i, j), c10 = inside(i + 1, j);
+      const bool c11 = inside(i + 1, j + 1), c01 = inside(i, j + 1);
+      if (c00 == c10 && c00 == c11 && c00 == c01) continue;
+      cells.push_back(queue[q]);
+      if (c00 != c10) push(i, j - 1);
+      if (c10 != c11) push(i + 1, j);
+      if (c11 != c01) push(i, j + 1);
+      if (c01 != c00) push(i - 1, j);
     }
   }
   timings.field = seconds_since(field_start);
@@ -326,8 +651,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const auto contour_start = Clock::now();
   double edge_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
-  const double tolerance_t = config.root_tolerance * refinement;  // fraction of the fine edge
-  const double level = config.level;
+  const double tolerance_t = config.root_tolerance * r;  // fraction of the fine edge
   const EdgeRefiner refine = [&](const Vec2& a, double value_a, const Vec2& b, double value_b) {
     const auto start = Clock::now();
     const Vec2 d = b - a;
@@ -341,12 +665,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     ++field_evaluations;
     return field(x);
   };
-  time_lazy_nodes = true;
   DetectedBoundary boundary = marching_squares_cells(geometry, node_value, cells, level,
                                                      config.saddle_rule, refine, exact_sample);
-  timings.field += lazy_node_seconds;
   timings.edge_points = edge_seconds;
-  timings.connection = seconds_since(contour_start) - edge_seconds - lazy_node_seconds;
+  timings.connection = seconds_since(contour_start) - edge_seconds;
   timings.processed_cells = static_cast<long>(cells.size());
   timings.edge_point_count = edge_points;
   timings.root_evaluations = root_evaluations;

@@ -5,6 +5,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 namespace pfm {
 
@@ -28,11 +29,11 @@ void check_geometry(const NodalField& f) {
 // Edge numbering: horizontal edge (i, j)-(i+1, j) -> j (n_x - 1) + i; vertical edge
 // (i, j)-(i, j+1) -> n_h + j n_x + i.
 struct EdgeNumbering {
-  int n_x, n_y;
-  int n_horizontal() const { return (n_x - 1) * n_y; }
-  int horizontal(int i, int j) const { return j * (n_x - 1) + i; }
-  int vertical(int i, int j) const { return n_horizontal() + j * n_x + i; }
-  int count() const { return n_horizontal() + n_x * (n_y - 1); }
+  long n_x, n_y;
+  long n_horizontal() const { return (n_x - 1) * n_y; }
+  long horizontal(long i, long j) const { return j * (n_x - 1) + i; }
+  long vertical(long i, long j) const { return n_horizontal() + j * n_x + i; }
+  long count() const { return n_horizontal() + n_x * (n_y - 1); }
 };
 
 }  // namespace
@@ -61,7 +62,13 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
                                         const std::function<double(const Vec2&)>& exact_sample) {
   check_geometry(geom);
   const EdgeNumbering edges{geom.n_x, geom.n_y};
-  std::vector<int> point_of_edge(edges.count(), -1);
+  // Point of each edge crossing: a dense table when the cells cover a good part of the field, a
+  // hash map for a narrow band on a large field (lookups only, so the result does not depend on
+  // the choice).
+  const bool dense = static_cast<double>(edges.count()) <= 16.0 * cells.size() + 4096.0;
+  std::vector<int> point_of_edge(dense ? edges.count() : 0, -1);
+  std::unordered_map<long, int> sparse_point_of_edge;
+  if (!dense) sparse_point_of_edge.reserve(2 * cells.size());
   std::vector<Vec2> points;
   std::vector<DirectedSegment> segments;
   const auto node_pos = [&geom](int i, int j) {
@@ -69,8 +76,9 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
   };
   // Crossing on the edge from node (ia, ja) to node (ib, jb), computed once per edge so the two
   // cells sharing it use the identical point.
-  const auto crossing = [&](int edge, int ia, int ja, double va, int ib, int jb, double vb) {
-    int& slot = point_of_edge[edge];
+  const auto crossing = [&](long edge, int ia, int ja, double va, int ib, int jb, double vb) {
+    int& slot =
+        dense ? point_of_edge[edge] : sparse_point_of_edge.try_emplace(edge, -1).first->second;
     if (slot >= 0) return slot;
     const Vec2 a = node_pos(ia, ja), b = node_pos(ib, jb);
     Vec2 p;
@@ -100,8 +108,8 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
     }
     if (n_in == 0 || n_in == 4) continue;
     // Edges walked counter-clockwise: k from corner k to corner k+1.
-    const int edge_id[4] = {edges.horizontal(i, j), edges.vertical(i + 1, j),
-                            edges.horizontal(i, j + 1), edges.vertical(i, j)};
+    const long edge_id[4] = {edges.horizontal(i, j), edges.vertical(i + 1, j),
+                             edges.horizontal(i, j + 1), edges.vertical(i, j)};
     int point[4];
     bool leaving[4];  // true: the walk goes from material to void (a contour starts here)
     int n_cross = 0;

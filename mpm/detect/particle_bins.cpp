@@ -30,7 +30,9 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : b
   for (std::size_t b = 1; b < start_.size(); ++b) start_[b] += start_[b - 1];
   particle_.resize(positions.size());
   std::vector<int> fill(start_.begin(), start_.end() - 1);
+  slot_.resize(positions.size());
   for (std::size_t p = 0; p < positions.size(); ++p) {
+    slot_[p] = fill[bin_of[p]];
     particle_[fill[bin_of[p]]++] = static_cast<int>(p);
   }
 }

@@ -33,6 +33,43 @@ class ParticleBins {
     }
   }
 
+  /// Calls visit(k) with the slot k (position in bin order, see particle_at()) of every particle
+  /// in the (2 rings + 1)^2 bins around x, bins row by row and slots increasing: a kernel whose
+  /// reach is <= rings * bin_size is fully found. Arrays kept in slot order are read in sequence.
+  template <class Visitor>
+  void for_each_slot_near(const Vec2& x, int rings, Visitor&& visit) const {
+    if (n_x_ == 0) return;
+    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    const int i0 = std::max(bi - rings, 0), i1 = std::min(bi + rings, n_x_ - 1);
+    for (int j = std::max(bj - rings, 0); j <= std::min(bj + rings, n_y_ - 1); ++j) {
+      if (i0 > i1) break;
+      // Bins i0..i1 of a row are contiguous in slot order.
+      const int end = start_[j * n_x_ + i1 + 1];
+      for (int k = start_[j * n_x_ + i0]; k < end; ++k) visit(k);
+    }
+  }
+
+  /// Calls visit(k) for the slots of every bin that overlaps the box [lo, hi], in increasing
+  /// slot order.
+  template <class Visitor>
+  void for_each_slot_in_box(const Vec2& lo, const Vec2& hi, Visitor&& visit) const {
+    if (n_x_ == 0) return;
+    const int i0 = std::max(bin_coordinate(lo.x() - origin_.x()), 0);
+    const int i1 = std::min(bin_coordinate(hi.x() - origin_.x()), n_x_ - 1);
+    const int j0 = std::max(bin_coordinate(lo.y() - origin_.y()), 0);
+    const int j1 = std::min(bin_coordinate(hi.y() - origin_.y()), n_y_ - 1);
+    if (i0 > i1) return;
+    for (int j = j0; j <= j1; ++j) {
+      const int end = start_[j * n_x_ + i1 + 1];
+      for (int k = start_[j * n_x_ + i0]; k < end; ++k) visit(k);
+    }
+  }
+
+  /// Particle index of slot k, and slot of particle p.
+  int particle_at(int k) const { return particle_[k]; }
+  int slot_of(int p) const { return slot_[p]; }
+  std::size_t size() const { return particle_.size(); }
+
   /// Calls visit(p) for particles in rings of bins around x, ring by ring, until two rings past
   /// the first ring with a particle have been searched (the closest particle by Euclidean distance
   /// is then among the visited ones unless it is more than ~1.4 times farther than that ring). Used
@@ -73,6 +110,7 @@ class ParticleBins {
   int n_x_ = 0, n_y_ = 0;
   std::vector<int> start_;     ///< CSR offsets, size n_x * n_y + 1
   std::vector<int> particle_;  ///< particle indices, bin by bin, increasing within a bin
+  std::vector<int> slot_;      ///< inverse of particle_
 };
 
 }  // namespace pfm

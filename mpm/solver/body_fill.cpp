@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+
+#include "mpm/solver/mpm_solver.hpp"
 
 namespace pfm {
 
@@ -156,6 +159,24 @@ void apply_k0_stress(const Case& c, Particles& particles) {
     const double depth = polygon_top(body.polygon, x.x()) - x.y();
     const double sigma_v = -m.unit_weight * std::max(depth, 0.0);
     particles.stress[p] = Stress(k0 * sigma_v, sigma_v, 0.0, k0 * sigma_v);
+  }
+}
+
+void damp_to_rest(const InitialStressSpec& spec, const std::function<void()>& step,
+                  const std::function<double()>& kinetic_energy,
+                  const std::function<double()>& time, const std::function<long()>& steps) {
+  double peak = 0.0;
+  while (true) {
+    step();
+    const double ke = kinetic_energy();
+    peak = std::max(peak, ke);
+    if (steps() > 10 && peak > 0.0 && ke < spec.kinetic_energy_ratio * peak) return;
+    if (time() > spec.max_time) {
+      throw SimulationError("gravity loading did not reach kinetic energy ratio " +
+                            std::to_string(spec.kinetic_energy_ratio) + " within " +
+                            std::to_string(spec.max_time) + " s (ratio now " +
+                            std::to_string(ke / peak) + ")");
+    }
   }
 }
 

@@ -1,6 +1,7 @@
 // Filling bodies with material points (thesis 3.2, 5.3.3).
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "mpm/solver/case.hpp"
@@ -20,6 +21,14 @@ double polygon_top(const std::vector<Vec2>& polygon, double x);
 /// the local surface of the point's body polygon (polygon_top), sigma_xx = sigma_zz = K0
 /// sigma_v, sigma_xy = 0; K0 from the case or nu / (1 - nu) of the point's material.
 void apply_k0_stress(const Case& c, Particles& particles);
+
+/// The loop of the gravity-loading procedure (shared by the MPM and the UL-FEM): take steps
+/// until the kinetic energy falls below spec.kinetic_energy_ratio x its peak (after at least
+/// 10 steps); SimulationError when spec.max_time passes first. The caller sets full gravity,
+/// the damping and no surface loads before, and resets velocities and displacements after.
+void damp_to_rest(const InitialStressSpec& spec, const std::function<void()>& step,
+                  const std::function<double()>& kinetic_energy,
+                  const std::function<double()>& time, const std::function<long()>& steps);
 
 /// Natural positions in [0, 1] and weights (summing to 1) of the n points of a placement.
 void placement_points_1d(Placement placement, int n, std::vector<double>& position,

@@ -47,6 +47,14 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
   solver_ = &solver;
   if (!detection_enabled()) return;
   tie_material_intervals();
+  if (case_.detection->detector.method == DetectorMethod::kSmm) {
+    // Surface markers ride on the updated grid velocities (thesis eq. 4.6-4.7), every step.
+    solver.set_grid_velocity_hook([this](double, double dt, const GridState& grid_state) {
+      const auto start = Clock::now();
+      advect_surface_markers(detector_state_, case_.grid, grid_state.velocity, grid_state.mass, dt);
+      times_.detect += seconds_since(start);
+    });
+  }
   solver.set_external_force_hook(
       [this](double time, const GridState& grid_state, std::vector<Vec2>& force) {
         const long step = solver_->step_count();
@@ -171,6 +179,17 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/detector/shape", flatten(detector_state_.shape));
   file.put("coupling/detector/previous_deformation", flatten(detector_state_.previous_deformation));
   file.put("coupling/detector/n_calls", static_cast<double>(detector_state_.n_calls));
+  std::vector<double> marker_points, marker_counts, marker_closed;
+  for (std::size_t k = 0; k < detector_state_.markers.size(); ++k) {
+    for (const Vec2& x : detector_state_.markers[k])
+      marker_points.insert(marker_points.end(), {x.x(), x.y()});
+    marker_counts.push_back(static_cast<double>(detector_state_.markers[k].size()));
+    marker_closed.push_back(detector_state_.markers_closed[k] ? 1.0 : 0.0);
+  }
+  file.put("coupling/detector/marker_points", marker_points);
+  file.put("coupling/detector/marker_counts", marker_counts);
+  file.put("coupling/detector/marker_closed", marker_closed);
+  file.put("coupling/detector/markers_placed", detector_state_.markers_placed ? 1.0 : 0.0);
   std::vector<double> points, counts, closed;
   for (const Contour& contour : boundary_.contours) {
     for (const Vec2& x : contour.points) points.insert(points.end(), {x.x(), x.y()});
@@ -195,6 +214,22 @@ void BoundaryCoupling::restore(const CheckpointFile& file) {
   detector_state_.previous_deformation =
       unflatten<Mat2>(file.get("coupling/detector/previous_deformation"));
   detector_state_.n_calls = static_cast<std::size_t>(file.scalar("coupling/detector/n_calls"));
+  {
+    const std::vector<double>& points = file.get("coupling/detector/marker_points");
+    const std::vector<double>& counts = file.get("coupling/detector/marker_counts");
+    const std::vector<double>& closed = file.get("coupling/detector/marker_closed");
+    detector_state_.markers.clear();
+    detector_state_.markers_closed.clear();
+    std::size_t next = 0;
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      std::vector<Vec2> line;
+      for (std::size_t i = 0; i < static_cast<std::size_t>(counts[k]); ++i, next += 2)
+        line.emplace_back(points.at(next), points.at(next + 1));
+      detector_state_.markers.push_back(std::move(line));
+      detector_state_.markers_closed.push_back(closed.at(k) != 0.0);
+    }
+    detector_state_.markers_placed = file.scalar("coupling/detector/markers_placed") != 0.0;
+  }
   const std::vector<double>& points = file.get("coupling/boundary/points");
   const std::vector<double>& counts = file.get("coupling/boundary/counts");
   const std::vector<double>& closed = file.get("coupling/boundary/closed");

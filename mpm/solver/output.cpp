@@ -181,6 +181,11 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   write_dataset(group, "material", buffer, n, 1);
   scalar([&](std::size_t p) { return static_cast<double>(particles.body[p]); });
   write_dataset(group, "body", buffer, n, 1);
+  const char* gradient_names[4] = {"F11", "F12", "F21", "F22"};
+  for (int k = 0; k < 4; ++k) {
+    scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
+    write_dataset(group, gradient_names[k], buffer, n, 1);
+  }
   H5Gclose(group);
   check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), "flush");
   times_.push_back(time);
@@ -212,7 +217,8 @@ void ParticleSeriesWriter::write_xdmf() const {
         << vector_name << "</DataItem></Attribute>\n";
     }
     for (const char* scalar_name :
-         {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material", "body"}) {
+         {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material", "body", "F11", "F12",
+          "F21", "F22"}) {
       x << "<Attribute Name=\"" << scalar_name
         << "\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" << n
         << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
@@ -324,7 +330,7 @@ void BoundarySeriesWriter::write_xdmf() const {
 
 std::string particles_csv(const Particles& particles) {
   std::ostringstream out;
-  out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body\n";
+  out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body,F11,F12,F21,F22\n";
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     const Vec2& v = particles.velocity[p];
@@ -334,7 +340,10 @@ std::string particles_csv(const Particles& particles) {
         << ',' << fmt(s[0]) << ',' << fmt(s[1]) << ',' << fmt(s[2]) << ',' << fmt(s[3]) << ','
         << fmt(particles.state[p].plastic_strain) << ',' << fmt(particles.volume[p]) << ','
         << fmt(u.x()) << ',' << fmt(u.y()) << ',' << particles.material[p] << ','
-        << particles.body[p] << '\n';
+        << particles.body[p];
+    const Mat2& f = particles.deformation_gradient[p];
+    out << ',' << fmt(f(0, 0)) << ',' << fmt(f(0, 1)) << ',' << fmt(f(1, 0)) << ','
+        << fmt(f(1, 1)) << '\n';
   }
   return out.str();
 }

@@ -19,7 +19,7 @@ void write_file_atomically(const std::string& path, const std::string& text);
 ///
 /// Per step, datasets of length N (N = number of particles): position (N x 3, z = 0),
 /// displacement (N x 3), velocity (N x 3), sxx, syy, sxy, szz (kPa), eps_p, volume (m^2),
-/// id, material, body.
+/// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start).
 class ParticleSeriesWriter {
  public:
   explicit ParticleSeriesWriter(std::string directory);
@@ -69,7 +69,8 @@ class BoundarySeriesWriter {
   std::vector<std::size_t> points_, segments_;
 };
 
-/// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body).
+/// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body and
+/// the deformation gradient F11,F12,F21,F22).
 std::string particles_csv(const Particles& particles);
 
 }  // namespace pfm

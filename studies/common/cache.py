@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 import time
 from pathlib import Path
@@ -23,6 +24,8 @@ from studies.common import gitinfo
 from studies.common.paths import cache_root
 
 MARKER = ".complete.json"
+# PFM_CACHE_MAX_MB: least recently used entries go beyond this size.
+DEFAULT_MAX_MB = 600
 
 
 def canonical_json(value) -> str:
@@ -37,8 +40,13 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def cache_key(case, arguments=(), extra=None, revision: Optional[str] = None,
-              diff: Optional[str] = None) -> str:
+def cache_key(
+    case,
+    arguments=(),
+    extra=None,
+    revision: Optional[str] = None,
+    diff: Optional[str] = None,
+) -> str:
     """``case`` is a dict (the parsed case) or None; revision/diff default to the repository's."""
     payload = {
         "case": canonical_json(case) if case is not None else None,
@@ -61,12 +69,15 @@ class Cache:
         folder = self.folder(key)
         return folder if (folder / MARKER).is_file() else None
 
-    def produce(self, key: str, make: Callable[[Path], None], info: Optional[dict] = None
-                ) -> tuple[Path, bool]:
+    def produce(
+        self, key: str, make: Callable[[Path], None], info: Optional[dict] = None
+    ) -> tuple[Path, bool]:
         """Return ``(folder, hit)``. On a miss, ``make(folder)`` fills a fresh folder; the entry
-        is committed only if it returns without raising (a failed attempt is removed)."""
+        is committed only if it returns without raising (a failed attempt is removed).
+        """
         hit = self.lookup(key)
         if hit is not None:
+            os.utime(hit / MARKER)  # recently used: pruned last
             return hit, True
         folder = self.folder(key)
         if folder.exists():
@@ -79,5 +90,35 @@ class Cache:
             shutil.rmtree(folder, ignore_errors=True)
             raise
         marker = {"key": key, "seconds": time.time() - started, **(info or {})}
-        (folder / MARKER).write_text(json.dumps(marker, indent=2, sort_keys=True) + "\n")
+        (folder / MARKER).write_text(
+            json.dumps(marker, indent=2, sort_keys=True) + "\n"
+        )
         return folder, False
+
+    def entries(self) -> list[tuple[float, int, Path]]:
+        """(last use time, bytes, folder) of every complete entry."""
+        found = []
+        if not self.root.is_dir():
+            return found
+        for marker in self.root.glob(f"*/*/{MARKER}"):
+            folder = marker.parent
+            size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+            found.append((marker.stat().st_mtime, size, folder))
+        return found
+
+    def prune(self, max_bytes: Optional[int] = None) -> int:
+        """Remove the least recently used entries until the cache holds at most ``max_bytes``
+        (default PFM_CACHE_MAX_MB, 600 MB); returns the bytes removed."""
+        if max_bytes is None:
+            max_bytes = int(
+                float(os.environ.get("PFM_CACHE_MAX_MB", DEFAULT_MAX_MB)) * 1e6
+            )
+        entries = sorted(self.entries())
+        total = sum(size for _, size, _ in entries)
+        removed = 0
+        for _, size, folder in entries:
+            if total - removed <= max_bytes:
+                break
+            shutil.rmtree(folder, ignore_errors=True)
+            removed += size
+        return removed

@@ -13,8 +13,12 @@ from studies.common.paths import repo_root
 
 def _git(*args: str) -> str:
     try:
-        done = subprocess.run(["git", "-C", str(repo_root()), *args], capture_output=True,
-                              check=True, timeout=60)
+        done = subprocess.run(
+            ["git", "-C", str(repo_root()), *args],
+            capture_output=True,
+            check=True,
+            timeout=60,
+        )
     except (OSError, subprocess.SubprocessError):
         return ""
     return done.stdout.decode("utf-8", "replace")

@@ -14,18 +14,24 @@ from studies.metrics import Polyline
 def initial_positions(particles: pd.DataFrame) -> np.ndarray:
     for column in ("x", "y", "ux", "uy"):
         if column not in particles:
-            raise ValueError(f"particle table has no column {column} (need x, y, ux, uy)")
+            raise ValueError(
+                f"particle table has no column {column} (need x, y, ux, uy)"
+            )
     return np.c_[particles["x"] - particles["ux"], particles["y"] - particles["uy"]]
 
 
-def displacement_near(particles: pd.DataFrame, point: Sequence[float]) -> tuple[float, float]:
+def displacement_near(
+    particles: pd.DataFrame, point: Sequence[float]
+) -> tuple[float, float]:
     """(ux, uy) of the particle that started closest to ``point`` (m)."""
     start = initial_positions(particles)
     i = int(np.argmin(np.hypot(start[:, 0] - point[0], start[:, 1] - point[1])))
     return float(particles["ux"].iloc[i]), float(particles["uy"].iloc[i])
 
 
-def surface_settlement(particles: pd.DataFrame, x: float, top_y: float, h: float) -> float:
+def surface_settlement(
+    particles: pd.DataFrame, x: float, top_y: float, h: float
+) -> float:
     """Settlement (m, positive down) at abscissa x: minus the mean uy of the particles that
     started in the top cell row (within h of ``top_y``) and within h / 2 of x."""
     start = initial_positions(particles)
@@ -35,9 +41,29 @@ def surface_settlement(particles: pd.DataFrame, x: float, top_y: float, h: float
     return float(-particles["uy"][chosen].mean())
 
 
-def hole_depth(loops: Sequence[Polyline], x_range: Sequence[float], top_y: float) -> float:
+def surface_settlement_extrapolated(
+    particles: pd.DataFrame, x: float, top_y: float, h: float
+) -> float:
+    """Settlement (m, positive down) of the surface point (x, top_y): the least-squares line
+    uy(y0) through the particles that started in the top cell row (y0 >= top_y - h) within
+    h / 2 of x, evaluated at y0 = top_y. Particles sit h / 4 and 3 h / 4 below the surface
+    (2 x 2 per cell), so their plain mean reads the displacement h / 2 down."""
+    start = initial_positions(particles)
+    chosen = (np.abs(start[:, 0] - x) <= 0.5 * h) & (start[:, 1] >= top_y - h)
+    if chosen.sum() < 2 or np.ptp(start[chosen, 1]) <= 0.0:
+        raise ValueError(f"fewer than two particle rows near the surface at x = {x}")
+    slope, intercept = np.polyfit(
+        start[chosen, 1], particles["uy"].to_numpy()[chosen], 1
+    )
+    return float(-(slope * top_y + intercept))
+
+
+def hole_depth(
+    loops: Sequence[Polyline], x_range: Sequence[float], top_y: float
+) -> float:
     """Depth (m) of the lowest boundary point over x_range below the initial surface top_y,
-    taking only the boundary above mid-height of the hole's search window (the top surface)."""
+    taking only the boundary above mid-height of the hole's search window (the top surface).
+    """
     x0, x1 = x_range
     lowest = None
     for loop in loops:

@@ -114,9 +114,16 @@ class StudyOutcome:
         data = json.loads(Path(path).read_text())
         schema = data.pop("schema", SCHEMA_VERSION)
         if schema != SCHEMA_VERSION:
-            raise ValueError(f"{path}: study.json schema {schema}, expected {SCHEMA_VERSION}")
-        outcome = cls(**{k: v for k, v in data.items() if k not in ("tables", "figures",
-                                                                    "metrics", "headline")})
+            raise ValueError(
+                f"{path}: study.json schema {schema}, expected {SCHEMA_VERSION}"
+            )
+        outcome = cls(
+            **{
+                k: v
+                for k, v in data.items()
+                if k not in ("tables", "figures", "metrics", "headline")
+            }
+        )
         outcome.tables = [TableRef(**t) for t in data.get("tables", [])]
         outcome.figures = [FigureRef(**f) for f in data.get("figures", [])]
         outcome.metrics = [Metric(**m) for m in data.get("metrics", [])]

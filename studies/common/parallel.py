@@ -23,8 +23,13 @@ def default_jobs() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-def parallel_map(function: Callable, items: Iterable, jobs: Optional[int] = None,
-                 scheduler: Optional[str] = None, description: str = "") -> list:
+def parallel_map(
+    function: Callable,
+    items: Iterable,
+    jobs: Optional[int] = None,
+    scheduler: Optional[str] = None,
+    description: str = "",
+) -> list:
     """``[function(item) for item in items]`` run in parallel; ``function`` must be picklable
     (a module-level function). ``jobs`` = 1 runs serially in this process."""
     items = list(items)
@@ -38,7 +43,8 @@ def parallel_map(function: Callable, items: Iterable, jobs: Optional[int] = None
                 raise SchedulerUnavailable(
                     f"--scheduler {scheduler} given but dask.distributed cannot be imported "
                     f"({error}); install it (Debian: apt-get install python3-distributed) or "
-                    f"run without --scheduler") from error
+                    f"run without --scheduler"
+                ) from error
             with Client(scheduler) as client:
                 futures = client.map(function, items, pure=False)
                 index = {future.key: i for i, future in enumerate(futures)}

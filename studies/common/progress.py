@@ -7,8 +7,14 @@ import time
 
 
 class ProgressBar:
-    def __init__(self, total: int, description: str = "", stream=None, enabled=None,
-                 width: int = 30):
+    def __init__(
+        self,
+        total: int,
+        description: str = "",
+        stream=None,
+        enabled=None,
+        width: int = 30,
+    ):
         self.total = max(int(total), 0)
         self.description = description
         self.stream = stream if stream is not None else sys.stderr
@@ -27,8 +33,10 @@ class ProgressBar:
         fraction = min(self.done / self.total, 1.0)
         filled = int(round(fraction * self.width))
         elapsed = time.monotonic() - self.started
-        self.stream.write(f"\r{self.description} [{'#' * filled}{'.' * (self.width - filled)}] "
-                          f"{self.done}/{self.total} {elapsed:6.1f} s")
+        self.stream.write(
+            f"\r{self.description} [{'#' * filled}{'.' * (self.width - filled)}] "
+            f"{self.done}/{self.total} {elapsed:6.1f} s"
+        )
         self.stream.flush()
 
     def close(self) -> None:

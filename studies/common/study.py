@@ -33,6 +33,7 @@ class StudyOptions:
 class StudyContext:
     """What a study's ``run`` gets: its name, its (empty) results folder and the options.
     Studies add the case files and executables they used so provenance can hash them."""
+
     name: str
     folder: Path
     options: StudyOptions
@@ -54,7 +55,9 @@ def command_line(name: str, options: StudyOptions) -> str:
 def docstring_parts(module) -> tuple[str, str]:
     """(title, summary): the docstring's first paragraph, and the paragraphs after it up to
     "Why:" or "Reproduce:" (what the study measures), each flattened to one line."""
-    paragraphs = [" ".join(p.split()) for p in (inspect.getdoc(module) or "").split("\n\n")]
+    paragraphs = [
+        " ".join(p.split()) for p in (inspect.getdoc(module) or "").split("\n\n")
+    ]
     paragraphs = [p for p in paragraphs if p]
     title = paragraphs[0] if paragraphs else module.__name__
     summary = []
@@ -86,12 +89,18 @@ def execute(module, options: StudyOptions) -> StudyOutcome:
         if feature:
             outcome = StudyOutcome.not_run(name, f"pfm-mpm to accept: {feature}")
         else:
-            outcome = StudyOutcome(study=name, status="failed",
-                                   reason=f"{str(failure)[:300]} (see error.log)")
+            outcome = StudyOutcome(
+                study=name,
+                status="failed",
+                reason=f"{str(failure)[:300]} (see error.log)",
+            )
     except Exception as error:  # a study's own bug or an unexpected output format
         (folder / "error.log").write_text(traceback.format_exc())
-        outcome = StudyOutcome(study=name, status="failed",
-                               reason=f"{type(error).__name__}: {error} (see error.log)")
+        outcome = StudyOutcome(
+            study=name,
+            status="failed",
+            reason=f"{type(error).__name__}: {error} (see error.log)",
+        )
     outcome.study = name
     outcome.quick = options.quick
     outcome.title = outcome.title or title
@@ -99,10 +108,20 @@ def execute(module, options: StudyOptions) -> StudyOutcome:
     outcome.command = command_line(name, options)
     outcome.expected = list(getattr(module, "EXPECTED_METRICS", ()))
     outcome.write(folder)
-    write_provenance(folder, name, started, context.case_files, context.tools, options.quick)
+    write_provenance(
+        folder, name, started, context.case_files, context.tools, options.quick
+    )
+    try:  # keep the run cache under PFM_CACHE_MAX_MB (least recently used entries go)
+        from studies.common.cache import Cache
+
+        Cache().prune()
+    except OSError:
+        pass
     status = outcome.status + (f" ({outcome.reason})" if outcome.reason else "")
-    print(f"study {name}: {status} -> {folder}", file=sys.stderr if os.environ.get(
-        "PFM_QUIET") else sys.stdout)
+    print(
+        f"study {name}: {status} -> {folder}",
+        file=sys.stderr if os.environ.get("PFM_QUIET") else sys.stdout,
+    )
     return outcome
 
 
@@ -132,7 +151,9 @@ def run_parts(outcome: StudyOutcome, parts, folder: Optional[Path] = None) -> No
             if reason is not None:
                 missing.append(f"{name}: needs {reason}")
                 continue
-            failed.append(f"{name}: {type(error).__name__}: {str(error).splitlines()[0][:300]}")
+            failed.append(
+                f"{name}: {type(error).__name__}: {str(error).splitlines()[0][:300]}"
+            )
             if folder is not None:
                 with open(Path(folder) / "error.log", "a") as log:
                     log.write(f"--- {name}\n{traceback.format_exc()}\n")
@@ -143,7 +164,9 @@ def run_parts(outcome: StudyOutcome, parts, folder: Optional[Path] = None) -> No
     notes = []
     if failed:
         outcome.status = "failed"
-        notes.append("failed: " + "; ".join(failed) + (" (see error.log)" if folder else ""))
+        notes.append(
+            "failed: " + "; ".join(failed) + (" (see error.log)" if folder else "")
+        )
     if missing:
         notes.append("partly not run: " + "; ".join(missing))
     outcome.reason = " | ".join(notes)

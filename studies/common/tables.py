@@ -26,8 +26,12 @@ def markdown_table(frame: pd.DataFrame, digits: int = 4) -> str:
     """GitHub-flavoured Markdown table; numbers to ``digits`` significant figures."""
     header = "| " + " | ".join(str(c) for c in frame.columns) + " |"
     rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    rows = ["| " + " | ".join(format_value(v, digits).replace("|", "\\|") for v in row) + " |"
-            for row in frame.itertuples(index=False, name=None)]
+    rows = [
+        "| "
+        + " | ".join(format_value(v, digits).replace("|", "\\|") for v in row)
+        + " |"
+        for row in frame.itertuples(index=False, name=None)
+    ]
     return "\n".join([header, rule, *rows]) + "\n"
 
 
@@ -44,11 +48,14 @@ def write_table(folder: Path, frame: pd.DataFrame, name: str, title: str = ""):
 
 def save_figure(folder: Path, figure, name: str, title: str = "", tight: bool = True):
     """Save a matplotlib figure as ``<name>.png`` and close it; return a FigureRef.
-    ``tight=False`` skips the tight bounding box (one draw less, for many-panel figures)."""
+    ``tight=False`` skips the tight bounding box (one draw less, for many-panel figures).
+    """
     import matplotlib.pyplot as plt
 
     from studies.common.outcome import FigureRef
 
-    figure.savefig(Path(folder) / f"{name}.png", dpi=110, bbox_inches="tight" if tight else None)
+    figure.savefig(
+        Path(folder) / f"{name}.png", dpi=110, bbox_inches="tight" if tight else None
+    )
     plt.close(figure)
     return FigureRef(name=name, title=title or name, png=f"{name}.png")

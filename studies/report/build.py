@@ -52,6 +52,7 @@ def templates_dir() -> Path:
 
 # ---------------------------------------------------------------- thresholds and verdicts
 
+
 @dataclass
 class Threshold:
     name: str
@@ -80,8 +81,11 @@ def read_thresholds(path: Path) -> tuple[int, list[Threshold]]:
         if entry.get("name") in seen or not entry.get("name"):
             raise ValueError(f"{where}/name: missing or duplicated")
         seen.add(entry["name"])
-        thresholds.append(Threshold(**{k: entry[k] for k in entry if k in
-                                       Threshold.__dataclass_fields__}))
+        thresholds.append(
+            Threshold(
+                **{k: entry[k] for k in entry if k in Threshold.__dataclass_fields__}
+            )
+        )
     return int(data.get("version", 0)), thresholds
 
 
@@ -99,18 +103,20 @@ class Verdict:
     unit: str
     limit: Optional[float]
     direction: str
-    status: str            # pass, FAIL, not run, missing, info
+    status: str  # pass, FAIL, not run, missing, info
     reason: str = ""
     previous: Optional[float] = None
     change: Optional[float] = None
-    regression: bool = False   # FAIL now, passed in the previous report
+    regression: bool = False  # FAIL now, passed in the previous report
 
 
 def study_of_metric(name: str) -> str:
     return name.split(".", 1)[0]
 
 
-def evaluate(thresholds: list[Threshold], outcomes: dict, previous: dict) -> list[Verdict]:
+def evaluate(
+    thresholds: list[Threshold], outcomes: dict, previous: dict
+) -> list[Verdict]:
     values = {m.name: m.value for o in outcomes.values() for m in o.metrics}
     verdicts = []
     for t in thresholds:
@@ -121,14 +127,20 @@ def evaluate(thresholds: list[Threshold], outcomes: dict, previous: dict) -> lis
             v.status = "not run"
             v.reason = outcome.reason if outcome else f"needs the {study} study"
         elif outcome.status == "failed":
-            v.status, v.reason = "FAIL", f"study failed: {outcome.reason.splitlines()[0]}"
+            v.status, v.reason = (
+                "FAIL",
+                f"study failed: {outcome.reason.splitlines()[0]}",
+            )
         elif t.name not in values:
-            if outcome.reason:                      # a part of the study did not run
+            if outcome.reason:  # a part of the study did not run
                 v.status, v.reason = "not run", outcome.reason
             elif outcome.quick:
                 v.status, v.reason = "not run", "not in the quick variant"
             else:
-                v.status, v.reason = "missing", "the study ran but did not produce this metric"
+                v.status, v.reason = (
+                    "missing",
+                    "the study ran but did not produce this metric",
+                )
         else:
             v.value = values[t.name]
             finite = v.value is not None and math.isfinite(v.value)
@@ -151,6 +163,7 @@ def evaluate(thresholds: list[Threshold], outcomes: dict, previous: dict) -> lis
 
 # ---------------------------------------------------------------- results and history
 
+
 def load_outcomes(root: Path) -> dict:
     outcomes = {}
     for name in STUDY_NAMES:
@@ -158,7 +171,9 @@ def load_outcomes(root: Path) -> dict:
         if path.is_file():
             outcomes[name] = StudyOutcome.read(path)
         else:
-            outcomes[name] = StudyOutcome.not_run(name, f"`make study-{name}` (no results yet)")
+            outcomes[name] = StudyOutcome.not_run(
+                name, f"`make study-{name}` (no results yet)"
+            )
     return outcomes
 
 
@@ -169,7 +184,9 @@ def read_history(path: Path) -> list[dict]:
     return [json.loads(line) for line in lines]
 
 
-def history_entry(outcomes: dict, verdicts: list[Verdict], thresholds_version: int) -> dict:
+def history_entry(
+    outcomes: dict, verdicts: list[Verdict], thresholds_version: int
+) -> dict:
     return {
         "timestamp": utc_now(),
         "git_revision": gitinfo.revision(),
@@ -182,6 +199,7 @@ def history_entry(outcomes: dict, verdicts: list[Verdict], thresholds_version: i
 
 
 # ---------------------------------------------------------------- headline table
+
 
 def headline_table(outcomes: dict) -> tuple[list[str], list[list[str]], list[str]]:
     """(column names, rows of cell text, footnotes)."""
@@ -202,18 +220,27 @@ def headline_table(outcomes: dict) -> tuple[list[str], list[list[str]], list[str
         outcome = outcomes.get(study)
         reason = outcome.reason if outcome else "not run"
         status = "failed" if outcome and outcome.status == "failed" else "not run"
-        return footnote(study, status,
-                        f"{study}: {status}: {reason.splitlines()[0] if reason else ''}")
+        return footnote(
+            study,
+            status,
+            f"{study}: {status}: {reason.splitlines()[0] if reason else ''}",
+        )
 
     def cell(row, detector) -> str:
         outcome = outcomes.get(row.study)
         if outcome is None or outcome.status != "ok":
             return not_run(row.study)
         found = [entries.get((k, detector)) for k in row.keys]
-        if found[0] is not None and found[0].value is None and \
-                found[0].note.startswith("not run"):
-            return footnote(f"{row.study}:{found[0].note}", "not run",
-                            f"{row.study}: {found[0].note}")
+        if (
+            found[0] is not None
+            and found[0].value is None
+            and found[0].note.startswith("not run")
+        ):
+            return footnote(
+                f"{row.study}:{found[0].note}",
+                "not run",
+                f"{row.study}: {found[0].note}",
+            )
         if found[0] is None or found[0].value is None:
             return "-"
         text = format_value(found[0].value)
@@ -221,7 +248,9 @@ def headline_table(outcomes: dict) -> tuple[list[str], list[list[str]], list[str
             text += f" ({format_value(found[1].value)})"
         return text
 
-    columns = ["quantity", "unit", "thesis", "any detector"] + [label for _, label in DETECTORS]
+    columns = ["quantity", "unit", "thesis", "any detector"] + [
+        label for _, label in DETECTORS
+    ]
     rows = []
     for row in headline_rows():
         if row.any_detector:
@@ -234,9 +263,15 @@ def headline_table(outcomes: dict) -> tuple[list[str], list[list[str]], list[str
 
 # ---------------------------------------------------------------- rendering
 
+
 def _table_html(frame: pd.DataFrame) -> str:
-    return frame.to_html(index=False, border=0, classes="data", na_rep="",
-                         float_format=lambda v: format_value(float(v)))
+    return frame.to_html(
+        index=False,
+        border=0,
+        classes="data",
+        na_rep="",
+        float_format=lambda v: format_value(float(v)),
+    )
 
 
 def study_sections(outcomes: dict, root: Path, out_dir: Path) -> list[dict]:
@@ -247,21 +282,40 @@ def study_sections(outcomes: dict, root: Path, out_dir: Path) -> list[dict]:
         tables = []
         for ref in outcome.tables:
             frame = pd.read_csv(folder / ref.csv)
-            tables.append({"title": ref.title, "html": _table_html(frame),
-                           "md": markdown_table(frame), "csv": os.path.relpath(
-                               folder / ref.csv, out_dir)})
-        figures = [{"title": ref.title, "src": os.path.relpath(folder / ref.png, out_dir)}
-                   for ref in outcome.figures]
+            tables.append(
+                {
+                    "title": ref.title,
+                    "html": _table_html(frame),
+                    "md": markdown_table(frame),
+                    "csv": os.path.relpath(folder / ref.csv, out_dir),
+                }
+            )
+        figures = [
+            {"title": ref.title, "src": os.path.relpath(folder / ref.png, out_dir)}
+            for ref in outcome.figures
+        ]
         provenance = {}
         if (folder / "provenance.json").is_file():
             provenance = json.loads((folder / "provenance.json").read_text())
-        metrics = [{"name": m.name, "value": format_value(m.value), "unit": m.unit}
-                   for m in outcome.metrics]
-        sections.append({"name": name, "title": outcome.title or name,
-                         "summary": outcome.summary, "status": outcome.status,
-                         "reason": outcome.reason, "command": outcome.command,
-                         "quick": outcome.quick, "tables": tables, "figures": figures,
-                         "metrics": metrics, "provenance": provenance})
+        metrics = [
+            {"name": m.name, "value": format_value(m.value), "unit": m.unit}
+            for m in outcome.metrics
+        ]
+        sections.append(
+            {
+                "name": name,
+                "title": outcome.title or name,
+                "summary": outcome.summary,
+                "status": outcome.status,
+                "reason": outcome.reason,
+                "command": outcome.command,
+                "quick": outcome.quick,
+                "tables": tables,
+                "figures": figures,
+                "metrics": metrics,
+                "provenance": provenance,
+            }
+        )
     return sections
 
 
@@ -270,20 +324,32 @@ def render(context: dict, out_dir: Path) -> None:
 
     environment = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(templates_dir())),
-        autoescape=jinja2.select_autoescape(["html.j2"]), undefined=jinja2.StrictUndefined,
-        trim_blocks=True, lstrip_blocks=True)
+        autoescape=jinja2.select_autoescape(["html.j2"]),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
     (out_dir / "index.html").write_text(
-        environment.get_template("report.html.j2").render(**context))
-    (out_dir / "report.md").write_text(environment.get_template("report.md.j2").render(**context))
+        environment.get_template("report.html.j2").render(**context)
+    )
+    (out_dir / "report.md").write_text(
+        environment.get_template("report.md.j2").render(**context)
+    )
 
 
-def build_report(root: Optional[Path] = None, out_dir: Optional[Path] = None,
-                 thresholds_path: Optional[Path] = None, history_path: Optional[Path] = None,
-                 record_history: bool = True) -> int:
+def build_report(
+    root: Optional[Path] = None,
+    out_dir: Optional[Path] = None,
+    thresholds_path: Optional[Path] = None,
+    history_path: Optional[Path] = None,
+    record_history: bool = True,
+) -> int:
     """Build the report; return the exit code (1 if any thresholded metric FAILs)."""
     root = Path(root) if root else results_root()
     out_dir = Path(out_dir) if out_dir else root / "report"
-    thresholds_path = Path(thresholds_path) if thresholds_path else default_thresholds_path()
+    thresholds_path = (
+        Path(thresholds_path) if thresholds_path else default_thresholds_path()
+    )
     history_path = Path(history_path) if history_path else default_history_path()
     out_dir.mkdir(parents=True, exist_ok=True)
 
@@ -296,62 +362,137 @@ def build_report(root: Optional[Path] = None, out_dir: Optional[Path] = None,
     headline_md = markdown_table(pd.DataFrame(rows, columns=columns))
     failures = [v for v in verdicts if v.status == "FAIL"]
 
-    verdict_rows = [{**asdict(v), "value_text": format_value(v.value),
-                     "limit_text": format_value(v.limit), "previous_text":
-                     format_value(v.previous), "change_text": format_value(v.change)}
-                    for v in verdicts]
-    verdict_frame = pd.DataFrame([{
-        "metric": v["name"], "value": v["value_text"], "unit": v["unit"],
-        "limit": ("<= " if v["direction"] == "lower" else ">= ") + v["limit_text"]
-        if v["limit"] is not None else "", "verdict": v["status"] +
-        (" (regression)" if v["regression"] else ""), "previous": v["previous_text"],
-        "change": v["change_text"], "note": v["reason"]} for v in verdict_rows],
-        columns=["metric", "value", "unit", "limit", "verdict", "previous", "change", "note"])
+    verdict_rows = [
+        {
+            **asdict(v),
+            "value_text": format_value(v.value),
+            "limit_text": format_value(v.limit),
+            "previous_text": format_value(v.previous),
+            "change_text": format_value(v.change),
+        }
+        for v in verdicts
+    ]
+    verdict_frame = pd.DataFrame(
+        [
+            {
+                "metric": v["name"],
+                "value": v["value_text"],
+                "unit": v["unit"],
+                "limit": ("<= " if v["direction"] == "lower" else ">= ")
+                + v["limit_text"]
+                if v["limit"] is not None
+                else "",
+                "verdict": v["status"] + (" (regression)" if v["regression"] else ""),
+                "previous": v["previous_text"],
+                "change": v["change_text"],
+                "note": v["reason"],
+            }
+            for v in verdict_rows
+        ],
+        columns=[
+            "metric",
+            "value",
+            "unit",
+            "limit",
+            "verdict",
+            "previous",
+            "change",
+            "note",
+        ],
+    )
     context = {
         "generated": utc_now(),
         "revision": gitinfo.revision(),
         "dirty": gitinfo.is_dirty(),
         "thresholds_version": version,
         "thresholds_file": os.path.relpath(thresholds_path, repo_root())
-        if thresholds_path.is_relative_to(repo_root()) else str(thresholds_path),
+        if thresholds_path.is_relative_to(repo_root())
+        else str(thresholds_path),
         "previous": {k: previous.get(k) for k in ("timestamp", "git_revision")}
-        if previous else None,
-        "headline_columns": columns, "headline_rows": rows, "headline_notes": footnotes,
+        if previous
+        else None,
+        "headline_columns": columns,
+        "headline_rows": rows,
+        "headline_notes": footnotes,
         "headline_md": headline_md,
-        "verdicts": verdict_rows, "verdicts_md": markdown_table(verdict_frame),
-        "n_fail": len(failures), "n_regressions": sum(v.regression for v in verdicts),
+        "verdicts": verdict_rows,
+        "verdicts_md": markdown_table(verdict_frame),
+        "n_fail": len(failures),
+        "n_regressions": sum(v.regression for v in verdicts),
         "studies": study_sections(outcomes, root, out_dir),
     }
     render(context, out_dir)
-    (out_dir / "report.json").write_text(json.dumps({
-        "generated": context["generated"], "revision": context["revision"],
-        "headline": {"columns": columns, "rows": rows, "notes": footnotes},
-        "verdicts": [asdict(v) for v in verdicts],
-        "studies": {n: {"status": o.status, "reason": o.reason} for n, o in outcomes.items()},
-    }, indent=2) + "\n")
+    (out_dir / "report.json").write_text(
+        json.dumps(
+            {
+                "generated": context["generated"],
+                "revision": context["revision"],
+                "headline": {"columns": columns, "rows": rows, "notes": footnotes},
+                "verdicts": [asdict(v) for v in verdicts],
+                "studies": {
+                    n: {"status": o.status, "reason": o.reason}
+                    for n, o in outcomes.items()
+                },
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     if record_history:
         history_path.parent.mkdir(parents=True, exist_ok=True)
         with open(history_path, "a") as stream:
-            stream.write(json.dumps(history_entry(outcomes, verdicts, version),
-                                    sort_keys=True) + "\n")
+            stream.write(
+                json.dumps(history_entry(outcomes, verdicts, version), sort_keys=True)
+                + "\n"
+            )
     for v in failures:
         tag = " REGRESSION" if v.regression else ""
-        print(f"report: FAIL{tag} {v.name} = {format_value(v.value)} {v.unit} "
-              f"(limit {v.direction} {format_value(v.limit)}) {v.reason}", file=sys.stderr)
-    print(f"report: {out_dir / 'index.html'} ({len(failures)} metric(s) past threshold)")
+        print(
+            f"report: FAIL{tag} {v.name} = {format_value(v.value)} {v.unit} "
+            f"(limit {v.direction} {format_value(v.limit)}) {v.reason}",
+            file=sys.stderr,
+        )
+    print(
+        f"report: {out_dir / 'index.html'} ({len(failures)} metric(s) past threshold)"
+    )
     return 1 if failures else 0
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m studies report", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--results", type=Path, help="results root (default: PFM_RESULTS or "
-                        "results/studies)")
-    parser.add_argument("--out", type=Path, help="output folder (default: <results>/report)")
-    parser.add_argument("--thresholds", type=Path, help="default: reports/thresholds.json")
+    parser = argparse.ArgumentParser(
+        prog="python -m studies report",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--results",
+        type=Path,
+        help="results root (default: PFM_RESULTS or " "results/studies)",
+    )
+    parser.add_argument(
+        "--out", type=Path, help="output folder (default: <results>/report)"
+    )
+    parser.add_argument(
+        "--thresholds", type=Path, help="default: reports/thresholds.json"
+    )
     parser.add_argument("--history", type=Path, help="default: reports/history.jsonl")
-    parser.add_argument("--no-history", action="store_true",
-                        help="do not append this report to the history")
+    parser.add_argument(
+        "--no-history",
+        action="store_true",
+        help="do not append this report to the history",
+    )
+    parser.add_argument(
+        "--warn-only",
+        action="store_true",
+        help="print the metrics past their threshold but exit 0 (the quick "
+        "variants of `make test`: they check that the studies run)",
+    )
     args = parser.parse_args(argv)
-    return build_report(args.results, args.out, args.thresholds, args.history,
-                        record_history=not args.no_history)
+    code = build_report(
+        args.results,
+        args.out,
+        args.thresholds,
+        args.history,
+        record_history=not args.no_history,
+    )
+    return 0 if args.warn_only else code

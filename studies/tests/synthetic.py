@@ -19,10 +19,21 @@ def map_error(mode, k, split, cx, cy):
 def error_map(resolution=5, k_values=K_VALUES) -> pd.DataFrame:
     axis = np.linspace(-1.0, 1.0, resolution)
     rows = []
-    for mode, k, split, cx, cy in itertools.product(MODES, k_values, SPLITS, axis, axis):
+    for mode, k, split, cx, cy in itertools.product(
+        MODES, k_values, SPLITS, axis, axis
+    ):
         e = map_error(mode, k, split, cx, cy)
-        rows.append({"cx": cx, "cy": cy, "mode": mode, "k": k, "split": split,
-                     "total_force_rel_error": e, "nodal_force_rel_error": 2 * e})
+        rows.append(
+            {
+                "cx": cx,
+                "cy": cy,
+                "mode": mode,
+                "k": k,
+                "split": split,
+                "total_force_rel_error": e,
+                "nodal_force_rel_error": 2 * e,
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -30,9 +41,17 @@ def random_segments(n=7, k_values=K_VALUES) -> pd.DataFrame:
     rows = []
     for segment, mode, k, split in itertools.product(range(n), MODES, k_values, SPLITS):
         scale = 0.1 if mode == "thesis" else (1e-15 if split else 1e-4)
-        rows.append({"segment": segment, "n_cells_crossed": 1 + segment % 3, "mode": mode,
-                     "k": k, "split": split, "nodal_force_rel_error": scale * (segment + 1),
-                     "total_force_rel_error": scale * (segment + 1) / 2})
+        rows.append(
+            {
+                "segment": segment,
+                "n_cells_crossed": 1 + segment % 3,
+                "mode": mode,
+                "k": k,
+                "split": split,
+                "nodal_force_rel_error": scale * (segment + 1),
+                "total_force_rel_error": scale * (segment + 1) / 2,
+            }
+        )
     return pd.DataFrame(rows)
 
 

@@ -19,9 +19,13 @@ def test_strip_load_under_the_centre_at_depth_b():
 
 def test_strip_load_limits_and_symmetry():
     q, b = 10.0, 1.0
-    assert abs(analytic.strip_vertical_stress(q, b, 0.0, 1e-9) - q) <= 1e-6   # surface, inside
-    assert abs(analytic.strip_vertical_stress(q, b, 3.0, 1e-9)) <= 1e-6       # surface, outside
-    assert analytic.strip_vertical_stress(q, b, 0.0, 1e4) <= 1e-3 * q           # deep
+    assert (
+        abs(analytic.strip_vertical_stress(q, b, 0.0, 1e-9) - q) <= 1e-6
+    )  # surface, inside
+    assert (
+        abs(analytic.strip_vertical_stress(q, b, 3.0, 1e-9)) <= 1e-6
+    )  # surface, outside
+    assert analytic.strip_vertical_stress(q, b, 0.0, 1e4) <= 1e-3 * q  # deep
     x = np.linspace(-5, 5, 11)
     values = analytic.strip_vertical_stress(q, b, x, 2.0)
     assert np.allclose(values, values[::-1], rtol=0, atol=1e-12)
@@ -30,7 +34,10 @@ def test_strip_load_limits_and_symmetry():
 def test_column_and_prandtl_and_disk():
     m = analytic.constrained_modulus(1.0e4, 0.3)
     assert abs(m - 1.0e4 * 0.7 / (1.3 * 0.4)) <= 1e-9
-    assert abs(analytic.column_surcharge_settlement(5.0, 50.0, 1.0e4, 0.3) - 250.0 / m) <= 1e-15
+    assert (
+        abs(analytic.column_surcharge_settlement(5.0, 50.0, 1.0e4, 0.3) - 250.0 / m)
+        <= 1e-15
+    )
     assert analytic.column_vertical_stress(5.0, 5.0, 50.0, 20.0) == -50.0
     assert abs(analytic.prandtl_bearing_capacity(10.0) - 51.41592653589793) <= 1e-12
     disk = analytic.disk_external_pressure(2.0, 10.0, 1.0e4, 0.3)
@@ -39,7 +46,7 @@ def test_column_and_prandtl_and_disk():
 
 def test_observed_orders_of_a_second_order_error():
     h = [0.5, 0.25, 0.125]
-    orders = analytic.observed_orders(h, [3 * x ** 2 for x in h])
+    orders = analytic.observed_orders(h, [3 * x**2 for x in h])
     assert orders[0] is None and all(abs(o - 2.0) <= 1e-12 for o in orders[1:])
 
 
@@ -54,6 +61,6 @@ def test_parallel_map_keeps_the_order_of_the_items():
 
 
 def test_scheduler_without_dask_fails_with_a_clear_message(monkeypatch):
-    monkeypatch.setitem(sys.modules, "dask.distributed", None)   # import now raises
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # import now raises
     with pytest.raises(SchedulerUnavailable, match="dask.distributed"):
         parallel_map(square, [1, 2], scheduler="tcp://127.0.0.1:8786")

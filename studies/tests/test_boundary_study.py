@@ -29,19 +29,28 @@ def test_boundary_study_measures_the_known_offsets(fake_mpm):
     overall = errors[errors["region"] == "all"]
     # quick: 2 cases x 2 detectors x 2 measures x 2 times
     assert len(overall) == 16
-    for measure, shift in (("total", synthetic.MPM_SHIFT),
-                           ("detector_only", synthetic.DETECT_SHIFT)):
+    for measure, shift in (
+        ("total", synthetic.MPM_SHIFT),
+        ("detector_only", synthetic.DETECT_SHIFT),
+    ):
         rows = overall[overall["measure"] == measure]
         # A vertical translation: the horizontal edges are exactly `shift` apart.
         assert (rows["max_m"] - shift).abs().max() <= 1e-12
         assert (rows["max_h"] - shift / 0.5).abs().max() <= 1e-12
     headline = {(h.quantity, h.detector): h.value for h in outcome.headline}
-    assert abs(headline[("boundary.slope_k0.total.t0.625.max", "pfm_improved")]
-               - synthetic.MPM_SHIFT) <= 1e-12
-    assert headline[("traction.block_k0.total_force_rel_error", "pfm_thesis")] == \
-        pytest.approx(0.02, rel=1e-12)
-    assert headline[("traction.block_k0.lost_force_rel", "pfm_thesis")] == \
-        pytest.approx(0.03, rel=1e-12)
+    assert (
+        abs(
+            headline[("boundary.slope_k0.total.t0.625.max", "pfm_improved")]
+            - synthetic.MPM_SHIFT
+        )
+        <= 1e-12
+    )
+    assert headline[
+        ("traction.block_k0.total_force_rel_error", "pfm_thesis")
+    ] == pytest.approx(0.02, rel=1e-12)
+    assert headline[
+        ("traction.block_k0.lost_force_rel", "pfm_thesis")
+    ] == pytest.approx(0.03, rel=1e-12)
     # Per-region rows exist for the slope's regions, and the overlay figures were drawn.
     slope_regions = set(errors[errors["case"] == "slope_k0"]["region"])
     assert {"top", "face", "crest", "toe", "bottom"} <= slope_regions

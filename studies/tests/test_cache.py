@@ -4,25 +4,34 @@ import pytest
 
 from studies.common.cache import Cache, cache_key
 
-CASE = {"grid": {"cell_size": 0.5, "n_cells": [30, 15]}, "title": "block",
-        "materials": [{"name": "soil", "youngs_modulus": 1000.0}]}
+CASE = {
+    "grid": {"cell_size": 0.5, "n_cells": [30, 15]},
+    "title": "block",
+    "materials": [{"name": "soil", "youngs_modulus": 1000.0}],
+}
 REV = dict(revision="a" * 40, diff="d" * 64)
 
 
 def test_key_ignores_key_order_and_whitespace_but_not_values():
-    reordered = {"title": "block", "materials": [{"youngs_modulus": 1000.0, "name": "soil"}],
-                 "grid": {"n_cells": [30, 15], "cell_size": 0.5}}
+    reordered = {
+        "title": "block",
+        "materials": [{"youngs_modulus": 1000.0, "name": "soil"}],
+        "grid": {"n_cells": [30, 15], "cell_size": 0.5},
+    }
     assert cache_key(CASE, ["run"], **REV) == cache_key(reordered, ["run"], **REV)
     changed = {**CASE, "grid": {"cell_size": 0.25, "n_cells": [30, 15]}}
     assert cache_key(CASE, ["run"], **REV) != cache_key(changed, ["run"], **REV)
 
 
-@pytest.mark.parametrize("change", [
-    {"arguments": ["run", "--threads", "2"]},
-    {"revision": "b" * 40},
-    {"diff": "e" * 64},
-    {"extra": {"executable": "0" * 64}},
-])
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"arguments": ["run", "--threads", "2"]},
+        {"revision": "b" * 40},
+        {"diff": "e" * 64},
+        {"extra": {"executable": "0" * 64}},
+    ],
+)
 def test_key_changes_with_revision_diff_arguments_and_executable(change):
     base = dict(case=CASE, arguments=["run"], **REV)
     assert cache_key(**base) != cache_key(**{**base, **change})

@@ -20,8 +20,14 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def run_cli(*args, env):
-    return subprocess.run([sys.executable, "-m", "studies", *args], cwd=REPO, env=env,
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "studies", *args],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def test_cli_records_not_run_when_the_binary_is_missing(isolated):
@@ -30,7 +36,9 @@ def test_cli_records_not_run_when_the_binary_is_missing(isolated):
     assert done.returncode == 0, done.stderr
     study = json.loads((isolated["results"] / "quadrature" / "study.json").read_text())
     assert study["status"] == "not_run" and study["quick"] is True
-    assert study["reason"].startswith("needs ") and "pfm-quadrature-map" in study["reason"]
+    assert (
+        study["reason"].startswith("needs ") and "pfm-quadrature-map" in study["reason"]
+    )
     assert run_cli("nonsense", env=env).returncode == 2
 
 
@@ -38,14 +46,17 @@ def test_cli_report_builds_from_not_run_studies(isolated, tmp_path):
     env = dict(os.environ)
     run_cli("quadrature", "--quick", env=env)
     done = run_cli("report", "--history", str(tmp_path / "h.jsonl"), env=env)
-    assert done.returncode == 0, done.stderr     # nothing ran, so nothing is past a limit
+    assert done.returncode == 0, done.stderr  # nothing ran, so nothing is past a limit
     html = (isolated["results"] / "report" / "index.html").read_text()
     assert "not run" in html and (tmp_path / "h.jsonl").is_file()
 
 
 def test_outcome_round_trip_replaces_non_finite_values(tmp_path):
-    outcome = StudyOutcome(study="x", metrics=[Metric("x.a", float("nan"), "m")],
-                           headline=[Headline("q", "*", 1.5, "s")])
+    outcome = StudyOutcome(
+        study="x",
+        metrics=[Metric("x.a", float("nan"), "m")],
+        headline=[Headline("q", "*", 1.5, "s")],
+    )
     outcome.write(tmp_path)
     back = StudyOutcome.read(tmp_path / "study.json")
     assert back.metrics[0].value is None and "non-finite" in back.metrics[0].note
@@ -55,12 +66,21 @@ def test_outcome_round_trip_replaces_non_finite_values(tmp_path):
 
 
 def test_rejected_case_keys_count_as_missing_prerequisites():
-    stderr = ("pfm-mpm: error: /tmp/c/case.json: /solver/formulation: unknown key "
-              "(allowed here: scheme, shape_function, damping)\n")
-    assert missing_reason(RunFailed("x", 2, stderr)) == \
-        "pfm-mpm to accept: /solver/formulation: unknown key (allowed here: scheme, " \
+    stderr = (
+        "pfm-mpm: error: /tmp/c/case.json: /solver/formulation: unknown key "
+        "(allowed here: scheme, shape_function, damping)\n"
+    )
+    assert (
+        missing_reason(RunFailed("x", 2, stderr))
+        == "pfm-mpm to accept: /solver/formulation: unknown key (allowed here: scheme, "
         "shape_function, damping)"
-    assert missing_reason(RunFailed("x", 1, stderr)) is None          # a crash, not an input
+    )
+    stderr = "pfm-mpm: error: c.json: /detection/method: must be one of pfm, improved\n"
+    assert (
+        missing_reason(RunFailed("x", 2, stderr))
+        == "pfm-mpm to accept: /detection/method: must be one of pfm, improved"
+    )
+    assert missing_reason(RunFailed("x", 1, stderr)) is None  # a crash, not an input
     assert missing_reason(RunFailed("x", 2, "/time/dt: above the CFL limit")) is None
     assert missing_reason(PrerequisiteMissing("cases/slope.json")) == "cases/slope.json"
 
@@ -76,7 +96,8 @@ def test_particle_outputs_are_read_from_xdmf_and_hdf5(tmp_path):
             group["syy"] = -np.arange(n, dtype=float)
     grids = "".join(
         f'<Grid Name="step_{s:08d}" GridType="Uniform">\n<Time Value="{t}"/>\n</Grid>\n'
-        for s, t in ((0, 0.0), (14, 0.12983)))
+        for s, t in ((0, 0.0), (14, 0.12983))
+    )
     (tmp_path / "particles.xdmf").write_text(f"<Xdmf><Domain>{grids}</Domain></Xdmf>")
     index = read_index(tmp_path, "particles")
     assert list(index["step"]) == [0, 14] and list(index["time"]) == [0.0, 0.12983]
@@ -85,5 +106,30 @@ def test_particle_outputs_are_read_from_xdmf_and_hdf5(tmp_path):
     assert list(frame["y"]) == [1.5] * n and list(frame["uy"]) == [0.5] * n
     assert list(frame["syy"]) == [0.0, -1.0, -2.0, -3.0]
     assert file_at_time(index, 0.5, tolerance=0.01) is None
-    with pytest.raises(PrerequisiteMissing, match="boundary/index.csv"):
+    (tmp_path / "run.json").write_text(json.dumps({"status": "completed"}))
+    with pytest.raises(PrerequisiteMissing, match="boundary_<step>.csv"):
         read_index(tmp_path, "boundary")
+    # Boundary files without run.json "outputs": the time is the particle output's.
+    for step in (0, 14):
+        (tmp_path / f"boundary_{step:08d}.csv").write_text(
+            "loop,x,y\n0,0,0\n0,1,0\n0,0,1\n"
+        )
+    boundaries = read_index(tmp_path, "boundary")
+    assert list(boundaries["step"]) == [0, 14] and list(boundaries["time"]) == [
+        0.0,
+        0.12983,
+    ]
+    assert boundaries["file"].iloc[1] == str(tmp_path / "boundary_00000014.csv")
+    # With run.json "outputs" (the solver's own list), that list is used.
+    (tmp_path / "run.json").write_text(
+        json.dumps(
+            {
+                "status": "completed",
+                "outputs": [
+                    {"step": 14, "time": 0.13, "boundary": "boundary_00000014.csv"}
+                ],
+            }
+        )
+    )
+    boundaries = read_index(tmp_path, "boundary")
+    assert list(boundaries["step"]) == [14] and list(boundaries["time"]) == [0.13]

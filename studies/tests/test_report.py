@@ -11,43 +11,89 @@ from studies.common.tables import write_table
 from studies.report.build import build_report, read_thresholds
 
 THRESHOLDS = {
-    "schema": 1, "version": 7,
+    "schema": 1,
+    "version": 7,
     "metrics": [
-        {"name": "quadrature.exact.k5.split1.max_total_force_rel_error", "direction": "lower",
-         "limit": 1e-10, "unit": "1"},
-        {"name": "timing.slope.pfm_improved.detect_to_step_ratio", "direction": "lower",
-         "limit": 1.0, "unit": "1"},
-        {"name": "benchmarks.column.settlement_rel_error", "direction": "lower", "limit": 0.01,
-         "unit": "1"},
-        {"name": "timing.block_100k.mpm_particle_steps_per_s", "direction": "higher",
-         "limit": None, "unit": "1/s"},
+        {
+            "name": "quadrature.exact.k5.split1.max_total_force_rel_error",
+            "direction": "lower",
+            "limit": 1e-10,
+            "unit": "1",
+        },
+        {
+            "name": "timing.slope.pfm_improved.detect_to_step_ratio",
+            "direction": "lower",
+            "limit": 1.0,
+            "unit": "1",
+        },
+        {
+            "name": "benchmarks.column.settlement_rel_error",
+            "direction": "lower",
+            "limit": 0.01,
+            "unit": "1",
+        },
+        {
+            "name": "timing.block_100k.mpm_particle_steps_per_s",
+            "direction": "higher",
+            "limit": None,
+            "unit": "1/s",
+        },
     ],
 }
-PNG = bytes.fromhex("89504e470d0a1a0a0000000d4948445200000001000000010806000000"
-                    "1f15c4890000000d49444154789c6360000002000154a24f5d0000000049454e44ae426082")
+PNG = bytes.fromhex(
+    "89504e470d0a1a0a0000000d4948445200000001000000010806000000"
+    "1f15c4890000000d49444154789c6360000002000154a24f5d0000000049454e44ae426082"
+)
 
 
 def write_study(root, name, quadrature_error=1e-15, status="ok"):
     folder = root / name
     folder.mkdir(parents=True, exist_ok=True)
-    outcome = StudyOutcome(study=name, status=status, title=f"{name} title",
-                           summary=f"{name} summary", command=f"python -m studies {name}",
-                           reason="" if status == "ok" else "boom")
+    outcome = StudyOutcome(
+        study=name,
+        status=status,
+        title=f"{name} title",
+        summary=f"{name} summary",
+        command=f"python -m studies {name}",
+        reason="" if status == "ok" else "boom",
+    )
     if name == "quadrature" and status == "ok":
-        frame = pd.DataFrame({"mode": ["thesis", "exact"], "k": [5, 5],
-                              "max_error": [0.1357, quadrature_error]})
-        outcome.tables.append(write_table(folder, frame, "maxima", "Quadrature maxima table"))
+        frame = pd.DataFrame(
+            {
+                "mode": ["thesis", "exact"],
+                "k": [5, 5],
+                "max_error": [0.1357, quadrature_error],
+            }
+        )
+        outcome.tables.append(
+            write_table(folder, frame, "maxima", "Quadrature maxima table")
+        )
         (folder / "heatmap.png").write_bytes(PNG)
         outcome.figures.append(FigureRef("heatmap", "Heat map figure", "heatmap.png"))
-        outcome.metrics.append(Metric("quadrature.exact.k5.split1.max_total_force_rel_error",
-                                      quadrature_error, "1"))
-        outcome.headline.append(Headline("traction.quadrature.thesis", "*", 0.1357, "1"))
+        outcome.metrics.append(
+            Metric(
+                "quadrature.exact.k5.split1.max_total_force_rel_error",
+                quadrature_error,
+                "1",
+            )
+        )
+        outcome.headline.append(
+            Headline("traction.quadrature.thesis", "*", 0.1357, "1")
+        )
     if name == "timing" and status == "ok":
-        frame = pd.DataFrame({"stage": ["stress", "detect"], "median": [0.0123, 0.0456]})
-        outcome.tables.append(write_table(folder, frame, "stages", "Timing stages table"))
-        outcome.metrics += [Metric("timing.slope.pfm_improved.detect_to_step_ratio", 0.8765, "1"),
-                            Metric("timing.block_100k.mpm_particle_steps_per_s", 2.5e6, "1/s")]
-        outcome.headline.append(Headline("cost.detect_per_step", "pfm_improved", 0.04321, "s"))
+        frame = pd.DataFrame(
+            {"stage": ["stress", "detect"], "median": [0.0123, 0.0456]}
+        )
+        outcome.tables.append(
+            write_table(folder, frame, "stages", "Timing stages table")
+        )
+        outcome.metrics += [
+            Metric("timing.slope.pfm_improved.detect_to_step_ratio", 0.8765, "1"),
+            Metric("timing.block_100k.mpm_particle_steps_per_s", 2.5e6, "1/s"),
+        ]
+        outcome.headline.append(
+            Headline("cost.detect_per_step", "pfm_improved", 0.04321, "s")
+        )
     outcome.write(folder)
 
 
@@ -58,12 +104,18 @@ def setup(tmp_path):
     write_study(root, "timing")
     thresholds = tmp_path / "thresholds.json"
     thresholds.write_text(json.dumps(THRESHOLDS))
-    return {"root": root, "out": tmp_path / "report", "thresholds": thresholds,
-            "history": tmp_path / "history.jsonl"}
+    return {
+        "root": root,
+        "out": tmp_path / "report",
+        "thresholds": thresholds,
+        "history": tmp_path / "history.jsonl",
+    }
 
 
 def build(setup):
-    return build_report(setup["root"], setup["out"], setup["thresholds"], setup["history"])
+    return build_report(
+        setup["root"], setup["out"], setup["thresholds"], setup["history"]
+    )
 
 
 def test_report_holds_every_table_figure_and_the_headline(setup):
@@ -74,14 +126,19 @@ def test_report_holds_every_table_figure_and_the_headline(setup):
         assert text in html and text in markdown
     assert 'src="../results/quadrature/heatmap.png"' in html
     # Headline: our numbers in their detector's column, the thesis beside them.
-    row = re.search(r"<tr><td>cost: detection per step.*?</tr>", html, re.S).group(0)
+    row = re.search(r"<tr><td>cost: detection per call.*?</tr>", html, re.S).group(0)
     cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
     assert cells[2] == "0.047 s (5.2)" and cells[5] == "0.04321"
     # Studies without results are marked as such, with the reason as a footnote.
     assert "not run [" in html and "`make study-boundary` (no results yet)" in html
-    verdicts = {v["name"]: v for v in json.loads((setup["out"] / "report.json").read_text())
-                ["verdicts"]}
-    assert verdicts["quadrature.exact.k5.split1.max_total_force_rel_error"]["status"] == "pass"
+    verdicts = {
+        v["name"]: v
+        for v in json.loads((setup["out"] / "report.json").read_text())["verdicts"]
+    }
+    assert (
+        verdicts["quadrature.exact.k5.split1.max_total_force_rel_error"]["status"]
+        == "pass"
+    )
     assert verdicts["benchmarks.column.settlement_rel_error"]["status"] == "not run"
     assert verdicts["timing.block_100k.mpm_particle_steps_per_s"]["status"] == "info"
     history = setup["history"].read_text().splitlines()
@@ -90,17 +147,20 @@ def test_report_holds_every_table_figure_and_the_headline(setup):
 
 def test_report_exits_non_zero_on_a_regression_past_the_threshold(setup, capsys):
     assert build(setup) == 0
-    write_study(setup["root"], "quadrature", quadrature_error=3e-3)   # past 1e-10
+    write_study(setup["root"], "quadrature", quadrature_error=3e-3)  # past 1e-10
     assert build(setup) == 1
-    verdict = {v["name"]: v for v in json.loads((setup["out"] / "report.json").read_text())
-               ["verdicts"]}["quadrature.exact.k5.split1.max_total_force_rel_error"]
+    verdict = {
+        v["name"]: v
+        for v in json.loads((setup["out"] / "report.json").read_text())["verdicts"]
+    }["quadrature.exact.k5.split1.max_total_force_rel_error"]
     assert verdict["status"] == "FAIL" and verdict["regression"]
     assert verdict["previous"] == 1e-15
     assert "FAIL REGRESSION quadrature.exact.k5.split1" in capsys.readouterr().err
     html = (setup["out"] / "index.html").read_text()
     assert 'class="verdict-FAIL"' in html and "(regression)" in html
     assert json.loads(setup["history"].read_text().splitlines()[-1])["failed"] == [
-        "quadrature.exact.k5.split1.max_total_force_rel_error"]
+        "quadrature.exact.k5.split1.max_total_force_rel_error"
+    ]
 
 
 def test_a_failed_study_fails_its_thresholded_metrics(setup):
@@ -120,5 +180,6 @@ def test_thresholds_file_is_validated(tmp_path):
 
 def test_the_repository_thresholds_file_is_valid():
     from studies.report.build import default_thresholds_path
+
     version, thresholds = read_thresholds(default_thresholds_path())
     assert version >= 1 and len(thresholds) >= 10

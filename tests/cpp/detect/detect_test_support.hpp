@@ -242,4 +242,61 @@ inline Violations check_invariants(const DetectedBoundary& b, const Grid& field_
   return v;
 }
 
+/// Distances (in units of h) from the boundary samples to a polygon body: samples within
+/// `corner_zone` (m) of a vertex count as corner samples, the others by their nearest face.
+struct FaceReport {
+  Stats faces;   ///< all face samples
+  Stats corner;  ///< samples near a vertex
+  std::vector<Stats> face;
+};
+
+inline FaceReport face_distances(const DetectedBoundary& b, const std::vector<Vec2>& vertices,
+                                 double corner_zone, double h) {
+  FaceReport r;
+  r.face.resize(vertices.size());
+  for (const auto& p : boundary_samples(b)) {
+    double best = 1e300;
+    std::size_t face = 0;
+    for (std::size_t k = 0; k < vertices.size(); ++k) {
+      const double d = segment_distance(p, vertices[k], vertices[(k + 1) % vertices.size()]);
+      if (d < best) {
+        best = d;
+        face = k;
+      }
+    }
+    bool near_corner = false;
+    for (const auto& v : vertices) near_corner = near_corner || (p - v).norm() < corner_zone;
+    if (near_corner) {
+      r.corner.add(best / h);
+    } else {
+      r.face[face].add(best / h);
+      r.faces.add(best / h);
+    }
+  }
+  for (auto& s : r.face) s.finish();
+  r.faces.finish();
+  r.corner.finish();
+  return r;
+}
+
+/// Radial errors (in units of h) of the boundary samples against the circle (centre, radius):
+/// bias = mean signed error (> 0 outside), mean and max of its absolute value.
+struct CircleReport {
+  double bias = 0.0;
+  Stats absolute;
+};
+
+inline CircleReport circle_errors(const DetectedBoundary& b, const Vec2& centre, double radius,
+                                  double h) {
+  CircleReport r;
+  for (const auto& p : boundary_samples(b)) {
+    const double d = ((p - centre).norm() - radius) / h;
+    r.bias += d;
+    r.absolute.add(std::abs(d));
+  }
+  r.bias /= std::max(r.absolute.count, 1);
+  r.absolute.finish();
+  return r;
+}
+
 }  // namespace pfm::test

@@ -1,5 +1,5 @@
-// Deterministic output order, identical full-field and narrow-band results, root-finder cost,
-// and configuration errors with JSON pointers.
+// Deterministic output order (every detector), identical full-field and narrow-band results,
+// root-finder cost, and configuration errors with JSON pointers.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -21,7 +21,8 @@ bool identical(const DetectedBoundary& a, const DetectedBoundary& b) {
 }
 
 TEST(Determinism, RepeatedCallsGiveBitwiseIdenticalOrderedOutput) {
-  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm}) {
+  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm, DetectorMethod::kSmm,
+                            DetectorMethod::kVof, DetectorMethod::kDensity}) {
     DetectorConfig config;
     config.method = method;
     for (std::uint64_t seed = 0; seed < 50; ++seed) {
@@ -167,7 +168,8 @@ TEST(Detect, EmptyCloudGivesNoContourAndBadSpansAreInputErrors) {
   Grid g;
   g.cell_size = 0.5;
   g.n_cells_x = g.n_cells_y = 4;
-  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm}) {
+  for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm, DetectorMethod::kSmm,
+                            DetectorMethod::kVof, DetectorMethod::kDensity}) {
     DetectorConfig config;
     config.method = method;
     DetectorState state;

@@ -111,3 +111,48 @@ TEST(Invariants, BodyCutByTheFieldGridGivesOneOpenChainEndingOnItsEdge) {
 
 }  // namespace
 }  // namespace pfm::test
+
+namespace pfm::test {
+namespace {
+
+// The baselines on the same seeded clouds (VOF and density on all of them, SMM, whose static
+// result is the improved contour resampled, on the first 1000): contract violations counted and
+// reported. Marching squares (density) and the PLIC union boundary (VOF) are closed, oriented
+// and point-disjoint by construction: their contract counts are asserted zero; SMM's chords may
+// cut corners and thin filaments, so its counts are reported only. Particles outside the region
+// are reported for all three.
+TEST(Invariants, BaselinesContractCountsReported) {
+  const char* names[3] = {"smm", "vof", "density"};
+  const DetectorMethod methods[3] = {DetectorMethod::kSmm, DetectorMethod::kVof,
+                                     DetectorMethod::kDensity};
+  Violations total[3];
+  int clouds[3] = {0, 0, 0};
+  for (int seed = 0; seed < kClouds; ++seed) {
+    const auto rc = random_case(static_cast<std::uint64_t>(seed));
+    for (int m = 0; m < 3; ++m) {
+      if (methods[m] == DetectorMethod::kSmm && seed >= 1000) continue;
+      DetectorConfig config;
+      config.method = methods[m];
+      DetectorState state;
+      total[m] += check_invariants(detect(rc.cloud.view(), rc.grid, config, state), rc.grid,
+                                   rc.cloud.position);
+      ++clouds[m];
+    }
+  }
+  std::printf("%-8s %6s | open shared  cross orient   wind     out\n", "baseline", "clouds");
+  for (int m = 0; m < 3; ++m) {
+    const auto& v = total[m];
+    std::printf("%-8s %6d | %4ld %6ld %6ld %6ld %6ld %7ld\n", names[m], clouds[m],
+                v.open_not_on_edge, v.shared_points, v.self_intersections, v.orientation, v.winding,
+                v.particles_outside);
+  }
+  for (int m = 1; m < 3; ++m) {
+    const auto& v = total[m];
+    EXPECT_EQ(
+        v.open_not_on_edge + v.shared_points + v.self_intersections + v.orientation + v.winding, 0)
+        << names[m];
+  }
+}
+
+}  // namespace
+}  // namespace pfm::test

@@ -155,9 +155,45 @@ TEST(BoundaryCoupling, MaterialIntervalFollowsTheParticlesUnderItsEnds) {
   Vec2 sum = Vec2::Zero();
   for (std::size_t k = 0; k < coupling.nodal_forces().size(); ++k) {
     sum += coupling.nodal_forces()[k].force;
-    if (k > 0) EXPECT_LT(coupling.nodal_forces()[k - 1].node, coupling.nodal_forces()[k].node);
+    if (k > 0) {
+      EXPECT_LT(coupling.nodal_forces()[k - 1].node, coupling.nodal_forces()[k].node);
+    }
   }
   EXPECT_NEAR(sum.y(), coupling.diagnostics().applied.y(), 1e-12 * 40.0);
+}
+
+// In a run the Surface Marker Method's markers ride on the grid velocities: a body translating
+// rigidly at v (no gravity, no supports) carries its markers by v t.
+TEST(BoundaryCoupling, SurfaceMarkersMoveWithTheGridVelocitiesInARun) {
+  const nlohmann::json j = nlohmann::json::parse(R"({
+    "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [24, 12]},
+    "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                   "poisson_ratio": 0.3, "unit_weight": 20.0}],
+    "bodies": [{"name": "block", "material": "soil", "rectangle": [[2.0, 1.0], [6.0, 3.0]]}],
+    "gravity": {"g": 0.0},
+    "detection": {"method": "smm", "every_steps": 5},
+    "time": {"end_time": 1.0}
+  })");
+  const Case c = parse_case(j, "smm_translation");
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  coupling.attach(solver);
+  const Vec2 v(0.4, -0.1);
+  for (Vec2& velocity : solver.particles().velocity) velocity = v;
+  const DetectedBoundary initial = coupling.current_boundary();
+  ASSERT_EQ(initial.contours.size(), 1u);
+  for (int step = 0; step < 40; ++step) solver.step();
+  const DetectedBoundary moved = coupling.current_boundary();
+  ASSERT_EQ(moved.contours.size(), 1u);
+  ASSERT_EQ(moved.contours[0].points.size(), initial.contours[0].points.size());
+  double worst = 0.0;
+  for (std::size_t k = 0; k < moved.contours[0].points.size(); ++k) {
+    const Vec2 expected = initial.contours[0].points[k] + v * solver.time();
+    worst = std::max(worst, (moved.contours[0].points[k] - expected).norm());
+  }
+  std::printf("SMM markers after %.3f s of rigid translation: max error %.2e m\n", solver.time(),
+              worst);
+  EXPECT_LE(worst, 1e-12);
 }
 
 }  // namespace
