@@ -43,7 +43,7 @@ build: deps
 run: build
 	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies demo --case $(CASE) --out $(OUT)
 
-test: build test-cpp test-python test-studies
+test: build test-cpp test-python test-studies test-sanitize
 
 test-cpp:
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
@@ -58,6 +58,19 @@ sanitize: deps
 	@cmake --build $(SANITIZE_DIR) -j $(JOBS)
 	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) --timeout 900
+
+# Reliability (issue 7): `make test` also runs the C++ tests under ASan + UBSan, and `make fuzz`
+# runs libFuzzer on the input readers for FUZZ_SECONDS each (clang; tests/fuzz/README.md).
+.PHONY: test-sanitize fuzz
+FUZZ_DIR ?= build-fuzz
+FUZZ_SECONDS ?= 600
+test-sanitize: sanitize
+
+fuzz: deps
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="clang libclang-rt-dev libomp-dev"
+	@CC=clang CXX=clang++ cmake -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPFM_FUZZ=ON > /dev/null
+	@cmake --build $(FUZZ_DIR) -j $(JOBS) --target fuzz_case fuzz_particle_csv fuzz_config
+	PYTHON=$(PYTHON) tests/fuzz/run_fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 bench: build
 	$(BUILD_DIR)/bin/pfm-bench

@@ -1,5 +1,6 @@
 #include "mpm/core/json_input.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -37,13 +38,49 @@ nlohmann::json read_json_file(const std::string& path) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     throw InputError(path + ": file is empty, expected a JSON object");
   }
+  // Copying, comparing or printing a JSON value recurses once per level of nesting: refuse
+  // documents nested deeper than any input needs before they can exhaust the stack.
+  constexpr int kMaxDepth = 256;
+  int depth = 0, line = 1;
+  bool in_string = false, escaped = false;
+  for (const char ch : text) {
+    if (ch == '\n') ++line;
+    if (in_string) {
+      if (escaped) {
+        escaped = false;
+      } else if (ch == '\\') {
+        escaped = true;
+      } else if (ch == '"') {
+        in_string = false;
+      }
+    } else if (ch == '"') {
+      in_string = true;
+    } else if (ch == '[' || ch == '{') {
+      if (++depth > kMaxDepth) {
+        throw InputError(path + ": line " + std::to_string(line) + ": JSON nested deeper than " +
+                         std::to_string(kMaxDepth) + " levels");
+      }
+    } else if (ch == ']' || ch == '}') {
+      --depth;
+    }
+  }
   try {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path + ": invalid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
   } catch (const nlohmann::json::exception& e) {
-    // e.g. a number too large for a double (1e999): JSON has no inf or NaN.
-    throw InputError(path + ": invalid JSON value: " + e.what());
+    // A number too large for a double (1e999): JSON has no inf or NaN. nlohmann gives no
+    // position; the message quotes the number, so find its line.
+    const std::string what = e.what();
+    const auto open = what.find('\''), close = what.rfind('\'');
+    std::string where;
+    if (open != std::string::npos && close > open + 1) {
+      const auto at = text.find(what.substr(open + 1, close - open - 1));
+      if (at != std::string::npos) {
+        where = " at line " + std::to_string(1 + std::count(text.begin(), text.begin() + at, '\n'));
+      }
+    }
+    throw InputError(path + ": invalid JSON value" + where + ": " + what);
   }
 }
 

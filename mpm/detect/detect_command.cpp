@@ -15,6 +15,9 @@ namespace pfm {
 
 namespace {
 
+// At most as many grid nodes as the case reader allows (mpm/solver/case.cpp).
+constexpr double kMaxGridNodes = 5e7;
+
 std::string trim(const std::string& s) {
   const auto begin = s.find_first_not_of(" \t\r");
   if (begin == std::string::npos) return "";
@@ -108,8 +111,12 @@ ParticleTable read_particle_csv(const std::string& path) {
     if (!(volume > 0.0)) throw InputError(where + ": column volume: must be > 0");
     table.volume.push_back(volume);
     if (n_f == 4) {
+      // All four first: number() throwing inside Eigen's comma initializer trips its "too few
+      // coefficients" assertion (an abort instead of InputError in builds with assertions).
+      const double f11 = number(cf[0]), f12 = number(cf[1]), f21 = number(cf[2]),
+                   f22 = number(cf[3]);
       Mat2 f;
-      f << number(cf[0]), number(cf[1]), number(cf[2]), number(cf[3]);
+      f << f11, f12, f21, f22;
       if (!(f.determinant() > 0.0)) {
         throw InputError(where + ": columns F11..F22: det F must be > 0");
       }
@@ -152,6 +159,14 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     grid.n_cells_x = n.at(0).as_int();
     grid.n_cells_y = n.at(1).as_int();
     n.require(grid.n_cells_x >= 1 && grid.n_cells_y >= 1, "must be >= 1");
+    n.require((grid.n_cells_x + 1.0) * (grid.n_cells_y + 1.0) <= kMaxGridNodes,
+              "more than 5e7 grid nodes");
+    const Vec2 lo = grid.origin, hi = grid.upper_corner();  // no int casts: x may be 1e300
+    const bool any_inside =
+        std::any_of(table.position.begin(), table.position.end(), [&](const Vec2& p) {
+          return p.x() >= lo.x() && p.y() >= lo.y() && p.x() <= hi.x() && p.y() <= hi.y();
+        });
+    g->require(any_inside, "every particle of " + particles_csv + " lies outside the grid");
   } else {
     grid.cell_size = 2.0 * spacing;
     Vec2 lo = table.position[0], hi = table.position[0];
@@ -167,8 +182,18 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     const double h = grid.cell_size;
     grid.origin =
         Vec2(std::floor((lo.x() - margin) / h) * h, std::floor((lo.y() - margin) / h) * h);
-    grid.n_cells_x = static_cast<int>(std::ceil((hi.x() + margin - grid.origin.x()) / h));
-    grid.n_cells_y = static_cast<int>(std::ceil((hi.y() + margin - grid.origin.y()) / h));
+    const double nx = std::ceil((hi.x() + margin - grid.origin.x()) / h);
+    const double ny = std::ceil((hi.y() + margin - grid.origin.y()) / h);
+    if (!((nx + 1.0) * (ny + 1.0) <= kMaxGridNodes)) {
+      throw InputError(particles_csv + ": the particles span " + std::to_string(hi.x() - lo.x()) +
+                       " x " + std::to_string(hi.y() - lo.y()) + " m at a spacing of " +
+                       std::to_string(spacing) +
+                       " m: the automatic grid would have more than 5e7 nodes (give \"grid\" "
+                       "or \"initial_spacing\" in " +
+                       config_json + ")");
+    }
+    grid.n_cells_x = static_cast<int>(nx);
+    grid.n_cells_y = static_cast<int>(ny);
   }
 
   // 2. Detection.

@@ -240,7 +240,9 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     c.grid.n_cells_y = n.at(std::size_t{1}).as_int();
     n.at(std::size_t{0}).require(c.grid.n_cells_x >= 1, "must be >= 1");
     n.at(std::size_t{1}).require(c.grid.n_cells_y >= 1, "must be >= 1");
-    n.require(static_cast<long long>(c.grid.n_cells_x + 1) * (c.grid.n_cells_y + 1) <= 50'000'000,
+    n.require((static_cast<long long>(c.grid.n_cells_x) + 1) *
+                      (static_cast<long long>(c.grid.n_cells_y) + 1) <=
+                  50'000'000,
               "more than 5e7 grid nodes");
   }
 
