@@ -74,6 +74,7 @@ fuzz: deps
 
 bench: build
 	$(BUILD_DIR)/bin/pfm-bench
+	$(BUILD_DIR)/bin/pfm-bench-detect
 
 # Studies (studies/): `make study-NAME`, `make study` for all, `make report` for the nightly
 # accuracy report. QUICK=1 runs the quick variants; SCHEDULER=tcp://host:8786 uses Dask.

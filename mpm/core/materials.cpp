@@ -83,20 +83,35 @@ double PiecewiseLinear::min_value() const {
   return *std::min_element(y.begin(), y.end());
 }
 
+namespace {
+
+MaterialConstants hooke_constants(const ElasticParameters& elastic) {
+  MaterialConstants k;
+  k.lambda = elastic.lame_lambda();
+  k.mu = elastic.shear_modulus();
+  return k;
+}
+
+}  // namespace
+
 Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& d) {
-  const double lambda = elastic.lame_lambda();
-  const double mu = elastic.shear_modulus();
-  const double volumetric = d[kXX] + d[kYY] + d[kZZ];
-  return Stress(lambda * volumetric + 2.0 * mu * d[kXX], lambda * volumetric + 2.0 * mu * d[kYY],
-                mu * d[kXY], lambda * volumetric + 2.0 * mu * d[kZZ]);
+  return elastic_stress_increment(hooke_constants(elastic), d);
 }
 
 void LinearElastic::update(const Strain& strain_increment, Stress& stress, PointState&) const {
   stress += elastic_stress_increment(elastic, strain_increment);
 }
 
+MaterialConstants LinearElastic::constants() const {
+  return hooke_constants(elastic);
+}
+
 const ElasticParameters& elastic_parameters(const Material& material) {
   return std::visit([](const auto& m) -> const ElasticParameters& { return m.elastic; }, material);
+}
+
+MaterialConstants material_constants(const Material& material) {
+  return std::visit([](const auto& m) { return m.constants(); }, material);
 }
 
 namespace {
@@ -116,18 +131,15 @@ struct PrincipalStress {
   double sin_2theta;
 };
 
-inline PrincipalStress principal_stress(const Stress& s) {
+/// The ordered principal values (and their sources) only; principal_directions() adds the rest.
+/// Split so that an elastic step, which needs only the values, skips the two divisions.
+inline PrincipalStress principal_values(const Stress& s) {
   const double center = 0.5 * (s[kXX] + s[kYY]);
   const double half_difference = 0.5 * (s[kXX] - s[kYY]);
   const double radius = std::sqrt(half_difference * half_difference + s[kXY] * s[kXY]);
   PrincipalStress p;
-  if (radius > 0.0) {
-    p.cos_2theta = half_difference / radius;
-    p.sin_2theta = s[kXY] / radius;
-  } else {
-    p.cos_2theta = 1.0;
-    p.sin_2theta = 0.0;
-  }
+  p.cos_2theta = 1.0;
+  p.sin_2theta = 0.0;
   const double major = center + radius, minor = center - radius, zz = s[kZZ];
   if (zz >= major) {
     p.values[0] = zz, p.values[1] = major, p.values[2] = minor;
@@ -139,6 +151,22 @@ inline PrincipalStress principal_stress(const Stress& s) {
     p.values[0] = major, p.values[1] = minor, p.values[2] = zz;
     p.source[0] = 0, p.source[1] = 1, p.source[2] = 2;
   }
+  return p;
+}
+
+/// Fills in the directions of p = principal_values(s).
+inline void principal_directions(const Stress& s, PrincipalStress& p) {
+  const double half_difference = 0.5 * (s[kXX] - s[kYY]);
+  const double radius = std::sqrt(half_difference * half_difference + s[kXY] * s[kXY]);
+  if (radius > 0.0) {
+    p.cos_2theta = half_difference / radius;
+    p.sin_2theta = s[kXY] / radius;
+  }
+}
+
+inline PrincipalStress principal_stress(const Stress& s) {
+  PrincipalStress p = principal_values(s);
+  principal_directions(s, p);
   return p;
 }
 
@@ -326,9 +354,10 @@ int plastic_strain_roots(const PiecewiseLinear& law, double eps_n, const StrainO
 /// (multipliers of the F / T planes as written in the header comment).
 ReturnInfo principal_return(const PlaneModel& model, const PiecewiseLinear& cohesion, int n_sets,
                             double eps_n, const double trial[3], double result[3]) {
+  // The planes are built when a set first needs them (usually only the main plane is).
   PlaneData planes[6];
+  bool built[6] = {false, false, false, false, false, false};
   const int n_planes = n_sets > kShearOnlySets ? 6 : 3;
-  for (int p = 0; p < n_planes; ++p) planes[p] = make_plane(model, static_cast<YieldPlane>(p));
 
   const double c_cap = model.cap_cohesion();
   ReturnInfo best;  // if nothing is found at all (NaN input): the trial stress, flagged
@@ -341,6 +370,10 @@ ReturnInfo principal_return(const PlaneModel& model, const PiecewiseLinear& cohe
     for (int set_index = 0; set_index < n_sets; ++set_index) {
       const ActiveSet& set = kActiveSets[set_index];
       const int n = set.n;
+      for (int j = 0; j < n; ++j) {
+        const int id = static_cast<int>(set.planes[j]);
+        if (!built[id]) planes[id] = make_plane(model, set.planes[j]), built[id] = true;
+      }
       // multipliers = b0 - b1 c - b2 sigma_t,eff(c)
       double a[3][3], b[3][3];
       for (int j = 0; j < n; ++j) {
@@ -429,25 +462,45 @@ double Tresca::yield_function(const Stress& stress, const PointState& state) con
   return 0.5 * (p.values[0] - p.values[2]) - cohesion.value(state.plastic_strain);
 }
 
-ReturnInfo Tresca::update_with_info(const Strain& strain_increment, Stress& stress,
-                                    PointState& state) const {
-  stress += elastic_stress_increment(elastic, strain_increment);  // elastic trial
-  const PrincipalStress p = principal_stress(stress);
-  const double eps_n = state.plastic_strain;
-  if (0.5 * (p.values[0] - p.values[2]) - cohesion.value(eps_n) <= 0.0) return ReturnInfo{};
+MaterialConstants Tresca::constants() const {
+  return hooke_constants(elastic);
+}
 
-  const PlaneModel model{
-      0.0, 1.0, 0.0, kInfinity, elastic.lame_lambda(), 2.0 * elastic.shear_modulus()};
+namespace {
+
+/// Tresca::update_with_info with the constants given. The elastic case (the common one) returns
+/// right after the trial check.
+inline ReturnInfo tresca_update(const Tresca& m, const MaterialConstants& k,
+                                const Strain& strain_increment, Stress& stress, PointState& state) {
+  stress += elastic_stress_increment(k, strain_increment);  // elastic trial
+  PrincipalStress p = principal_values(stress);
+  const double eps_n = state.plastic_strain;
+  if (0.5 * (p.values[0] - p.values[2]) - m.cohesion.value(eps_n) <= 0.0) return ReturnInfo{};
+  principal_directions(stress, p);
+
+  const PlaneModel model{0.0, 1.0, 0.0, kInfinity, k.lambda, 2.0 * k.mu};
   double ordered[3];
-  ReturnInfo info = principal_return(model, cohesion, kShearOnlySets, eps_n, p.values, ordered);
+  ReturnInfo info = principal_return(model, m.cohesion, kShearOnlySets, eps_n, p.values, ordered);
   for (int l = 0; l < info.n_active; ++l) info.multipliers[l] *= 2.0;  // f = F / 2
   assemble_stress(p, ordered, stress);
   state.plastic_strain = eps_n + info.plastic_strain_increment;
   return info;
 }
 
+}  // namespace
+
+ReturnInfo Tresca::update_with_info(const Strain& strain_increment, Stress& stress,
+                                    PointState& state) const {
+  return tresca_update(*this, constants(), strain_increment, stress, state);
+}
+
 void Tresca::update(const Strain& strain_increment, Stress& stress, PointState& state) const {
-  update_with_info(strain_increment, stress, state);
+  tresca_update(*this, constants(), strain_increment, stress, state);
+}
+
+void Tresca::update(const Strain& strain_increment, Stress& stress, PointState& state,
+                    const MaterialConstants& constants) const {
+  tresca_update(*this, constants, strain_increment, stress, state);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -472,36 +525,56 @@ double MohrCoulomb::tension_function(const Stress& stress, const PointState& sta
   return principal_stress(stress).values[0] - effective_tension_cutoff(state);
 }
 
-ReturnInfo MohrCoulomb::update_with_info(const Strain& strain_increment, Stress& stress,
-                                         PointState& state) const {
-  stress += elastic_stress_increment(elastic, strain_increment);  // elastic trial
-  const PrincipalStress p = principal_stress(stress);
-  const double eps_n = state.plastic_strain;
+MaterialConstants MohrCoulomb::constants() const {
+  MaterialConstants k = hooke_constants(elastic);
   const double phi = friction_angle_deg * kRadiansPerDegree;
-  const double sin_phi = std::sin(phi), cos_phi = std::cos(phi);
+  k.sin_phi = std::sin(phi);
+  k.cos_phi = std::cos(phi);
+  k.sin_psi = std::sin(dilation_angle_deg * kRadiansPerDegree);
+  return k;
+}
+
+namespace {
+
+/// MohrCoulomb::update_with_info with the constants given.
+inline ReturnInfo mohr_coulomb_update(const MohrCoulomb& m, const MaterialConstants& k,
+                                      const Strain& strain_increment, Stress& stress,
+                                      PointState& state) {
+  stress += elastic_stress_increment(k, strain_increment);  // elastic trial
+  PrincipalStress p = principal_values(stress);
+  const double eps_n = state.plastic_strain;
+  const double sin_phi = k.sin_phi, cos_phi = k.cos_phi;
   const double s1 = p.values[0], s3 = p.values[2];
   const double shear =
-      (1.0 + sin_phi) * s1 - (1.0 - sin_phi) * s3 - 2.0 * cos_phi * cohesion.value(eps_n);
+      (1.0 + sin_phi) * s1 - (1.0 - sin_phi) * s3 - 2.0 * cos_phi * m.cohesion.value(eps_n);
   // Inside the cone s1 <= c cot(phi), so s1 <= sigma_t is the whole cut-off check here.
-  if (shear <= 0.0 && s1 <= tension_cutoff) return ReturnInfo{};
+  if (shear <= 0.0 && s1 <= m.tension_cutoff) return ReturnInfo{};
+  principal_directions(stress, p);
 
-  const PlaneModel model{sin_phi,
-                         cos_phi,
-                         std::sin(dilation_angle_deg * kRadiansPerDegree),
-                         tension_cutoff,
-                         elastic.lame_lambda(),
-                         2.0 * elastic.shear_modulus()};
+  const PlaneModel model{sin_phi, cos_phi, k.sin_psi, m.tension_cutoff, k.lambda, 2.0 * k.mu};
   double ordered[3];
   const int n_sets =
       (model.tension_cutoff < kInfinity || sin_phi > 0.0) ? kAllSets : kShearOnlySets;
-  const ReturnInfo info = principal_return(model, cohesion, n_sets, eps_n, p.values, ordered);
+  const ReturnInfo info = principal_return(model, m.cohesion, n_sets, eps_n, p.values, ordered);
   assemble_stress(p, ordered, stress);
   state.plastic_strain = eps_n + info.plastic_strain_increment;
   return info;
 }
 
+}  // namespace
+
+ReturnInfo MohrCoulomb::update_with_info(const Strain& strain_increment, Stress& stress,
+                                         PointState& state) const {
+  return mohr_coulomb_update(*this, constants(), strain_increment, stress, state);
+}
+
 void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointState& state) const {
-  update_with_info(strain_increment, stress, state);
+  mohr_coulomb_update(*this, constants(), strain_increment, stress, state);
+}
+
+void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointState& state,
+                         const MaterialConstants& constants) const {
+  mohr_coulomb_update(*this, constants, strain_increment, stress, state);
 }
 
 }  // namespace pfm

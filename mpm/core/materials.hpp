@@ -22,7 +22,9 @@
 //    add to it. In simple shear eps_p is the plastic engineering shear strain gamma_xy^p.
 //
 // update() is the hot path (no allocation, no exception, no virtual call); update_with_info()
-// does the same and also says which return was used (for tests and diagnostics).
+// does the same and also says which return was used (for tests and diagnostics). Hot loops
+// compute a model's constants() (Hooke constants, sines of the angles) once and pass them to
+// update(..., constants): bitwise the same result without recomputing them per point.
 #pragma once
 
 #include <variant>
@@ -62,8 +64,28 @@ struct ElasticParameters {
   double constrained_modulus() const { return lame_lambda() + 2.0 * shear_modulus(); }
 };
 
+/// Constants of a model that update() would otherwise recompute at every call, exactly as it
+/// computes them: lambda = lame_lambda(), mu = shear_modulus(), and for Mohr-Coulomb the sines
+/// and cosine of the angles (the other models leave them at phi = psi = 0).
+struct MaterialConstants {
+  double lambda = 0.0;   ///< kPa
+  double mu = 0.0;       ///< kPa
+  double sin_phi = 0.0;  ///< sin(friction angle)
+  double cos_phi = 1.0;  ///< cos(friction angle)
+  double sin_psi = 0.0;  ///< sin(dilation angle)
+};
+
 /// Stress increment of Hooke's law for a plane-strain strain increment.
 Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& strain_increment);
+
+/// The same with lambda and mu taken from `constants` (inline: the elastic hot path).
+inline Stress elastic_stress_increment(const MaterialConstants& constants, const Strain& d) {
+  const double lambda = constants.lambda;
+  const double mu = constants.mu;
+  const double volumetric = d[kXX] + d[kYY] + d[kZZ];
+  return Stress(lambda * volumetric + 2.0 * mu * d[kXX], lambda * volumetric + 2.0 * mu * d[kYY],
+                mu * d[kXY], lambda * volumetric + 2.0 * mu * d[kZZ]);
+}
 
 /// The planes of the principal-stress-space return, in the ordered frame s1 >= s2 >= s3 of the
 /// elastic trial stress. kShearIJ: the Mohr-Coulomb (Tresca for phi = 0) plane with s_I as the
@@ -92,12 +114,22 @@ struct ReturnInfo {
 struct LinearElastic {
   ElasticParameters elastic;
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  /// update() with constants() computed once by the caller.
+  void update(const Strain& strain_increment, Stress& stress, PointState& /*state*/,
+              const MaterialConstants& constants) const {
+    stress += elastic_stress_increment(constants, strain_increment);
+  }
+  MaterialConstants constants() const;
 };
 
 struct Tresca {
   ElasticParameters elastic;
   PiecewiseLinear cohesion;  ///< c(eps_p), kPa
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  /// update() with constants() computed once by the caller.
+  void update(const Strain& strain_increment, Stress& stress, PointState& state,
+              const MaterialConstants& constants) const;
+  MaterialConstants constants() const;
   ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
                               PointState& state) const;
   /// Yield function at the given stress and state (kPa); <= 0 inside the elastic region.
@@ -111,6 +143,10 @@ struct MohrCoulomb {
   double dilation_angle_deg = 0.0;  ///< psi <= phi
   double tension_cutoff = 0.0;      ///< largest allowed principal stress sigma_t, kPa (>= 0)
   void update(const Strain& strain_increment, Stress& stress, PointState& state) const;
+  /// update() with constants() computed once by the caller.
+  void update(const Strain& strain_increment, Stress& stress, PointState& state,
+              const MaterialConstants& constants) const;
+  MaterialConstants constants() const;
   ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
                               PointState& state) const;
   /// Shear yield function f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c(eps_p) cos(phi), kPa.
@@ -125,5 +161,8 @@ struct MohrCoulomb {
 using Material = std::variant<LinearElastic, Tresca, MohrCoulomb>;
 
 const ElasticParameters& elastic_parameters(const Material& material);
+
+/// The constants() of whichever model `material` holds.
+MaterialConstants material_constants(const Material& material);
 
 }  // namespace pfm

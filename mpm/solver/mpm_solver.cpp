@@ -1,7 +1,5 @@
 #include "mpm/solver/mpm_solver.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -16,20 +14,24 @@ namespace pfm {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Sums over particles or nodes (energies) are taken per fixed block of this many items, then
+// over the blocks, both in index order: deterministic, and parallel over the blocks.
+constexpr std::size_t kSumBlock = 1024;
+
+// Every loop is shared out dynamically, by blocks (particle and node blocks, bands, chunks):
+// a thread that the operating system holds back then delays the others by one block at most.
+// Nodes per block of the plain node loops:
+constexpr int kNodeChunk = 4096;
+
+// Below this many particles + nodes a step takes some ten microseconds, less than the threads
+// would spend meeting each other (and far more when they compete for the cores with other
+// jobs), so the stages run on one thread; results do not depend on it.
+constexpr std::size_t kMinParallelItems = 1024;
+
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-// Stencil storage per particle: W values along x, W along y, then W x-derivatives, W
-// y-derivatives (1D factors; the 2D functions are their tensor products).
-template <int W>
-struct StencilView {
-  const double* f;
-  double nx(int a) const { return f[a]; }
-  double ny(int b) const { return f[W + b]; }
-  double dx(int a) const { return f[2 * W + a]; }
-  double dy(int b) const { return f[3 * W + b]; }
-};
 
 std::string describe_particle(const Particles& particles, std::size_t p) {
   std::ostringstream s;
@@ -54,8 +56,9 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   grid_.velocity.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.acceleration.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.fixed.assign(static_cast<std::size_t>(n_nodes), kFixNone);
-  velocity_before_update_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+  node_work_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, Vec2::Zero());
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+  remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   build_constraints();
 
   // Critical time step from the P-wave speed of the stiffest material (thesis eq. 3.24 is
@@ -84,11 +87,32 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   }
   damping_ = case_.solver.damping;
   build_top_node_loads();
-  internal_work_increment_.assign(particles_.size(), 0.0);
-  stencil_.resize(particles_.size());
-  stencil_base_.resize(particles_.size());
-  particle_cell_.resize(particles_.size());
-  sorted_.resize(particles_.size());
+  internal_work_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, 0.0);
+  for (const MaterialRecord& m : case_.materials) {
+    material_constants_.push_back(material_constants(m.model));
+  }
+
+  // Work arrays. Bands: about 128 of them on the grid (enough for load balance, a function of
+  // the grid alone so that results do not depend on the thread count), at least 1 cell row
+  // (linear) or 3 (GIMP: a particle reaches one node row beyond its cell on either side, and
+  // two bands of one parity must share no node).
+  const std::size_t n = particles_.size();
+  const bool gimp = case_.solver.shape_function == ShapeFunctionKind::kGimp;
+  if (gimp) {
+    gimp_stencil_.resize(n);
+    gimp_base_.resize(n);
+  } else {
+    linear_stencil_.resize(n);
+  }
+  const int n_rows = case_.grid.n_cells_y;
+  band_rows_ = std::max(gimp ? 3 : 1, (n_rows + 127) / 128);
+  n_bands_ = (n_rows + band_rows_ - 1) / band_rows_;
+  n_chunks_ = static_cast<int>(std::clamp<std::size_t>(n / 4096, 1, 64));
+  parallel_ = n + static_cast<std::size_t>(n_nodes) >= kMinParallelItems;
+  particle_band_.resize(n);
+  chunk_offsets_.resize(static_cast<std::size_t>(n_chunks_) * static_cast<std::size_t>(n_bands_));
+  band_start_.resize(static_cast<std::size_t>(n_bands_) + 1);
+  sorted_.resize(n);
 }
 
 void MpmSolver::set_dt(double dt) {
@@ -189,11 +213,11 @@ void MpmSolver::step() {
 template <int W>
 void MpmSolver::run_step() {
   auto t0 = Clock::now();
-  locate_particles<W>();
+  locate_particles<W>(true);
   times_.locate += seconds_since(t0);
 
   t0 = Clock::now();
-  particles_to_grid<W>(false);
+  particles_to_grid<W>();
   times_.particles_to_grid += seconds_since(t0);
 
   t0 = Clock::now();
@@ -205,87 +229,162 @@ void MpmSolver::run_step() {
   times_.update_grid += seconds_since(t0);
   if (velocity_hook_) velocity_hook_(time_, dt_, grid_);
 
-  t0 = Clock::now();
-  grid_to_particles<W>();
-  times_.grid_to_particles += seconds_since(t0);
-
   if (case_.solver.scheme == Scheme::kMUSL) {
     t0 = Clock::now();
-    particles_to_grid<W>(true);
-    const std::size_t n_nodes = grid_.mass.size();
-    const double tiny = 1e-12 * particles_.mass.front();
-#pragma omp parallel for schedule(static)
-    for (std::size_t n = 0; n < n_nodes; ++n) {
-      Vec2 v = Vec2::Zero();
-      if (grid_.mass[n] > tiny) v = grid_.momentum[n] / grid_.mass[n];
-      if (grid_.fixed[n] & kFixX) v.x() = 0.0;
-      if (grid_.fixed[n] & kFixY) v.y() = 0.0;
-      remapped_velocity_[n] = v;
-    }
-    times_.remap += seconds_since(t0);
+    grid_to_particles<W, true>();
+    times_.grid_to_particles += seconds_since(t0);
     t0 = Clock::now();
-    update_stress<W>(remapped_velocity_);
+    update_stress<W>(remapped_velocity_, true);
+    times_.remap += remap_seconds_;
+    times_.stress += seconds_since(t0) - remap_seconds_;
   } else {
     t0 = Clock::now();
-    update_stress<W>(grid_.velocity);
+    grid_to_particles<W, false>();
+    times_.grid_to_particles += seconds_since(t0);
+    t0 = Clock::now();
+    update_stress<W>(grid_.velocity, false);
+    times_.stress += seconds_since(t0);
   }
-  times_.stress += seconds_since(t0);
 
   time_ += dt_;
   ++step_;
   check_particles();
 }
 
+// A particle's shape functions as 1D factors (the 2D functions are their tensor products):
+// values nx, ny and derivatives dx, dy along x and y of the W x W nodes from the base node,
+// whose index is node0 (node (a, b) of the stencil is node0 + b * n_nodes_x + a).
 template <int W>
-void MpmSolver::locate_particles() {
+struct MpmSolver::Shape {
+  double nx[W], ny[W], dx[W], dy[W];
+  std::size_t node0;
+};
+
+// Reads the stored stencils (raw pointers: the kernels below store through Eigen packets, which
+// may alias anything, so vector members would be reloaded at every particle).
+template <int W>
+struct MpmSolver::StencilReader {
+  const LinearStencil* linear;
+  const std::array<double, 12>* gimp;
+  const std::array<int, 2>* base;
+  int nnx;
+  double inv_h;
+
+  Shape<W> operator()(std::size_t p) const {
+    Shape<W> s;
+    if constexpr (W == 2) {
+      const LinearStencil& l = linear[p];
+      s.nx[0] = 1.0 - l.xi;
+      s.nx[1] = l.xi;
+      s.ny[0] = 1.0 - l.eta;
+      s.ny[1] = l.eta;
+      s.dx[0] = s.dy[0] = -inv_h;
+      s.dx[1] = s.dy[1] = inv_h;
+      s.node0 = static_cast<std::size_t>(l.j * nnx + l.i);
+    } else {
+      // Storage: W values along x, W along y, W x-derivatives, W y-derivatives.
+      const double* f = gimp[p].data();
+      for (int a = 0; a < W; ++a) {
+        s.nx[a] = f[a];
+        s.ny[a] = f[W + a];
+        s.dx[a] = f[2 * W + a];
+        s.dy[a] = f[3 * W + a];
+      }
+      s.node0 = static_cast<std::size_t>(base[p][1] * nnx + base[p][0]);
+    }
+    return s;
+  }
+};
+
+template <int W>
+MpmSolver::StencilReader<W> MpmSolver::stencil_reader() const {
+  return {linear_stencil_.data(), gimp_stencil_.data(), gimp_base_.data(), case_.grid.n_nodes_x(),
+          1.0 / case_.grid.cell_size};
+}
+
+template <int W>
+void MpmSolver::locate_particles(bool clear_grid) {
   const Grid& grid = case_.grid;
   const std::size_t n = particles_.size();
   const double h = grid.cell_size;
   const double inv_h = 1.0 / h;
+  const double x0 = grid.origin.x(), y0 = grid.origin.y();
+  const double n_cells_x = grid.n_cells_x, n_cells_y = grid.n_cells_y;
+  const int n_bands = n_bands_, n_chunks = n_chunks_, band_rows = band_rows_;
+  const Vec2* position = particles_.position.data();
+  const Vec2* half_length = particles_.half_length.data();
+  LinearStencil* linear = linear_stencil_.data();
+  std::array<double, 12>* gimp = gimp_stencil_.data();
+  std::array<int, 2>* gimp_base = gimp_base_.data();
+  int* particle_band = particle_band_.data();
+  int* chunk_offsets = chunk_offsets_.data();
+  std::fill(chunk_offsets_.begin(), chunk_offsets_.end(), 0);
+  const std::size_t n_nodes = grid_.mass.size();
+  double* mass = grid_.mass.data();
+  Vec2* momentum = grid_.momentum.data();
+  Vec2* force = grid_.internal_force.data();
   long outside = -1;
-#pragma omp parallel for schedule(static) reduction(max : outside)
-  for (std::size_t p = 0; p < n; ++p) {
-    const Vec2& x = particles_.position[p];
-    const int ci = grid.cell_i(x.x()), cj = grid.cell_j(x.y());
-    if (ci < 0 || cj < 0 || ci >= grid.n_cells_x || cj >= grid.n_cells_y) {
-      outside = std::max(outside, static_cast<long>(p));
-      particle_cell_[p] = 0;
-      continue;
+#pragma omp parallel reduction(max : outside) if (parallel_)
+  {
+    // The nodal sums of particles_to_grid start from zero (cleared here, where the threads have
+    // to meet anyway).
+    if (clear_grid) {
+#pragma omp for schedule(dynamic, kNodeChunk) nowait
+      for (std::size_t node = 0; node < n_nodes; ++node) {
+        mass[node] = 0.0;
+        momentum[node].setZero();
+        force[node].setZero();
+      }
     }
-    particle_cell_[p] = grid.cell_index(ci, cj);
-    const double xi = (x.x() - grid.origin.x()) * inv_h - ci;
-    const double eta = (x.y() - grid.origin.y()) * inv_h - cj;
-    double* f = stencil_[p].data();
-    if constexpr (W == 2) {
-      stencil_base_[p] = {ci, cj};
-      f[0] = 1.0 - xi;
-      f[1] = xi;
-      f[2] = 1.0 - eta;
-      f[3] = eta;
-      f[4] = -inv_h;
-      f[5] = inv_h;
-      f[6] = -inv_h;
-      f[7] = inv_h;
-    } else {
-      const int bi = xi < 0.5 ? ci - 1 : ci;
-      const int bj = eta < 0.5 ? cj - 1 : cj;
-      stencil_base_[p] = {bi, bj};
-      const Vec2& lp = particles_.half_length[p];
-      for (int a = 0; a < 3; ++a) {
-        const double node_x = grid.origin.x() + (bi + a) * h;
-        const double node_y = grid.origin.y() + (bj + a) * h;
-        f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
-        f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
+    // Shape functions and band of every particle, counted per band in fixed chunks of particles.
+#pragma omp for schedule(dynamic, 1) nowait
+    for (int k = 0; k < n_chunks; ++k) {
+      int* count = chunk_offsets + static_cast<std::size_t>(k) * n_bands;
+      const std::size_t begin =
+          n * static_cast<std::size_t>(k) / static_cast<std::size_t>(n_chunks);
+      const std::size_t end =
+          n * static_cast<std::size_t>(k + 1) / static_cast<std::size_t>(n_chunks);
+      for (std::size_t p = begin; p < end; ++p) {
+        const Vec2 x = position[p];
+        // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
+        // value checked to lie in [0, n_cells) first (also false for NaN).
+        const double tx = (x.x() - x0) / h, ty = (x.y() - y0) / h;
+        if (!(tx >= 0.0 && tx < n_cells_x && ty >= 0.0 && ty < n_cells_y)) {
+          outside = std::max(outside, static_cast<long>(p));
+          particle_band[p] = 0;
+          continue;
+        }
+        const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
+        const int band = cj / band_rows;
+        particle_band[p] = band;
+        ++count[band];
+        const double xi = (x.x() - x0) * inv_h - ci;
+        const double eta = (x.y() - y0) * inv_h - cj;
+        if constexpr (W == 2) {
+          linear[p] = {xi, eta, ci, cj};
+        } else {
+          double* f = gimp[p].data();
+          const int bi = xi < 0.5 ? ci - 1 : ci;
+          const int bj = eta < 0.5 ? cj - 1 : cj;
+          gimp_base[p] = {bi, bj};
+          const Vec2& lp = half_length[p];
+          for (int a = 0; a < 3; ++a) {
+            const double node_x = x0 + (bi + a) * h;
+            const double node_y = y0 + (bj + a) * h;
+            f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
+            f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
+          }
+          // A node off the grid must carry no weight (the particle domain stays on the grid).
+          bool off = false;
+          for (int a = 0; a < 3; ++a) {
+            if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
+              off = true;
+            if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0))
+              off = true;
+          }
+          if (off) outside = std::max(outside, static_cast<long>(p));
+        }
       }
-      // A node off the grid must carry no weight (the particle domain stays on the grid).
-      bool off = false;
-      for (int a = 0; a < 3; ++a) {
-        if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
-          off = true;
-        if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0))
-          off = true;
-      }
-      if (off) outside = std::max(outside, static_cast<long>(p));
     }
   }
   if (outside >= 0) {
@@ -295,95 +394,96 @@ void MpmSolver::locate_particles() {
                           ") has left the grid or its GIMP domain reaches past the grid edge");
   }
 
-  // Bin particles by cell: a stable counting sort, so ids ascend within each cell.
-  const int n_cells = grid.n_cells();
-  cell_start_.assign(static_cast<std::size_t>(n_cells) + 1, 0);
-  for (std::size_t p = 0; p < n; ++p)
-    ++cell_start_[static_cast<std::size_t>(particle_cell_[p]) + 1];
-  for (int c = 0; c < n_cells; ++c) {
-    cell_start_[static_cast<std::size_t>(c) + 1] += cell_start_[static_cast<std::size_t>(c)];
-  }
-  {
-    std::vector<int>& next = occupied_cells_;  // reused as a cursor array
-    next.assign(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t p = 0; p < n; ++p) {
-      sorted_[static_cast<std::size_t>(next[static_cast<std::size_t>(particle_cell_[p])]++)] =
-          static_cast<int>(p);
+  // Stable bucket sort by band: ids ascend within each band (the result is unique, so it does
+  // not depend on how the chunks are shared out). Counts become write cursors.
+  int offset = 0;
+  for (int b = 0; b < n_bands; ++b) {
+    band_start_[static_cast<std::size_t>(b)] = offset;
+    for (int k = 0; k < n_chunks; ++k) {
+      int& c = chunk_offsets[static_cast<std::size_t>(k) * n_bands + b];
+      const int count = c;
+      c = offset;
+      offset += count;
     }
   }
-  // Occupied cells by colour class: (i mod s, j mod s), s = 2 (linear) or 4 (GIMP).
-  constexpr int s = W == 2 ? 2 : 4;
-  for (auto& list : colour_cells_) list.clear();
-  for (int c = 0; c < n_cells; ++c) {
-    if (cell_start_[static_cast<std::size_t>(c) + 1] == cell_start_[static_cast<std::size_t>(c)])
-      continue;
-    const int i = c % grid.n_cells_x, j = c / grid.n_cells_x;
-    colour_cells_[static_cast<std::size_t>((j % s) * s + (i % s))].push_back(c);
+  band_start_[static_cast<std::size_t>(n_bands)] = offset;
+  int* sorted = sorted_.data();
+#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
+  for (int k = 0; k < n_chunks; ++k) {
+    int* cursor = chunk_offsets + static_cast<std::size_t>(k) * n_bands;
+    const std::size_t begin = n * static_cast<std::size_t>(k) / static_cast<std::size_t>(n_chunks);
+    const std::size_t end =
+        n * static_cast<std::size_t>(k + 1) / static_cast<std::size_t>(n_chunks);
+    for (std::size_t p = begin; p < end; ++p) {
+      sorted[cursor[particle_band[p]]++] = static_cast<int>(p);
+    }
   }
 }
 
 template <int W>
-void MpmSolver::particles_to_grid(bool momentum_only) {
-  const int nnx = case_.grid.n_nodes_x();
+void MpmSolver::particles_to_grid() {
+  const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n_nodes = grid_.mass.size();
-  if (momentum_only) {
-    std::fill(grid_.momentum.begin(), grid_.momentum.end(), Vec2::Zero());
-  } else {
-    std::fill(grid_.mass.begin(), grid_.mass.end(), 0.0);
-    std::fill(grid_.momentum.begin(), grid_.momentum.end(), Vec2::Zero());
-    std::fill(grid_.internal_force.begin(), grid_.internal_force.end(), Vec2::Zero());
-  }
-  (void)n_nodes;
-  constexpr int s = W == 2 ? 2 : 4;
-#pragma omp parallel
-  for (int colour = 0; colour < s * s; ++colour) {
-    const std::vector<int>& cells = colour_cells_[static_cast<std::size_t>(colour)];
-    const long n_list = static_cast<long>(cells.size());
-#pragma omp for schedule(static)
-    for (long k = 0; k < n_list; ++k) {
-      const int c = cells[static_cast<std::size_t>(k)];
-      for (int q = cell_start_[static_cast<std::size_t>(c)];
-           q < cell_start_[static_cast<std::size_t>(c) + 1]; ++q) {
-        const auto p = static_cast<std::size_t>(sorted_[static_cast<std::size_t>(q)]);
-        const StencilView<W> f{stencil_[p].data()};
-        const int bi = stencil_base_[p][0], bj = stencil_base_[p][1];
-        const double m = particles_.mass[p];
-        const Vec2 mv = m * particles_.velocity[p];
-        if (momentum_only) {
-          for (int b = 0; b < W; ++b) {
-            for (int a = 0; a < W; ++a) {
-              const double weight = f.nx(a) * f.ny(b);
-              if (W == 3 && weight == 0.0) continue;
-              grid_.momentum[static_cast<std::size_t>((bj + b) * nnx + bi + a)] += weight * mv;
-            }
-          }
-          continue;
-        }
-        const double v = particles_.volume[p];
-        const Stress& sig = particles_.stress[p];
-        for (int b = 0; b < W; ++b) {
-          for (int a = 0; a < W; ++a) {
-            const double weight = f.nx(a) * f.ny(b);
-            const double gx = f.dx(a) * f.ny(b), gy = f.nx(a) * f.dy(b);
-            if (W == 3 && weight == 0.0 && gx == 0.0 && gy == 0.0) continue;
-            const auto node = static_cast<std::size_t>((bj + b) * nnx + bi + a);
-            grid_.mass[node] += weight * m;
-            grid_.momentum[node] += weight * mv;
-            // f_int = - integral sigma . grad N dV (tension positive).
-            grid_.internal_force[node] -=
-                v * Vec2(sig[kXX] * gx + sig[kXY] * gy, sig[kXY] * gx + sig[kYY] * gy);
-          }
+  const StencilReader<W> stencil = stencil_reader<W>();
+  double* mass = grid_.mass.data();  // cleared by locate_particles
+  Vec2* momentum = grid_.momentum.data();
+  Vec2* force = grid_.internal_force.data();
+  Vec2* remapped_momentum = remapped_momentum_.data();
+  Vec2* external = grid_.external_force.data();
+  const double gravity = -case_.gravity.g * gravity_factor(time_);  // along y
+  const bool musl = case_.solver.scheme == Scheme::kMUSL;
+  const double* particle_mass = particles_.mass.data();
+  const Vec2* particle_velocity = particles_.velocity.data();
+  const double* particle_volume = particles_.volume.data();
+  const Stress* particle_stress = particles_.stress.data();
+  const int* band_start = band_start_.data();
+  const int* sorted = sorted_.data();
+  const int n_bands = n_bands_;
+  auto scatter_band = [&](int band) {
+    for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
+      const auto p = static_cast<std::size_t>(sorted[q]);
+      const Shape<W> f = stencil(p);
+      const double m = particle_mass[p];
+      const Vec2 mv = m * particle_velocity[p];
+      // -v sigma . grad N = -v (sxx gx + sxy gy, sxy gx + syy gy) (tension positive).
+      const double v = particle_volume[p];
+      const Stress& sig = particle_stress[p];
+      const Vec2 s_x(sig[kXX], sig[kXY]), s_y(sig[kXY], sig[kYY]);
+      for (int b = 0; b < W; ++b) {
+        for (int a = 0; a < W; ++a) {
+          const double weight = f.nx[a] * f.ny[b];
+          const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
+          if (W == 3 && weight == 0.0 && gx == 0.0 && gy == 0.0) continue;
+          const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a;
+          mass[node] += weight * m;
+          momentum[node] += weight * mv;
+          force[node] -= v * (gx * s_x + gy * s_y);
         }
       }
     }
+  };
+#pragma omp parallel if (parallel_)
+  {
+    // The MUSL remap sums start from zero too (grid_to_particles).
+    if (musl) {
+#pragma omp for schedule(dynamic, kNodeChunk) nowait
+      for (std::size_t node = 0; node < n_nodes; ++node) remapped_momentum[node].setZero();
+    }
+    // Even bands, then odd bands: bands of one parity share no node.
+#pragma omp for schedule(dynamic, 1)
+    for (int band = 0; band < n_bands; band += 2) scatter_band(band);
+#pragma omp for schedule(dynamic, 1)
+    for (int band = 1; band < n_bands; band += 2) scatter_band(band);
+      // Body force on the finished masses: sum_p N_I m_p g = m_I g (external_forces adds the
+      // surface loads).
+#pragma omp for schedule(dynamic, kNodeChunk) nowait
+    for (std::size_t node = 0; node < n_nodes; ++node)
+      external[node] = Vec2(0.0, mass[node] * gravity);
   }
 }
 
 void MpmSolver::external_forces() {
-  // Body force: sum_p N_I m_p g = m_I g.
-  const double gy = -case_.gravity.g * gravity_factor(time_);
-  const std::size_t n_nodes = grid_.mass.size();
-  for (std::size_t n = 0; n < n_nodes; ++n) grid_.external_force[n] = Vec2(0.0, grid_.mass[n] * gy);
+  // The body force is in place (particles_to_grid); the surface loads are added to it.
   if (!loads_active_) return;
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     const LoadSpec& load = case_.loads[k];
@@ -403,121 +503,220 @@ void MpmSolver::update_grid() {
   const double tiny = 1e-12 * particles_.mass.front();
   const double alpha = damping_;
   const double dt = dt_;
-#pragma omp parallel for schedule(static)
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    const double m = grid_.mass[n];
-    if (m <= tiny) {
-      velocity_before_update_[n] = Vec2::Zero();
-      grid_.velocity[n] = Vec2::Zero();
-      grid_.acceleration[n] = Vec2::Zero();
-      continue;
+  const double* mass = grid_.mass.data();
+  const Vec2* momentum = grid_.momentum.data();
+  const Vec2* internal = grid_.internal_force.data();
+  const Vec2* external = grid_.external_force.data();
+  const unsigned* fixed = grid_.fixed.data();
+  Vec2* velocity = grid_.velocity.data();
+  Vec2* acceleration = grid_.acceleration.data();
+  Vec2* node_work = node_work_.data();
+  const std::size_t n_blocks = node_work_.size();
+#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
+  for (std::size_t k = 0; k < n_blocks; ++k) {
+    // Work of the external and damping forces over the step, per block of nodes.
+    double external_work = 0.0, damping_work = 0.0;
+    for (std::size_t n = k * kSumBlock; n < std::min(n_nodes, (k + 1) * kSumBlock); ++n) {
+      const double m = mass[n];
+      if (m <= tiny) {
+        velocity[n].setZero();
+        acceleration[n].setZero();
+        continue;
+      }
+      Vec2 v = momentum[n] / m;
+      const Vec2 f = internal[n] + external[n];
+      // Local (Cundall) damping: a force opposing the velocity, proportional to the unbalanced
+      // force, per direction.
+      auto sign = [](double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); };
+      const Vec2 damping_force(-alpha * std::abs(f.x()) * sign(v.x()),
+                               -alpha * std::abs(f.y()) * sign(v.y()));
+      Vec2 a = (f + damping_force) / m;
+      if (fixed[n] & kFixX) a.x() = v.x() = 0.0;
+      if (fixed[n] & kFixY) a.y() = v.y() = 0.0;
+      acceleration[n] = a;
+      const Vec2 v_new = v + a * dt;
+      velocity[n] = v_new;
+      const Vec2 mid = 0.5 * (v + v_new);
+      external_work += external[n].dot(mid) * dt;
+      damping_work += (a * m - f).dot(mid) * dt;  // damping force (zero where fixed)
     }
-    Vec2 v = grid_.momentum[n] / m;
-    const Vec2 f = grid_.internal_force[n] + grid_.external_force[n];
-    // Local (Cundall) damping: a force opposing the velocity, proportional to the unbalanced
-    // force, per direction.
-    Vec2 damping_force = Vec2::Zero();
-    for (int d = 0; d < 2; ++d) {
-      const double sign = v[d] > 0.0 ? 1.0 : (v[d] < 0.0 ? -1.0 : 0.0);
-      damping_force[d] = -alpha * std::abs(f[d]) * sign;
-    }
-    Vec2 a = (f + damping_force) / m;
-    const unsigned fixed = grid_.fixed[n];
-    if (fixed & kFixX) a.x() = v.x() = 0.0;
-    if (fixed & kFixY) a.y() = v.y() = 0.0;
-    velocity_before_update_[n] = v;
-    grid_.acceleration[n] = a;
-    grid_.velocity[n] = v + a * dt;
+    node_work[k] = Vec2(external_work, damping_work);
   }
-  // Work of the external and damping forces over the step (serial: a fixed summation order).
-  double external = 0.0, damping = 0.0;
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    if (grid_.mass[n] <= tiny) continue;
-    const Vec2 mid = 0.5 * (velocity_before_update_[n] + grid_.velocity[n]);
-    external += grid_.external_force[n].dot(mid) * dt;
-    const Vec2 f = grid_.internal_force[n] + grid_.external_force[n];
-    const Vec2 a = grid_.acceleration[n];
-    damping += (a * grid_.mass[n] - f).dot(mid) * dt;  // damping force (zero where fixed)
+  for (std::size_t k = 0; k < n_blocks; ++k) {
+    external_work_ += node_work[k].x();
+    damping_work_ += node_work[k].y();
   }
-  external_work_ += external;
-  damping_work_ += damping;
 }
 
-template <int W>
+template <int W, bool kScatterMomentum>
 void MpmSolver::grid_to_particles() {
-  const int nnx = case_.grid.n_nodes_x();
+  const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
   const double dt = dt_;
+  const int n_bands = n_bands_;
+  const StencilReader<W> stencil = stencil_reader<W>();
+  const Vec2* acceleration = grid_.acceleration.data();
+  const Vec2* velocity = grid_.velocity.data();
+  Vec2* momentum = remapped_momentum_.data();  // cleared by particles_to_grid
+  Vec2* particle_velocity = particles_.velocity.data();
+  Vec2* particle_position = particles_.position.data();
+  const double* particle_mass = particles_.mass.data();
+  const int* band_start = band_start_.data();
+  const int* sorted = sorted_.data();
   long bad = -1;
   double max_speed = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : bad, max_speed)
-  for (std::size_t p = 0; p < n; ++p) {
-    const StencilView<W> f{stencil_[p].data()};
-    const int bi = stencil_base_[p][0], bj = stencil_base_[p][1];
+  // FLIP velocity and position of one particle; with kScatterMomentum its new momentum goes to
+  // the grid at once (the MUSL remap). bad_p and max_speed_p are the calling thread's.
+  auto update = [&](std::size_t p, long& bad_p, double& max_speed_p) {
+    const Shape<W> f = stencil(p);
     Vec2 a = Vec2::Zero(), v = Vec2::Zero();
     for (int b = 0; b < W; ++b) {
       for (int a_ = 0; a_ < W; ++a_) {
-        const double weight = f.nx(a_) * f.ny(b);
+        const double weight = f.nx[a_] * f.ny[b];
         if (W == 3 && weight == 0.0) continue;
-        const auto node = static_cast<std::size_t>((bj + b) * nnx + bi + a_);
-        a += weight * grid_.acceleration[node];
-        v += weight * grid_.velocity[node];
+        const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a_;
+        a += weight * acceleration[node];
+        v += weight * velocity[node];
       }
     }
-    particles_.velocity[p] += dt * a;  // FLIP
-    particles_.position[p] += dt * v;
-    const double speed = particles_.velocity[p].norm();
-    if (!(speed < 1e300) || !particles_.position[p].allFinite())
-      bad = std::max(bad, static_cast<long>(p));
-    max_speed = std::max(max_speed, speed);
+    const Vec2 vp = particle_velocity[p] + dt * a;  // FLIP
+    const Vec2 xp = particle_position[p] + dt * v;
+    particle_velocity[p] = vp;
+    particle_position[p] = xp;
+    const double speed = vp.norm();
+    if (!(speed < 1e300) || !xp.allFinite()) bad_p = std::max(bad_p, static_cast<long>(p));
+    max_speed_p = std::max(max_speed_p, speed);
+    if constexpr (kScatterMomentum) {
+      const Vec2 mv = particle_mass[p] * vp;
+      for (int b = 0; b < W; ++b) {
+        for (int a_ = 0; a_ < W; ++a_) {
+          const double weight = f.nx[a_] * f.ny[b];
+          if (W == 3 && weight == 0.0) continue;
+          momentum[f.node0 + static_cast<std::size_t>(b) * nnx + a_] += weight * mv;
+        }
+      }
+    }
+  };
+  if constexpr (kScatterMomentum) {
+    auto update_band = [&](int band, long& bad_p, double& max_speed_p) {
+      for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
+        update(static_cast<std::size_t>(sorted[q]), bad_p, max_speed_p);
+      }
+    };
+#pragma omp parallel reduction(max : bad, max_speed) if (parallel_)
+    {
+      // Even bands, then odd bands, as in particles_to_grid.
+#pragma omp for schedule(dynamic, 1)
+      for (int band = 0; band < n_bands; band += 2) update_band(band, bad, max_speed);
+#pragma omp for schedule(dynamic, 1) nowait
+      for (int band = 1; band < n_bands; band += 2) update_band(band, bad, max_speed);
+    }
+  } else {
+    (void)n_bands;
+    (void)momentum;
+    (void)particle_mass;
+    (void)band_start;
+    (void)sorted;
+#pragma omp parallel for schedule(dynamic, kSumBlock) reduction(max : bad, max_speed) if (parallel_)
+    for (std::size_t p = 0; p < n; ++p) update(p, bad, max_speed);
   }
   bad_particle_ = bad;
   max_speed_ = max_speed;
 }
 
 template <int W>
-void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
-  const int nnx = case_.grid.n_nodes_x();
+void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap) {
+  const auto start = Clock::now();
+  // MUSL remap (remap = true, node_velocity = remapped_velocity_): nodal velocity from the
+  // momentum of the updated particles, in the same parallel region as the stress update.
+  const std::size_t n_nodes = grid_.mass.size();
+  const double tiny = 1e-12 * particles_.mass.front();
+  const double* mass = grid_.mass.data();
+  const Vec2* remapped_momentum = remapped_momentum_.data();
+  Vec2* momentum = grid_.momentum.data();
+  const unsigned* fixed = grid_.fixed.data();
+  Vec2* remapped = remapped_velocity_.data();
+  const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
   const double dt = dt_;
-  const std::vector<MaterialRecord>& materials = case_.materials;
+  const StencilReader<W> stencil = stencil_reader<W>();
+  const MaterialRecord* materials = case_.materials.data();
+  const MaterialConstants* constants = material_constants_.data();
+  const Vec2* vel = node_velocity.data();
+  Stress* particle_stress = particles_.stress.data();
+  PointState* particle_state = particles_.state.data();
+  Mat2* particle_deformation = particles_.deformation_gradient.data();
+  double* particle_volume = particles_.volume.data();
+  const double* initial_volume = particles_.initial_volume.data();
+  const int* particle_material = particles_.material.data();
+  double* work_blocks = internal_work_blocks_.data();
   long bad = -1;
-#pragma omp parallel for schedule(static) reduction(max : bad)
-  for (std::size_t p = 0; p < n; ++p) {
-    const StencilView<W> f{stencil_[p].data()};
-    const int bi = stencil_base_[p][0], bj = stencil_base_[p][1];
-    Mat2 l = Mat2::Zero();  // velocity gradient, L(i, j) = d v_i / d x_j
-    for (int b = 0; b < W; ++b) {
-      for (int a = 0; a < W; ++a) {
-        const double gx = f.dx(a) * f.ny(b), gy = f.nx(a) * f.dy(b);
-        if (W == 3 && gx == 0.0 && gy == 0.0) continue;
-        const Vec2& v = node_velocity[static_cast<std::size_t>((bj + b) * nnx + bi + a)];
-        l(0, 0) += v.x() * gx;
-        l(0, 1) += v.x() * gy;
-        l(1, 0) += v.y() * gx;
-        l(1, 1) += v.y() * gy;
+  const std::size_t n_blocks = internal_work_blocks_.size();
+  remap_seconds_ = 0.0;
+#pragma omp parallel reduction(max : bad) if (parallel_)
+  {
+    if (remap) {
+#pragma omp for schedule(dynamic, kNodeChunk)
+      for (std::size_t node = 0; node < n_nodes; ++node) {
+        const Vec2 p = remapped_momentum[node];
+        momentum[node] = p;  // the grid state shows the remapped momentum
+        Vec2 v = Vec2::Zero();
+        if (mass[node] > tiny) v = p / mass[node];
+        if (fixed[node] & kFixX) v.x() = 0.0;
+        if (fixed[node] & kFixY) v.y() = 0.0;
+        remapped[node] = v;
       }
+#pragma omp master
+      remap_seconds_ = seconds_since(start);
     }
-    const Strain de = strain_increment(l, dt);
-    Stress& sig = particles_.stress[p];
-    jaumann_rotate(l, dt, sig);
-    const Stress rotated = sig;
-    std::visit([&](const auto& model) { model.update(de, sig, particles_.state[p]); },
-               materials[static_cast<std::size_t>(particles_.material[p])].model);
-    const double volume_before = particles_.volume[p];
-    particles_.deformation_gradient[p] =
-        update_deformation_gradient(l, dt, particles_.deformation_gradient[p]);
-    particles_.volume[p] =
-        particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
-    const Stress mid = 0.5 * (rotated + sig);
-    internal_work_increment_[p] = 0.5 * (volume_before + particles_.volume[p]) *
-                                  (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
-    if (!std::isfinite(internal_work_increment_[p])) bad = std::max(bad, static_cast<long>(p));
+#pragma omp for schedule(dynamic, 1) nowait
+    for (std::size_t k = 0; k < n_blocks; ++k) {
+      double block_work = 0.0;  // stress power over the step, per block of particles
+      for (std::size_t p = k * kSumBlock; p < std::min(n, (k + 1) * kSumBlock); ++p) {
+        const Shape<W> f = stencil(p);
+        // Velocity gradient L(i, j) = d v_i / d x_j by columns: (L00, L10) and (L01, L11).
+        Vec2 column_x = Vec2::Zero(), column_y = Vec2::Zero();
+        for (int b = 0; b < W; ++b) {
+          for (int a = 0; a < W; ++a) {
+            const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
+            if (W == 3 && gx == 0.0 && gy == 0.0) continue;
+            const Vec2& v = vel[f.node0 + static_cast<std::size_t>(b) * nnx + a];
+            column_x += gx * v;
+            column_y += gy * v;
+          }
+        }
+        Mat2 l;
+        l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
+        const Strain de = strain_increment(l, dt);
+        Stress sig = particle_stress[p];  // a local copy: no store-to-load stalls
+        jaumann_rotate(l, dt, sig);
+        const Stress rotated = sig;
+        const auto mi = static_cast<std::size_t>(particle_material[p]);
+        const Material& model = materials[mi].model;
+        if (const auto* elastic = std::get_if<LinearElastic>(&model)) {
+          elastic->update(de, sig, particle_state[p], constants[mi]);
+        } else if (const auto* tresca = std::get_if<Tresca>(&model)) {
+          tresca->update(de, sig, particle_state[p], constants[mi]);
+        } else {
+          std::get<MohrCoulomb>(model).update(de, sig, particle_state[p], constants[mi]);
+        }
+        particle_stress[p] = sig;
+        const double volume_before = particle_volume[p];
+        const Mat2 deformation = update_deformation_gradient(l, dt, particle_deformation[p]);
+        particle_deformation[p] = deformation;
+        const double volume = deformation.determinant() * initial_volume[p];
+        particle_volume[p] = volume;
+        const Stress mid = 0.5 * (rotated + sig);
+        const double work = 0.5 * (volume_before + volume) *
+                            (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
+        block_work += work;
+        if (!std::isfinite(work)) bad = std::max(bad, static_cast<long>(p));
+      }
+      work_blocks[k] = block_work;
+    }
   }
   bad_particle_ = std::max(bad_particle_, bad);
-  double work = 0.0;
-  for (std::size_t p = 0; p < n; ++p) work += internal_work_increment_[p];
-  internal_work_ += work;
+  for (std::size_t k = 0; k < n_blocks; ++k) internal_work_ += work_blocks[k];
 }
 
 void MpmSolver::check_particles() {
@@ -609,11 +808,11 @@ void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_v
     throw std::invalid_argument("update_stress_from_grid_velocity: one velocity per grid node");
   }
   if (case_.solver.shape_function == ShapeFunctionKind::kLinear) {
-    locate_particles<2>();
-    update_stress<2>(node_velocity);
+    locate_particles<2>(false);
+    update_stress<2>(node_velocity, false);
   } else {
-    locate_particles<3>();
-    update_stress<3>(node_velocity);
+    locate_particles<3>(false);
+    update_stress<3>(node_velocity, false);
   }
 }
 

@@ -1,7 +1,7 @@
 // Explicit 2D plane-strain MPM (thesis 3.2, eq. 3.24), MUSL by default, USL as an option.
 //
 // One step reads as its stages, in order (the hook points of Karamelo / cb-geo):
-//   locate_particles      shape functions at the particles, particles binned by cell
+//   locate_particles      shape functions at the particles, particles binned by band
 //   particles_to_grid     nodal mass, momentum and internal force  (+ body force)
 //   external_forces       surface loads on the grid (grid-aligned, or on the detected boundary)
 //   update_grid           local damping, acceleration, velocity, velocity constraints
@@ -9,10 +9,21 @@
 //   remap_momentum        MUSL only: nodal velocity from the updated particle momentum
 //   update_stress         velocity gradient, Jaumann rotation, constitutive update, F, volume
 //
-// Determinism: particles are binned by cell; the scatter to the grid visits the cells in s x s
-// colour classes (s = 2 linear, 4 GIMP) so that no two cells of one class share a node; every
-// node therefore receives its contributions in the same order whatever the thread count, and
-// results are bitwise identical for any number of threads.
+// Determinism: particles are binned by horizontal bands of cell rows (the band height depends
+// on the grid only, >= 1 row linear, >= 3 GIMP), in ascending id order within a band. The
+// scatters to the grid (particles_to_grid and the MUSL momentum remap) run over the even bands,
+// then over the odd bands: two bands of one parity share no node, so every node receives its
+// contributions in the same order (its bands in parity order, particles by id) whatever the
+// thread count, and results are bitwise identical for any number of threads. Sums over all
+// particles or nodes (energies) are taken over fixed blocks of indices, each in index order,
+// then over the blocks in order.
+//
+// Performance notes: particles are visited band by band, close to their storage order; a
+// linear particle's stencil is stored as its cell and local coordinates (24 bytes) and expanded
+// where it is used; the MUSL grid-to-particle update and the momentum scatter of the remap are
+// one pass; the constitutive constants of each material are computed once (MaterialConstants);
+// a step has about a dozen thread synchronisations, and tiny problems (< 1024 particles +
+// nodes) run on one thread; per-step arrays are allocated once.
 #pragma once
 
 #include <array>
@@ -43,7 +54,9 @@ struct GridState {
   std::vector<unsigned> fixed;       ///< FixMask per node
 };
 
-/// Wall-clock seconds spent per stage, accumulated over the run.
+/// Wall-clock seconds spent per stage, accumulated over the run. With MUSL, grid_to_particles
+/// includes the scatter of the updated particle momentum (done in the same pass) and remap the
+/// nodal velocities computed from it.
 struct StageTimes {
   double locate = 0, particles_to_grid = 0, external_forces = 0, update_grid = 0,
          grid_to_particles = 0, remap = 0, stress = 0;
@@ -123,9 +136,16 @@ class MpmSolver {
     double external_work = 0.0, internal_work = 0.0, damping_work = 0.0;
   };
   Counters counters() const {
-    return {time_,         step_,         dt_,           damping_,
-            loads_active_, gravity_full_, initial_stress_steps_, external_work_,
-            internal_work_, damping_work_};
+    return {time_,
+            step_,
+            dt_,
+            damping_,
+            loads_active_,
+            gravity_full_,
+            initial_stress_steps_,
+            external_work_,
+            internal_work_,
+            damping_work_};
   }
   /// Restores counters() of a checkpoint (after the particles have been restored).
   void restore(const Counters& n) {
@@ -153,15 +173,21 @@ class MpmSolver {
   template <int W>
   void run_step();
   template <int W>
-  void locate_particles();
+  void locate_particles(bool clear_grid);
   template <int W>
-  void particles_to_grid(bool momentum_only);
+  void particles_to_grid();
   void external_forces();
   void update_grid();
-  template <int W>
+  template <int W, bool kScatterMomentum>
   void grid_to_particles();
   template <int W>
-  void update_stress(const std::vector<Vec2>& node_velocity);
+  void update_stress(const std::vector<Vec2>& node_velocity, bool remap);
+  template <int W>
+  struct Shape;
+  template <int W>
+  struct StencilReader;
+  template <int W>
+  StencilReader<W> stencil_reader() const;
   void check_particles();
   void build_constraints();
   void build_top_node_loads();
@@ -182,17 +208,31 @@ class MpmSolver {
   GridVelocityHook velocity_hook_;
   std::vector<TopNodeLoad> top_loads_;
 
-  // Per-step work arrays.
-  std::vector<int> particle_cell_;   ///< cell index of each particle
-  std::vector<int> cell_start_;      ///< n_cells + 1 offsets into sorted_
-  std::vector<int> sorted_;          ///< particle ids binned by cell, ascending within a cell
-  std::vector<int> occupied_cells_;  ///< cells holding particles, ascending
-  std::vector<std::array<double, 12>> stencil_;  ///< 1D factors per particle (see .cpp)
-  std::vector<std::array<int, 2>> stencil_base_;
-  std::vector<double> internal_work_increment_;
-  std::vector<Vec2> velocity_before_update_;       ///< nodal velocity before the grid update
-  std::vector<Vec2> remapped_velocity_;            ///< MUSL: nodal velocity from updated particles
-  std::array<std::vector<int>, 16> colour_cells_;  ///< occupied cells per colour class
+  // Per-step work arrays (sized once).
+  /// Linear stencil of a particle: its cell (i, j) and local coordinates in [0, 1).
+  struct LinearStencil {
+    double xi;
+    double eta;
+    int i;
+    int j;
+  };
+  std::vector<LinearStencil> linear_stencil_;
+  std::vector<std::array<double, 12>> gimp_stencil_;  ///< GIMP 1D factors per particle (.cpp)
+  std::vector<std::array<int, 2>> gimp_base_;         ///< GIMP stencil base node
+  int band_rows_ = 1;                                 ///< cell rows per band
+  int n_bands_ = 1;
+  int n_chunks_ = 1;                ///< fixed particle chunks of the parallel binning
+  std::vector<int> particle_band_;  ///< band of each particle
+  std::vector<int> chunk_offsets_;  ///< n_chunks x n_bands counts, then cursors
+  std::vector<int> band_start_;     ///< n_bands + 1 offsets into sorted_
+  std::vector<int> sorted_;         ///< particle ids binned by band, ascending within a band
+  std::vector<MaterialConstants> material_constants_;  ///< per case material
+  std::vector<double> internal_work_blocks_;  ///< stress power of a step per particle block
+  std::vector<Vec2> node_work_;               ///< (external, damping) work of a step per node block
+  std::vector<Vec2> remapped_velocity_;       ///< MUSL: nodal velocity from updated particles
+  std::vector<Vec2> remapped_momentum_;       ///< MUSL: nodal momentum of updated particles
+  double remap_seconds_ = 0.0;                ///< MUSL: time of the remap in update_stress
+  bool parallel_ = true;  ///< run the stages on all threads (false for tiny problems)
   bool loads_active_ = true;
   bool gravity_full_ = false;
 
