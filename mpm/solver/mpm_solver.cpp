@@ -749,16 +749,7 @@ EnergyBalance MpmSolver::energy() const {
 }
 
 void MpmSolver::apply_k0_stress() {
-  for (std::size_t p = 0; p < particles_.size(); ++p) {
-    const BodySpec& body = case_.bodies[static_cast<std::size_t>(particles_.body[p])];
-    const MaterialRecord& m = case_.materials[static_cast<std::size_t>(particles_.material[p])];
-    const double nu = elastic_parameters(m.model).poisson_ratio;
-    const double k0 = case_.initial_stress.k0 ? *case_.initial_stress.k0 : nu / (1.0 - nu);
-    const Vec2& x = particles_.position[p];
-    const double depth = polygon_top(body.polygon, x.x()) - x.y();
-    const double sigma_v = -m.unit_weight * std::max(depth, 0.0);
-    particles_.stress[p] = Stress(k0 * sigma_v, sigma_v, 0.0, k0 * sigma_v);
-  }
+  pfm::apply_k0_stress(case_, particles_);
 }
 
 void MpmSolver::initialise_stress() {
@@ -778,19 +769,9 @@ void MpmSolver::initialise_stress() {
   damping_ = case_.initial_stress.damping;
   gravity_full_ = true;
   loads_active_ = false;
-  double peak = 0.0;
-  while (true) {
-    step();
-    const double ke = energy().kinetic_energy;
-    peak = std::max(peak, ke);
-    if (step_ > 10 && peak > 0.0 && ke < case_.initial_stress.kinetic_energy_ratio * peak) break;
-    if (time_ > case_.initial_stress.max_time) {
-      throw SimulationError("gravity loading did not reach kinetic energy ratio " +
-                            std::to_string(case_.initial_stress.kinetic_energy_ratio) + " within " +
-                            std::to_string(case_.initial_stress.max_time) + " s (ratio now " +
-                            std::to_string(ke / peak) + ")");
-    }
-  }
+  damp_to_rest(
+      case_.initial_stress, [this] { step(); }, [this] { return energy().kinetic_energy; },
+      [this] { return time_; }, [this] { return step_; });
   damping_ = saved_damping;
   loads_active_ = true;
   for (std::size_t p = 0; p < particles_.size(); ++p) {
