@@ -37,7 +37,8 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
     spec.x_range = x_range;
   }
   const bool vertical = spec.type == BoundaryLoadType::kVerticalPressure;
-  const std::string faces = entry.choice_or("faces", {"top", "upward", "all"}, vertical ? "top" : "all");
+  const std::string faces =
+      entry.choice_or("faces", {"top", "upward", "all"}, vertical ? "top" : "all");
   spec.faces = faces == "top"      ? LoadedFaces::kTop
                : faces == "upward" ? LoadedFaces::kUpward
                                    : LoadedFaces::kAll;

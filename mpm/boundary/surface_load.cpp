@@ -335,8 +335,8 @@ void BoundaryLoadIntegrator::index_shadows(const std::vector<CompositeBezier>& c
         hi = std::max(hi, segment.control[k].x());
       }
       const auto first = static_cast<std::size_t>((lo - shadow_x0_) / shadow_bin_width_);
-      const auto last = std::min(n_bins - 1,
-                                 static_cast<std::size_t>((hi - shadow_x0_) / shadow_bin_width_));
+      const auto last =
+          std::min(n_bins - 1, static_cast<std::size_t>((hi - shadow_x0_) / shadow_bin_width_));
       for (std::size_t b = first; b <= last; ++b)
         shadow_bins_[b].emplace_back(static_cast<int>(c), static_cast<int>(j));
     }
@@ -353,7 +353,8 @@ bool BoundaryLoadIntegrator::shadowed(const std::vector<CompositeBezier>& curves
   const auto bin = static_cast<std::size_t>(offset);
   if (bin >= shadow_bins_.size()) return false;
   for (const auto& [c, j] : shadow_bins_[bin]) {
-    const BezierSegment& other = curves[static_cast<std::size_t>(c)].segments[static_cast<std::size_t>(j)];
+    const BezierSegment& other =
+        curves[static_cast<std::size_t>(c)].segments[static_cast<std::size_t>(j)];
     double y_max = other.control[0].y();
     for (int k = 1; k <= other.degree; ++k) y_max = std::max(y_max, other.control[k].y());
     if (y_max <= p.y() + tolerance) continue;

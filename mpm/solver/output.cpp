@@ -216,9 +216,8 @@ void ParticleSeriesWriter::write_xdmf() const {
         << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
         << vector_name << "</DataItem></Attribute>\n";
     }
-    for (const char* scalar_name :
-         {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material", "body", "F11", "F12",
-          "F21", "F22"}) {
+    for (const char* scalar_name : {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material",
+                                    "body", "F11", "F12", "F21", "F22"}) {
       x << "<Attribute Name=\"" << scalar_name
         << "\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" << n
         << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
@@ -342,8 +341,8 @@ std::string particles_csv(const Particles& particles) {
         << fmt(u.x()) << ',' << fmt(u.y()) << ',' << particles.material[p] << ','
         << particles.body[p];
     const Mat2& f = particles.deformation_gradient[p];
-    out << ',' << fmt(f(0, 0)) << ',' << fmt(f(0, 1)) << ',' << fmt(f(1, 0)) << ','
-        << fmt(f(1, 1)) << '\n';
+    out << ',' << fmt(f(0, 0)) << ',' << fmt(f(0, 1)) << ',' << fmt(f(1, 0)) << ',' << fmt(f(1, 1))
+        << '\n';
   }
   return out.str();
 }
