@@ -11,12 +11,15 @@ import random
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT
+# Not imported from conftest: with several test directories on one pytest command line, the
+# module named "conftest" may be another directory's.
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def short_bearing_block(tmp_path):
