@@ -37,7 +37,11 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
   smallest = std::abs(q - r);
 }
 
-/// Validates the cloud's spans and spacing (InputError naming the field).
+/// Validates the cloud's spans and spacing and every particle (InputError naming the field).
 void check_cloud(const ParticleCloud& cloud);
+/// The spans and the spacing only.
+void check_cloud_shape(const ParticleCloud& cloud);
+/// Particle p: finite position, volume > 0, finite F with det F > 0 (InputError naming it).
+void check_particle(const ParticleCloud& cloud, std::size_t p);
 
 }  // namespace pfm::detail

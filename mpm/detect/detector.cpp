@@ -9,7 +9,7 @@ namespace pfm {
 
 namespace detail {
 
-void check_cloud(const ParticleCloud& cloud) {
+void check_cloud_shape(const ParticleCloud& cloud) {
   const std::size_t n = cloud.position.size();
   if (cloud.volume.size() != n) {
     throw InputError("particle cloud: " + std::to_string(cloud.volume.size()) + " volumes for " +
@@ -22,19 +22,24 @@ void check_cloud(const ParticleCloud& cloud) {
   if (!(cloud.initial_spacing > 0.0) || !std::isfinite(cloud.initial_spacing)) {
     throw InputError("particle cloud: initial_spacing must be finite and > 0");
   }
-  for (std::size_t p = 0; p < n; ++p) {
-    if (!cloud.position[p].allFinite() || !std::isfinite(cloud.volume[p]) ||
-        cloud.volume[p] <= 0.0) {
-      throw InputError("particle cloud: particle " + std::to_string(p) +
-                       " has a non-finite position or a volume <= 0");
-    }
-    if (!cloud.deformation_gradient.empty() &&
-        (!cloud.deformation_gradient[p].allFinite() ||
-         !(cloud.deformation_gradient[p].determinant() > 0.0))) {
-      throw InputError("particle cloud: particle " + std::to_string(p) +
-                       " has a deformation gradient with det F <= 0 or non-finite entries");
-    }
+}
+
+void check_particle(const ParticleCloud& cloud, std::size_t p) {
+  if (!cloud.position[p].allFinite() || !std::isfinite(cloud.volume[p]) || cloud.volume[p] <= 0.0) {
+    throw InputError("particle cloud: particle " + std::to_string(p) +
+                     " has a non-finite position or a volume <= 0");
   }
+  if (!cloud.deformation_gradient.empty() &&
+      (!cloud.deformation_gradient[p].allFinite() ||
+       !(cloud.deformation_gradient[p].determinant() > 0.0))) {
+    throw InputError("particle cloud: particle " + std::to_string(p) +
+                     " has a deformation gradient with det F <= 0 or non-finite entries");
+  }
+}
+
+void check_cloud(const ParticleCloud& cloud) {
+  check_cloud_shape(cloud);
+  for (std::size_t p = 0; p < cloud.position.size(); ++p) check_particle(cloud, p);
 }
 
 }  // namespace detail
@@ -242,7 +247,12 @@ DetectorConfig parse_detector_config(const JsonView& json) {
 
 DetectedBoundary detect(const ParticleCloud& cloud, const Grid& grid, const DetectorConfig& config,
                         DetectorState& state, DetectionTimings* timings) {
-  detail::check_cloud(cloud);
+  // The improved detector checks every particle in its own first sweep over the cloud.
+  if (config.method == DetectorMethod::kImproved) {
+    detail::check_cloud_shape(cloud);
+  } else {
+    detail::check_cloud(cloud);
+  }
   if (!(grid.cell_size > 0.0) || grid.n_cells_x < 1 || grid.n_cells_y < 1) {
     throw InputError("detect: the field grid needs cell_size > 0 and at least one cell");
   }

@@ -210,6 +210,9 @@ struct DetectionTimings {
   long root_evaluations = 0;  ///< field evaluations spent locating edge points
   int refinement = 0;         ///< refinement actually used
   long processed_cells = 0;   ///< field cells visited by the contouring
+  /// Improved detector: particles in its field (the narrow band leaves out the particles that
+  /// cannot reach a cell next to the boundary), mirror images not counted.
+  long field_particles = 0;
 };
 
 /// Detects the boundary of the body the particles represent on `grid` refined as configured.
@@ -250,14 +253,22 @@ class ImprovedField {
  public:
   /// Tag of the constructor that leaves the guards undecided (see decide_guards()).
   struct DeferGuards {};
+  /// A fixed bin lattice (origin below every particle and mirror image, bin side >= half the
+  /// largest reach): the narrow band and the full field then add the same terms in the same
+  /// order, whatever particles each holds.
+  struct BinLattice {
+    Vec2 origin;
+    double bin_size;
+  };
 
   /// `walls`: the field grid whose edges mirror the particles (ImprovedConfig::mirror_grid_edges);
   /// nullptr: none.
   ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
                 const Grid* walls = nullptr);
-  /// Trusts the cloud (detect() has checked it).
+  /// Trusts the cloud (detect() has checked it). `lattice`: nullptr = bins of half the largest
+  /// reach on the particles' bounding box.
   ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
-                const Grid* walls = nullptr);
+                const Grid* walls = nullptr, const BinLattice* lattice = nullptr);
   /// Guards the particles p with candidate[p] != 0 (all when empty) whose phi(x_p) is
   /// <= level + guard_margin; the narrow band passes the particles outside the interior cells.
   /// Call once, before evaluating the field.

@@ -17,8 +17,29 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : b
     hi = hi.cwiseMax(p);
   }
   origin_ = lo;
-  n_x_ = static_cast<int>(std::floor((hi.x() - lo.x()) / bin_size)) + 1;
-  n_y_ = static_cast<int>(std::floor((hi.y() - lo.y()) / bin_size)) + 1;
+  fill(positions, hi);
+}
+
+ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size, const Vec2& origin)
+    : origin_(origin), bin_size_(bin_size) {
+  if (!(bin_size > 0.0) || !std::isfinite(bin_size) || !origin.allFinite()) {
+    throw std::invalid_argument("ParticleBins: bin size must be finite and > 0, origin finite");
+  }
+  if (positions.empty()) return;
+  Vec2 hi = positions[0];
+  for (const auto& p : positions) {
+    if (p.x() < origin.x() || p.y() < origin.y()) {
+      throw std::invalid_argument("ParticleBins: a position lies below the lattice origin");
+    }
+    hi = hi.cwiseMax(p);
+  }
+  fill(positions, hi);
+}
+
+void ParticleBins::fill(std::span<const Vec2> positions, const Vec2& hi) {
+  const Vec2& lo = origin_;
+  n_x_ = static_cast<int>(std::floor((hi.x() - lo.x()) / bin_size_)) + 1;
+  n_y_ = static_cast<int>(std::floor((hi.y() - lo.y()) / bin_size_)) + 1;
   start_.assign(static_cast<std::size_t>(n_x_) * n_y_ + 1, 0);
   std::vector<int> bin_of(positions.size());
   for (std::size_t p = 0; p < positions.size(); ++p) {
@@ -29,11 +50,11 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : b
   }
   for (std::size_t b = 1; b < start_.size(); ++b) start_[b] += start_[b - 1];
   particle_.resize(positions.size());
-  std::vector<int> fill(start_.begin(), start_.end() - 1);
+  std::vector<int> cursor(start_.begin(), start_.end() - 1);
   slot_.resize(positions.size());
   for (std::size_t p = 0; p < positions.size(); ++p) {
-    slot_[p] = fill[bin_of[p]];
-    particle_[fill[bin_of[p]]++] = static_cast<int>(p);
+    slot_[p] = cursor[bin_of[p]];
+    particle_[cursor[bin_of[p]]++] = static_cast<int>(p);
   }
 }
 

@@ -18,6 +18,11 @@ class ParticleBins {
   /// Bins of side `bin_size` (m, > 0) covering the bounding box of `positions`. A kernel whose
   /// reach is <= bin_size is fully found by for_each_near().
   ParticleBins(std::span<const Vec2> positions, double bin_size);
+  /// Bins of side `bin_size` on the lattice anchored at `origin` (<= every position, else
+  /// std::invalid_argument): the bin of a point does not depend on the other positions, so two
+  /// clouds of which one holds a subset of the other's points (in the same relative order) are
+  /// visited in the same order.
+  ParticleBins(std::span<const Vec2> positions, double bin_size, const Vec2& origin);
 
   /// Calls visit(p) for every particle in the 3 x 3 bins around x, in a fixed order (bins row by
   /// row, particles by increasing index), so sums over the visits are bitwise reproducible.
@@ -101,6 +106,7 @@ class ParticleBins {
   double bin_size() const { return bin_size_; }
 
  private:
+  void fill(std::span<const Vec2> positions, const Vec2& hi);
   int bin_coordinate(double offset) const {
     const double c = std::floor(offset / bin_size_);
     return c < -1e9 ? -1000000000 : (c > 1e9 ? 1000000000 : static_cast<int>(c));
