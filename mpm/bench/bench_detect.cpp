@@ -114,6 +114,9 @@ void BM_Detect(benchmark::State& state) {
   state.counters["ratio_to_step"] = per_detection / f.step_seconds;
   state.counters["boundary_points"] = static_cast<double>(points);
   state.counters["refinement"] = timings.refinement;
+  if (method == pfm::DetectorMethod::kImproved) {
+    state.counters["field_particles"] = static_cast<double>(timings.field_particles);
+  }
   state.SetLabel(std::string(kMethodNames[static_cast<int>(method)]) + ", " +
                  std::to_string(particles.size()) + " points");
 }

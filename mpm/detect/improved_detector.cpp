@@ -2,6 +2,8 @@
 // exact edge crossings, a particle guard and a narrow band.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -152,7 +154,12 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   // evaluation instead of 9 reach^2 with bins of the full reach.
   rings_ = 2;
   if (lattice != nullptr && lattice->bin_size * rings_ < reach_) {
-    throw std::logic_error("ImprovedField: the bin lattice is finer than half the largest reach");
+    char message[160];
+    std::snprintf(message, sizeof message,
+                  "ImprovedField: the bin lattice (%.17g m) is finer than half the largest reach "
+                  "(%.17g m)",
+                  lattice->bin_size, reach_);
+    throw std::logic_error(message);
   }
   bins_ = lattice != nullptr ? ParticleBins(all_positions, lattice->bin_size, lattice->origin)
                              : ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
@@ -462,56 +469,88 @@ class BlockStore {
 
 namespace {
 
-// What one sweep over every particle of the cloud tells (CloudSurvey below).
+// What one sweep over every particle of the cloud tells (survey_cloud()).
 struct CloudSurvey {
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< bounding box of the positions, m
   double largest_stretch = 1.0;               ///< largest singular value of any F (1 without F)
   std::vector<double> cell_volume;            ///< particle volume per grid cell, m^2 (narrow band)
+  std::vector<int> cell;                      ///< grid cell of each particle, -1 outside
 };
 
-// Grid cell of x, or -1 outside the grid (no integer overflow for far-away points).
-int cell_of(const Grid& grid, const Vec2& x) {
-  const double ti = std::floor((x.x() - grid.origin.x()) / grid.cell_size);
-  const double tj = std::floor((x.y() - grid.origin.y()) / grid.cell_size);
-  if (!(ti >= 0.0 && tj >= 0.0 && ti < grid.n_cells_x && tj < grid.n_cells_y)) return -1;
-  return static_cast<int>(tj) * grid.n_cells_x + static_cast<int>(ti);
-}
-
-// The one pass over every particle the improved detector makes: checks each particle (the
-// messages of check_particle()), and gathers the box, the largest stretch and the cell volumes.
-CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell_volumes) {
+// The one pass over every particle the improved detector makes: checks each particle (with the
+// messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
+// band, the cell of each particle and the volume in each cell. Written on plain arrays without
+// branches so that the compiler vectorises the sweeps.
+CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
   if (n == 0) return survey;
-  const bool deformed = !cloud.deformation_gradient.empty();
-  bool bad = false;
-  Vec2 lo = cloud.position[0], hi = cloud.position[0];
-  double stretch = deformed ? 0.0 : 1.0;
+  const double* x = cloud.position.data()->data();  // x0 y0 x1 y1 ...
+  const double* volume = cloud.volume.data();
+  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1];
+  double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
+  int positive = 1;
+#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y) reduction(+ : finite) \
+    reduction(& : positive)
   for (std::size_t p = 0; p < n; ++p) {
-    const Vec2& x = cloud.position[p];
-    lo = lo.cwiseMin(x);
-    hi = hi.cwiseMax(x);
-    bad = bad || !x.allFinite() || !(cloud.volume[p] > 0.0) || !std::isfinite(cloud.volume[p]);
-    if (deformed) {
-      const Mat2& f = cloud.deformation_gradient[p];
-      double largest = 0.0, smallest = 0.0;
-      singular_values(f, largest, smallest);
-      stretch = std::max(stretch, largest);
-      bad = bad || !f.allFinite() || !(f.determinant() > 0.0);
+    const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
+    lo_x = std::min(lo_x, px);
+    lo_y = std::min(lo_y, py);
+    hi_x = std::max(hi_x, px);
+    hi_y = std::max(hi_y, py);
+    finite += (px + py + v) * 0.0;
+    positive &= v > 0.0 ? 1 : 0;
+  }
+  double largest_squared = 1.0;
+  if (!cloud.deformation_gradient.empty()) {
+    // sigma_max^2, the larger eigenvalue of F^T F = [a b; b c]: (a + c + sqrt((a - c)^2 + 4 b^2))
+    // / 2.
+    const double* f = cloud.deformation_gradient.data()->data();  // column-major 2 x 2
+    largest_squared = 0.0;
+#pragma omp simd reduction(max : largest_squared) reduction(+ : finite) reduction(& : positive)
+    for (std::size_t p = 0; p < n; ++p) {
+      const double f00 = f[4 * p], f10 = f[4 * p + 1], f01 = f[4 * p + 2], f11 = f[4 * p + 3];
+      const double a = f00 * f00 + f10 * f10, c = f01 * f01 + f11 * f11;
+      const double b = f00 * f01 + f10 * f11, d = f00 * f11 - f01 * f10;
+      finite += (a + c) * 0.0;
+      positive &= d > 0.0 ? 1 : 0;
+      largest_squared =
+          std::max(largest_squared, 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
     }
   }
-  if (bad) {
+  if (!(finite == 0.0) || !positive) {
     for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
-  survey.lo = lo;
-  survey.hi = hi;
-  survey.largest_stretch = stretch;
-  if (cell_volumes) {
-    survey.cell_volume.assign(static_cast<std::size_t>(grid.n_cells_x) * grid.n_cells_y, 0.0);
+  survey.lo = Vec2(lo_x, lo_y);
+  survey.hi = Vec2(hi_x, hi_y);
+  survey.largest_stretch = std::sqrt(largest_squared);
+  if (cells) {
+    const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
+    survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
+    survey.cell.resize(n);
+    const double inv_h = 1.0 / grid.cell_size, x0 = grid.origin.x(), y0 = grid.origin.y();
+    const double upper_i = n_x, upper_j = n_y;
+    int* cell = survey.cell.data();
+    // Truncation is the floor for the offsets in [0, n); the others are outside.
+#pragma omp simd
     for (std::size_t p = 0; p < n; ++p) {
-      const int c = cell_of(grid, cloud.position[p]);
-      if (c >= 0) survey.cell_volume[static_cast<std::size_t>(c)] += cloud.volume[p];
+      const double ti = (x[2 * p] - x0) * inv_h, tj = (x[2 * p + 1] - y0) * inv_h;
+      const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
+      cell[p] = in ? static_cast<int>(tj) * n_x + static_cast<int>(ti) : -1;
     }
+    // Runs of particles in one cell (the usual order) add up in a register.
+    double* cell_volume = survey.cell_volume.data();
+    int run_cell = -1;
+    double run_volume = 0.0;
+    for (std::size_t p = 0; p < n; ++p) {
+      if (cell[p] != run_cell) {
+        if (run_cell >= 0) cell_volume[run_cell] += run_volume;
+        run_cell = cell[p];
+        run_volume = 0.0;
+      }
+      run_volume += volume[p];
+    }
+    if (run_cell >= 0) cell_volume[run_cell] += run_volume;
   }
   return survey;
 }
@@ -591,8 +630,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
                                 : 0.0;
   const double kernel_reach = a0 * survey.largest_stretch;
   const double particle_reach = std::max(a0, guard_reach) * survey.largest_stretch;
-  ImprovedField::BinLattice lattice{Vec2::Zero(),
-                                    particle_reach > 0.0 ? particle_reach / 2.0 : 1.0};
+  // (The largest stretch comes from another formula than the field's: 1e-9 of slack.)
+  ImprovedField::BinLattice lattice{
+      Vec2::Zero(), particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / 2.0 : 1.0};
   lattice.origin =
       survey.lo.cwiseMin(grid.origin) - Vec2::Constant(particle_reach + lattice.bin_size);
 
@@ -621,12 +661,26 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     for (std::size_t c = 0; c < open.size(); ++c) open[c] = interior_by_volume[c] ? 0 : 1;
     const std::vector<char> needed = dilate(open, ncx, ncy, particle_rings);
     const bool deformed = !cloud.deformation_gradient.empty();
-    for (std::size_t p = 0; p < cloud.position.size(); ++p) {
-      const int c = cell_of(grid, cloud.position[p]);
-      if (c >= 0 && !needed[static_cast<std::size_t>(c)]) continue;
-      sub_position.push_back(cloud.position[p]);
-      sub_volume.push_back(cloud.volume[p]);
-      if (deformed) sub_deformation.push_back(cloud.deformation_gradient[p]);
+    // Selected indices first (a branch-free sweep: cells outside the grid map to slot 0 of
+    // `keep`, always kept), then the copies.
+    const std::size_t n = cloud.position.size();
+    std::vector<char> keep(needed.size() + 1, 1);
+    std::copy(needed.begin(), needed.end(), keep.begin() + 1);
+    std::vector<std::uint32_t> selected(n);
+    std::size_t m = 0;
+    const int* cell = survey.cell.data();
+    for (std::size_t p = 0; p < n; ++p) {
+      selected[m] = static_cast<std::uint32_t>(p);
+      m += static_cast<std::size_t>(keep[static_cast<std::size_t>(cell[p] + 1)]);
+    }
+    sub_position.resize(m);
+    sub_volume.resize(m);
+    if (deformed) sub_deformation.resize(m);
+    for (std::size_t k = 0; k < m; ++k) {
+      const std::size_t p = selected[k];
+      sub_position[k] = cloud.position[p];
+      sub_volume[k] = cloud.volume[p];
+      if (deformed) sub_deformation[k] = cloud.deformation_gradient[p];
     }
     band_cloud.position = sub_position;
     band_cloud.volume = sub_volume;
