@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 
 #include "mpm/detect/detect_internal.hpp"
@@ -490,16 +491,35 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1];
   double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
   int positive = 1;
+  // The grid cell of each particle (narrow band) in the same sweep: truncation is the floor for
+  // the offsets in [0, n); the others are outside.
+  const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
+  const double inv_h = 1.0 / grid.cell_size, x0 = grid.origin.x(), y0 = grid.origin.y();
+  const double upper_i = n_x, upper_j = n_y;
+  if (cells) survey.cell.resize(n);
+  int* cell = survey.cell.data();
+  const auto sweep = [&](auto with_cells) {
 #pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y) reduction(+ : finite) \
     reduction(& : positive)
-  for (std::size_t p = 0; p < n; ++p) {
-    const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
-    lo_x = std::min(lo_x, px);
-    lo_y = std::min(lo_y, py);
-    hi_x = std::max(hi_x, px);
-    hi_y = std::max(hi_y, py);
-    finite += (px + py + v) * 0.0;
-    positive &= v > 0.0 ? 1 : 0;
+    for (std::size_t p = 0; p < n; ++p) {
+      const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
+      lo_x = std::min(lo_x, px);
+      lo_y = std::min(lo_y, py);
+      hi_x = std::max(hi_x, px);
+      hi_y = std::max(hi_y, py);
+      finite += (px + py + v) * 0.0;
+      positive &= v > 0.0 ? 1 : 0;
+      if constexpr (decltype(with_cells)::value) {
+        const double ti = (px - x0) * inv_h, tj = (py - y0) * inv_h;
+        const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
+        cell[p] = in ? static_cast<int>(tj) * n_x + static_cast<int>(ti) : -1;
+      }
+    }
+  };
+  if (cells) {
+    sweep(std::true_type{});
+  } else {
+    sweep(std::false_type{});
   }
   double largest_squared = 1.0;
   if (!cloud.deformation_gradient.empty()) {
@@ -525,19 +545,7 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   survey.hi = Vec2(hi_x, hi_y);
   survey.largest_stretch = std::sqrt(largest_squared);
   if (cells) {
-    const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
     survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
-    survey.cell.resize(n);
-    const double inv_h = 1.0 / grid.cell_size, x0 = grid.origin.x(), y0 = grid.origin.y();
-    const double upper_i = n_x, upper_j = n_y;
-    int* cell = survey.cell.data();
-    // Truncation is the floor for the offsets in [0, n); the others are outside.
-#pragma omp simd
-    for (std::size_t p = 0; p < n; ++p) {
-      const double ti = (x[2 * p] - x0) * inv_h, tj = (x[2 * p + 1] - y0) * inv_h;
-      const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
-      cell[p] = in ? static_cast<int>(tj) * n_x + static_cast<int>(ti) : -1;
-    }
     // Runs of particles in one cell (the usual order) add up in a register.
     double* cell_volume = survey.cell_volume.data();
     int run_cell = -1;

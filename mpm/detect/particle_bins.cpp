@@ -17,7 +17,7 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : b
     hi = hi.cwiseMax(p);
   }
   origin_ = lo;
-  fill(positions, hi);
+  fill(positions, lo, hi);
 }
 
 ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size, const Vec2& origin)
@@ -26,25 +26,29 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size, con
     throw std::invalid_argument("ParticleBins: bin size must be finite and > 0, origin finite");
   }
   if (positions.empty()) return;
-  Vec2 hi = positions[0];
+  Vec2 lo = positions[0], hi = positions[0];
   for (const auto& p : positions) {
     if (p.x() < origin.x() || p.y() < origin.y()) {
       throw std::invalid_argument("ParticleBins: a position lies below the lattice origin");
     }
+    lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  fill(positions, hi);
+  fill(positions, lo, hi);
 }
 
-void ParticleBins::fill(std::span<const Vec2> positions, const Vec2& hi) {
-  const Vec2& lo = origin_;
-  n_x_ = static_cast<int>(std::floor((hi.x() - lo.x()) / bin_size_)) + 1;
-  n_y_ = static_cast<int>(std::floor((hi.y() - lo.y()) / bin_size_)) + 1;
+void ParticleBins::fill(std::span<const Vec2> positions, const Vec2& lo, const Vec2& hi) {
+  first_i_ = 0;
+  first_j_ = 0;
+  first_i_ = bin_i(lo.x());
+  first_j_ = bin_j(lo.y());
+  n_x_ = bin_i(hi.x()) + 1;
+  n_y_ = bin_j(hi.y()) + 1;
   start_.assign(static_cast<std::size_t>(n_x_) * n_y_ + 1, 0);
   std::vector<int> bin_of(positions.size());
   for (std::size_t p = 0; p < positions.size(); ++p) {
-    const int i = std::min(bin_coordinate(positions[p].x() - lo.x()), n_x_ - 1);
-    const int j = std::min(bin_coordinate(positions[p].y() - lo.y()), n_y_ - 1);
+    const int i = std::clamp(bin_i(positions[p].x()), 0, n_x_ - 1);
+    const int j = std::clamp(bin_j(positions[p].y()), 0, n_y_ - 1);
     bin_of[p] = j * n_x_ + i;
     ++start_[bin_of[p] + 1];
   }

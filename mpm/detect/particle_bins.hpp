@@ -29,7 +29,7 @@ class ParticleBins {
   template <class Visitor>
   void for_each_near(const Vec2& x, Visitor&& visit) const {
     if (n_x_ == 0) return;
-    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    const int bi = bin_i(x.x()), bj = bin_j(x.y());
     for (int j = std::max(bj - 1, 0); j <= std::min(bj + 1, n_y_ - 1); ++j) {
       for (int i = std::max(bi - 1, 0); i <= std::min(bi + 1, n_x_ - 1); ++i) {
         const int b = j * n_x_ + i;
@@ -44,7 +44,7 @@ class ParticleBins {
   template <class Visitor>
   void for_each_slot_near(const Vec2& x, int rings, Visitor&& visit) const {
     if (n_x_ == 0) return;
-    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    const int bi = bin_i(x.x()), bj = bin_j(x.y());
     const int i0 = std::max(bi - rings, 0), i1 = std::min(bi + rings, n_x_ - 1);
     for (int j = std::max(bj - rings, 0); j <= std::min(bj + rings, n_y_ - 1); ++j) {
       if (i0 > i1) break;
@@ -59,10 +59,10 @@ class ParticleBins {
   template <class Visitor>
   void for_each_slot_in_box(const Vec2& lo, const Vec2& hi, Visitor&& visit) const {
     if (n_x_ == 0) return;
-    const int i0 = std::max(bin_coordinate(lo.x() - origin_.x()), 0);
-    const int i1 = std::min(bin_coordinate(hi.x() - origin_.x()), n_x_ - 1);
-    const int j0 = std::max(bin_coordinate(lo.y() - origin_.y()), 0);
-    const int j1 = std::min(bin_coordinate(hi.y() - origin_.y()), n_y_ - 1);
+    const int i0 = std::max(bin_i(lo.x()), 0);
+    const int i1 = std::min(bin_i(hi.x()), n_x_ - 1);
+    const int j0 = std::max(bin_j(lo.y()), 0);
+    const int j1 = std::min(bin_j(hi.y()), n_y_ - 1);
     if (i0 > i1) return;
     for (int j = j0; j <= j1; ++j) {
       const int end = start_[j * n_x_ + i1 + 1];
@@ -82,7 +82,7 @@ class ParticleBins {
   template <class Visitor>
   void for_each_nearest_rings(const Vec2& x, Visitor&& visit) const {
     if (n_x_ == 0) return;
-    const int bi = bin_coordinate(x.x() - origin_.x()), bj = bin_coordinate(x.y() - origin_.y());
+    const int bi = bin_i(x.x()), bj = bin_j(x.y());
     int first_hit_ring = -1;
     const int max_ring = std::max(n_x_, n_y_) + std::abs(bi) + std::abs(bj) + 2;
     for (int ring = 0; ring <= max_ring; ++ring) {
@@ -106,7 +106,11 @@ class ParticleBins {
   double bin_size() const { return bin_size_; }
 
  private:
-  void fill(std::span<const Vec2> positions, const Vec2& hi);
+  void fill(std::span<const Vec2> positions, const Vec2& lo, const Vec2& hi);
+  // Bin column and row of a coordinate: counted on the lattice from origin_, then shifted to the
+  // first stored bin (the lattice constructor stores only the bins around the positions).
+  int bin_i(double x) const { return bin_coordinate(x - origin_.x()) - first_i_; }
+  int bin_j(double y) const { return bin_coordinate(y - origin_.y()) - first_j_; }
   int bin_coordinate(double offset) const {
     const double c = std::floor(offset / bin_size_);
     return c < -1e9 ? -1000000000 : (c > 1e9 ? 1000000000 : static_cast<int>(c));
@@ -114,9 +118,10 @@ class ParticleBins {
   Vec2 origin_ = Vec2::Zero();
   double bin_size_ = 1.0;
   int n_x_ = 0, n_y_ = 0;
-  std::vector<int> start_;     ///< CSR offsets, size n_x * n_y + 1
-  std::vector<int> particle_;  ///< particle indices, bin by bin, increasing within a bin
-  std::vector<int> slot_;      ///< inverse of particle_
+  int first_i_ = 0, first_j_ = 0;  ///< lattice indices of the first stored bin
+  std::vector<int> start_;         ///< CSR offsets, size n_x * n_y + 1
+  std::vector<int> particle_;      ///< particle indices, bin by bin, increasing within a bin
+  std::vector<int> slot_;          ///< inverse of particle_
 };
 
 }  // namespace pfm
