@@ -113,7 +113,12 @@ def _block(
     output_interval=None,
 ):
     """A rectangle [0, width] x [0, height] inside a grid with a 2-cell margin, fixed base,
-    rollers on both sides (node sets on the body's edges)."""
+    rollers on both sides. The node sets hold the nodes on the walls and beyond them (the base
+    set every node at y <= 0, the side sets every node outside the body's width up to its top):
+    the walls are rigid, and a GIMP particle next to one reaches the nodes behind it (with
+    linear shape functions those nodes carry no mass and the extra fixities change nothing).
+    """
+    far = 1e3  # m, beyond any grid of these cases
     case = {
         "grid": _grid(width, height, h),
         "materials": [material],
@@ -127,12 +132,9 @@ def _block(
         "gravity": {"g": 9.81, "ramp_time": 0.5} if gravity else {"g": 0.0},
         "initial_stress": {"method": initial},
         "node_sets": [
-            {"name": "base", "box": [[-1.0, -1e-9], [width + 1.0, 1e-9]]},
-            {"name": "left_side", "box": [[-1e-9, 0.0], [1e-9, height]]},
-            {
-                "name": "right_side",
-                "box": [[width - 1e-9, 0.0], [width + 1e-9, height]],
-            },
+            {"name": "base", "box": [[-far, -far], [width + far, 1e-9]]},
+            {"name": "left_side", "box": [[-far, 0.0], [1e-9, height]]},
+            {"name": "right_side", "box": [[width - 1e-9, 0.0], [width + far, height]]},
         ],
         "boundary_conditions": [
             {"where": "base", "fix": "xy"},
