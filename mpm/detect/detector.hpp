@@ -268,10 +268,21 @@ class ImprovedField {
   /// nullptr: none.
   ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
                 const Grid* walls = nullptr);
+  /// Which grid edges are walls (no particle beyond) and, in bins of one initial spacing along
+  /// each, where a particle touches it (closer than a spacing): see mirror_grid_edges.
+  struct WallContacts {
+    bool wall[4] = {false, false, false, false};  ///< left, right, bottom, top
+    std::vector<char> touched[4];
+  };
+  /// The contacts of the particles at `positions` (bounding box lo, hi) with the edges of `walls`.
+  static WallContacts find_wall_contacts(std::span<const Vec2> positions, const Vec2& lo,
+                                         const Vec2& hi, const Grid& walls, double spacing);
   /// Trusts the cloud (detect() has checked it). `lattice`: nullptr = bins of half the largest
-  /// reach on the particles' bounding box.
+  /// reach on the particles' bounding box. `contacts`: nullptr = those of the cloud's own
+  /// particles; the narrow band passes those of the whole cloud, of which it holds a part.
   ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
-                const Grid* walls = nullptr, const BinLattice* lattice = nullptr);
+                const Grid* walls = nullptr, const BinLattice* lattice = nullptr,
+                const WallContacts* contacts = nullptr);
   /// Guards the particles p with candidate[p] != 0 (all when empty) whose phi(x_p) is
   /// <= level + guard_margin; the narrow band passes the particles outside the interior cells.
   /// Call once, before evaluating the field.

@@ -21,7 +21,8 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
 }
 
 ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
-                             const Grid* walls, const BinLattice* lattice)
+                             const Grid* walls, const BinLattice* lattice,
+                             const WallContacts* contacts)
     : exponent_(static_cast<int>(config.profile)),
       guard_(config.guard_factor > 0.0),
       level_(config.level),
@@ -80,19 +81,20 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   std::vector<Image> images;
   std::vector<Vec2> all_positions = position_;
   if (walls != nullptr && n > 0) {
-    Vec2 lo = position_[0], hi = position_[0];
-    for (const Vec2& x : position_) {
-      lo = lo.cwiseMin(x);
-      hi = hi.cwiseMax(x);
-    }
     const Vec2 g0 = walls->origin, g1 = walls->upper_corner();
-    // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle
-    // closer to it than one initial spacing "touches" it; the touched stretches of the wall are
-    // kept in bins of one spacing along it, and a particle is mirrored across the wall only if
-    // the wall is touched within its reach along the wall (a body near a wall but clear of it
-    // keeps its own boundary there).
-    const bool wall[4] = {lo.x() >= g0.x(), hi.x() <= g1.x(), lo.y() >= g0.y(), hi.y() <= g1.y()};
     const double spacing = cloud.initial_spacing;
+    WallContacts own;
+    if (contacts == nullptr) {
+      Vec2 lo = position_[0], hi = position_[0];
+      for (const Vec2& x : position_) {
+        lo = lo.cwiseMin(x);
+        hi = hi.cwiseMax(x);
+      }
+      own = find_wall_contacts(position_, lo, hi, *walls, spacing);
+      contacts = &own;
+    }
+    const bool* wall = contacts->wall;
+    const std::vector<char>* touched = contacts->touched;
     const auto distance_to = [&](int w, const Vec2& x) {
       return w == 0   ? x.x() - g0.x()
              : w == 1 ? g1.x() - x.x()
@@ -102,17 +104,6 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     const auto along = [&](int w, const Vec2& x) {
       return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
     };
-    const double wall_length[2] = {g1.y() - g0.y(), g1.x() - g0.x()};
-    std::vector<char> touched[4];
-    for (int w = 0; w < 4; ++w) {
-      if (!wall[w]) continue;
-      touched[w].assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
-      for (const Vec2& x : position_) {
-        if (distance_to(w, x) >= spacing) continue;
-        const double t = std::clamp(along(w, x) / spacing, 0.0, touched[w].size() - 1.0);
-        touched[w][static_cast<std::size_t>(t)] = 1;
-      }
-    }
     const auto mirrored = [&](int w, const Vec2& x, double half_across, double half_along) {
       if (!wall[w] || distance_to(w, x) >= half_across) return false;
       const auto& bins = touched[w];
@@ -213,6 +204,39 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     }
     slot_[k] = m;
   }
+}
+
+ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,
+                                                              const Vec2& lo, const Vec2& hi,
+                                                              const Grid& walls, double spacing) {
+  // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle closer
+  // to it than one initial spacing "touches" it; the touched stretches of the wall are kept in
+  // bins of one spacing along it, and a particle is mirrored across the wall only if the wall is
+  // touched within its reach along the wall (a body near a wall but clear of it keeps its own
+  // boundary there).
+  WallContacts c;
+  const Vec2 g0 = walls.origin, g1 = walls.upper_corner();
+  c.wall[0] = lo.x() >= g0.x();
+  c.wall[1] = hi.x() <= g1.x();
+  c.wall[2] = lo.y() >= g0.y();
+  c.wall[3] = hi.y() <= g1.y();
+  const double wall_length[2] = {g1.y() - g0.y(), g1.x() - g0.x()};
+  for (int w = 0; w < 4; ++w) {
+    if (!c.wall[w]) continue;
+    auto& bins = c.touched[w];
+    bins.assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
+    for (const Vec2& x : positions) {
+      const double distance = w == 0   ? x.x() - g0.x()
+                              : w == 1 ? g1.x() - x.x()
+                              : w == 2 ? x.y() - g0.y()
+                                       : g1.y() - x.y();
+      if (distance >= spacing) continue;
+      const double along = w < 2 ? x.y() - g0.y() : x.x() - g0.x();
+      const double t = std::clamp(along / spacing, 0.0, bins.size() - 1.0);
+      bins[static_cast<std::size_t>(t)] = 1;
+    }
+  }
+  return c;
 }
 
 void ImprovedField::decide_guards(std::span<const char> candidate) {
@@ -652,34 +676,95 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    the volume alone cannot tell, the field screening below decides. Only the particles
   //    within reach of the cells that are not interior enter the field.
   std::vector<char> interior_by_volume;
+  ImprovedField::WallContacts contacts;
   std::vector<Vec2> sub_position;
   std::vector<double> sub_volume;
   std::vector<Mat2> sub_deformation;
   ParticleCloud band_cloud = cloud;
   if (config.narrow_band && !cloud.position.empty()) {
     const double solid_fraction = 1.0 - 0.15 * a0 / h;
-    std::vector<char> solid(survey.cell_volume.size());
-    for (std::size_t c = 0; c < solid.size(); ++c) {
-      solid[c] = survey.cell_volume[c] >= solid_fraction * h * h ? 1 : 0;
-    }
     const int kernel_rings = std::max(1, static_cast<int>(std::ceil(kernel_reach / h)));
     const int particle_rings = std::max(1, static_cast<int>(std::ceil(particle_reach / h)));
-    interior_by_volume = erode(solid, ncx, ncy, kernel_rings);
-    std::vector<char> open(interior_by_volume.size());
-    for (std::size_t c = 0; c < open.size(); ++c) open[c] = interior_by_volume[c] ? 0 : 1;
-    const std::vector<char> needed = dilate(open, ncx, ncy, particle_rings);
+    // Where the body rests on a grid edge the field mirrors the particles across it: beyond such
+    // a wall the cells are the mirror images of those inside (for the erosion, and for the
+    // dilation, since a particle whose image reaches an open cell reaches that cell's image).
+    // Elsewhere the outside is void. The padding holds both operations' reach; the erosion's
+    // artefacts at its outer rim stay more than particle_rings away from the grid.
+    // (Which edges are walls follows from the box; where they are touched is found below.)
+    if (config.mirror_grid_edges) {
+      contacts =
+          ImprovedField::find_wall_contacts({}, survey.lo, survey.hi, grid, cloud.initial_spacing);
+    }
+    const bool mirror_x[2] = {contacts.wall[0], contacts.wall[1]};
+    const bool mirror_y[2] = {contacts.wall[2], contacts.wall[3]};
+    const int pad = kernel_rings + particle_rings;
+    const int px = ncx + 2 * pad, py = ncy + 2 * pad;
+    // Index of the grid cell that padded cell (a, b) images, or -1 for the void.
+    const auto source = [&](int a, int b) {
+      int i = a - pad, j = b - pad;
+      if (i < 0 || i >= ncx) {
+        if (!mirror_x[i < 0 ? 0 : 1]) return -1;
+        i = i < 0 ? -1 - i : 2 * ncx - 1 - i;
+        if (i < 0 || i >= ncx) return -1;
+      }
+      if (j < 0 || j >= ncy) {
+        if (!mirror_y[j < 0 ? 0 : 1]) return -1;
+        j = j < 0 ? -1 - j : 2 * ncy - 1 - j;
+        if (j < 0 || j >= ncy) return -1;
+      }
+      return j * ncx + i;
+    };
+    std::vector<char> padded_solid(static_cast<std::size_t>(px) * py, 0);
+    for (int b = 0; b < py; ++b) {
+      for (int a = 0; a < px; ++a) {
+        const int c = source(a, b);
+        padded_solid[static_cast<std::size_t>(b) * px + a] =
+            c >= 0 && survey.cell_volume[static_cast<std::size_t>(c)] >= solid_fraction * h * h;
+      }
+    }
+    const std::vector<char> padded_interior = erode(padded_solid, px, py, kernel_rings);
+    std::vector<char> padded_open(padded_interior.size());
+    for (std::size_t c = 0; c < padded_open.size(); ++c) padded_open[c] = !padded_interior[c];
+    const std::vector<char> padded_needed = dilate(padded_open, px, py, particle_rings);
+    interior_by_volume.assign(static_cast<std::size_t>(ncx) * ncy, 0);
+    std::vector<char> needed(interior_by_volume.size());
+    for (int j = 0; j < ncy; ++j) {
+      for (int i = 0; i < ncx; ++i) {
+        const std::size_t inside = static_cast<std::size_t>(j) * ncx + i;
+        const std::size_t padded = static_cast<std::size_t>(j + pad) * px + (i + pad);
+        interior_by_volume[inside] = padded_interior[padded];
+        needed[inside] = padded_needed[padded];
+      }
+    }
     const bool deformed = !cloud.deformation_gradient.empty();
-    // Selected indices first (a branch-free sweep: cells outside the grid map to slot 0 of
-    // `keep`, always kept), then the copies.
+    // Selected indices first, then the copies. One sweep: code[c + 1] of the particle's cell c
+    // (c = -1 outside the grid) has bit 0 set where the particle enters the field, bit 1 where
+    // it may touch a grid edge (in a cell along the edges or outside the grid: closer to the
+    // edge than one initial spacing <= h; a larger spacing takes every particle).
     const std::size_t n = cloud.position.size();
-    std::vector<char> keep(needed.size() + 1, 1);
-    std::copy(needed.begin(), needed.end(), keep.begin() + 1);
+    const bool every_particle_may_touch = cloud.initial_spacing > h;
+    std::vector<char> code(needed.size() + 1, 3);
+    for (int j = 0; j < ncy; ++j) {
+      for (int i = 0; i < ncx; ++i) {
+        const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
+        const bool edge =
+            every_particle_may_touch || i == 0 || j == 0 || i == ncx - 1 || j == ncy - 1;
+        code[c + 1] = static_cast<char>((needed[c] ? 1 : 0) | (edge ? 2 : 0));
+      }
+    }
     std::vector<std::uint32_t> selected(n);
+    std::vector<Vec2> touching;
     std::size_t m = 0;
     const int* cell = survey.cell.data();
     for (std::size_t p = 0; p < n; ++p) {
+      const char k = code[static_cast<std::size_t>(cell[p] + 1)];
       selected[m] = static_cast<std::uint32_t>(p);
-      m += static_cast<std::size_t>(keep[static_cast<std::size_t>(cell[p] + 1)]);
+      m += static_cast<std::size_t>(k & 1);
+      if (k & 2) touching.push_back(cloud.position[p]);
+    }
+    if (config.mirror_grid_edges) {
+      contacts = ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid,
+                                                   cloud.initial_spacing);
     }
     sub_position.resize(m);
     sub_volume.resize(m);
@@ -694,8 +779,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     band_cloud.volume = sub_volume;
     band_cloud.deformation_gradient = sub_deformation;
   }
+  const bool band = config.narrow_band && !cloud.position.empty();
   ImprovedField field(band_cloud, config, ImprovedField::DeferGuards{},
-                      config.mirror_grid_edges ? &grid : nullptr, &lattice);
+                      config.mirror_grid_edges ? &grid : nullptr, &lattice,
+                      band && config.mirror_grid_edges ? &contacts : nullptr);
   timings.field_particles = static_cast<long>(band_cloud.position.size());
   const double level = config.level;
   long field_evaluations = 0;
@@ -864,6 +951,12 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
           static_cast<int>(std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
       if (j < 0 || j >= n_fine_y) continue;
       for (i = std::max(i, 0); i < n_fine_x; ++i) {
+        // Cells found interior by their volume are passed as inside without evaluation: the
+        // particles deep inside them are not in the field, whose values there would be too low.
+        if (!interior_by_volume.empty() &&
+            interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
+          continue;
+        }
         if (sign_change(i, j)) {
           push(i, j);
           break;
