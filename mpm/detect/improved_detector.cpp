@@ -897,17 +897,18 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    particle the first cell with a sign change to its right.
   std::vector<int> cells;
   std::vector<double> block;
-  const auto evaluate_coarse_cell = [&](int i, int j) {
-    field.evaluate_block(geometry.origin, geometry.spacing, i * r, j * r, r + 1, r + 1, block);
+  // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
+  // the run once, and the nodes on the edges between its cells once.
+  const auto evaluate_run = [&](int i0, int i1, int j) {
+    const int n_x = (i1 - i0) * r + 1;
+    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
     field_evaluations += static_cast<long>(block.size());
     for (int b = 0; b <= r; ++b) {
-      for (int a = 0; a <= r; ++a) node_cache.at(i * r + a, j * r + b) = block[b * (r + 1) + a];
+      for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
     }
   };
   if (!config.narrow_band) {
-    for (int j = 0; j < ncy; ++j) {
-      for (int i = 0; i < ncx; ++i) evaluate_coarse_cell(i, j);
-    }
+    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
     cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
     for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
   } else {
@@ -929,14 +930,23 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     }
     // Every fine cell of the active coarse cells (their fine nodes are all evaluated, so any
     // sub-cell island or hole inside them is found), evaluated a cell at a time.
+    const auto active = [&](int i, int j) {
+      const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
+      return reached[c] && !deep[c] && (!far[c] || guard_here[c]);
+    };
     for (int j = 0; j < ncy; ++j) {
-      for (int i = 0; i < ncx; ++i) {
-        const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
-        if (!reached[c] || deep[c] || (far[c] && !guard_here[c])) continue;
-        evaluate_coarse_cell(i, j);
-        for (int b = 0; b < r; ++b) {
-          for (int a = 0; a < r; ++a) push(i * r + a, j * r + b);
+      for (int i = 0; i < ncx;) {
+        if (!active(i, j)) {
+          ++i;
+          continue;
         }
+        int end = i + 1;
+        while (end < ncx && active(end, j)) ++end;
+        evaluate_run(i, end, j);
+        for (int b = 0; b < r; ++b) {
+          for (int a = 0; a < (end - i) * r; ++a) push(i * r + a, j * r + b);
+        }
+        i = end;
       }
     }
     const auto sign_change = [&](int i, int j) {
