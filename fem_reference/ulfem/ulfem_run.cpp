@@ -18,19 +18,6 @@ namespace pfm::ulfem {
 
 namespace {
 
-std::string fmt(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
-
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  char buffer[32];
-  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  return buffer;
-}
-
 void write_doubles(hid_t group, const char* name, const std::vector<double>& data, std::size_t rows,
                    std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
@@ -55,7 +42,7 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
   for (std::size_t k = 0; k < loops.size(); ++k) {
     for (int n : loops[k]) {
       const Vec2& x = positions[static_cast<std::size_t>(n)];
-      out << k << ',' << fmt(x.x()) << ',' << fmt(x.y()) << '\n';
+      out << k << ',' << format_exact(x.x()) << ',' << format_exact(x.y()) << '\n';
     }
   }
   return out.str();
@@ -123,7 +110,7 @@ void MeshSeriesWriter::write_xdmf() const {
   for (std::size_t s = 0; s < times_.size(); ++s) {
     const std::string& g = groups_[s];
     x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
-      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
+      << "<Time Value=\"" << format_exact(times_[s]) << "\"/>\n"
       << "<Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << n_elements_
       << "\"><DataItem Dimensions=\"" << n_elements_
       << " 4\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">mesh.h5:/topology</DataItem>"
@@ -158,28 +145,11 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   run["status"] = "running";
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
 
-  std::ostringstream series;
   // The MPM's columns (mpm/solver/run.cpp); with loads also its load diagnostics, summed over
   // every load of the case (the UL-FEM applies them all on the mesh edges, nothing is lost).
-  const bool loads = !c.loads.empty();
-  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
-  if (loads) {
-    series << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
-              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
-  }
-  series << '\n';
+  TimeSeriesTable series(!c.loads.empty());
   auto record = [&](const UlFemSolver& s) {
-    const EnergyBalance e = s.energy();
-    series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
-           << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
-           << ',' << fmt(e.momentum.y());
-    if (loads) {
-      const EdgeLoadDiagnostics& d = s.load_diagnostics();
-      for (const Vec2& f : {d.target, d.applied, d.lost, d.off_grid})
-        series << ',' << fmt(f.x()) << ',' << fmt(f.y());
-      series << ',' << d.loaded_nodes << ',' << d.lost_nodes;
-    }
-    series << '\n';
+    series.record(s.time(), s.energy(), s.load_diagnostics());
   };
   nlohmann::json outputs = nlohmann::json::array();
 
@@ -217,7 +187,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
       }
       if (t >= next_output - eps || last) {
         output(t);
-        write_file_atomically(dir + "/timeseries.csv", series.str());
+        write_file_atomically(dir + "/timeseries.csv", series.text());
         while (next_output <= t + eps) next_output += c.output.interval;
       }
     }
@@ -228,7 +198,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
               << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
   }
-  write_file_atomically(dir + "/timeseries.csv", series.str());
+  write_file_atomically(dir + "/timeseries.csv", series.text());
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -3,6 +3,7 @@
 #include <hdf5.h>
 
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -10,6 +11,33 @@
 #include <stdexcept>
 
 namespace pfm {
+
+std::string format_exact(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", v);
+  return buffer;
+}
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return buffer;
+}
+
+TimeSeriesTable::TimeSeriesTable(bool with_loads) : with_loads_(with_loads) {
+  text_ << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
+  if (with_loads_) {
+    text_ << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
+             "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
+  }
+  text_ << '\n';
+}
+
+void TimeSeriesTable::restore(const std::string& text) {
+  text_.str(text);
+  text_.seekp(0, std::ios_base::end);
+}
 
 namespace {
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,44 @@ namespace pfm {
 
 /// Write `text` to `path` atomically (temporary file in the same directory, then rename).
 void write_file_atomically(const std::string& path, const std::string& text);
+
+/// `v` with 17 significant digits (reads back to the same double).
+std::string format_exact(double v);
+
+/// The current UTC time as 2026-11-29T12:00:00Z.
+std::string utc_now();
+
+/// timeseries.csv, held in memory: time, kinetic_energy, external_work, internal_work,
+/// damping_work, momentum_x, momentum_y, and with surface loads the resultants of the loads
+/// (load_target, load_applied, load_lost, load_off_grid, each _fx and _fy) and the numbers of
+/// loaded and lost nodes. The same columns for the MPM and the UL-FEM runs.
+class TimeSeriesTable {
+ public:
+  explicit TimeSeriesTable(bool with_loads);
+  /// One line. `e`: kinetic_energy, external_work, internal_work, damping_work and momentum;
+  /// `loads` (read only with the load columns): target, applied, lost, off_grid, loaded_nodes
+  /// and lost_nodes.
+  template <class Energy, class Loads>
+  void record(double time, const Energy& e, const Loads& loads) {
+    text_ << format_exact(time) << ',' << format_exact(e.kinetic_energy) << ','
+          << format_exact(e.external_work) << ',' << format_exact(e.internal_work) << ','
+          << format_exact(e.damping_work) << ',' << format_exact(e.momentum.x()) << ','
+          << format_exact(e.momentum.y());
+    if (with_loads_) {
+      for (const auto& f : {loads.target, loads.applied, loads.lost, loads.off_grid})
+        text_ << ',' << format_exact(f.x()) << ',' << format_exact(f.y());
+      text_ << ',' << loads.loaded_nodes << ',' << loads.lost_nodes;
+    }
+    text_ << '\n';
+  }
+  std::string text() const { return text_.str(); }
+  /// Continues a table saved with text() (restart).
+  void restore(const std::string& text);
+
+ private:
+  bool with_loads_;
+  std::ostringstream text_;
+};
 
 /// Particle time series: particles.h5 (one group per output step) + particles.xdmf (a temporal
 /// collection of Polyvertex grids that ParaView and meshio open).

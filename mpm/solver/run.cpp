@@ -33,19 +33,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string utc_now() {
-  const std::time_t now = std::time(nullptr);
-  char buffer[32];
-  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  return buffer;
-}
-
-std::string fmt(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
-
 class Progress {
  public:
   explicit Progress(bool enabled)
@@ -133,26 +120,9 @@ int run_case(const Case& c, const RunOptions& options) {
   }
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
 
-  std::ostringstream series;
-  const bool surface_loads = coupling.has_surface_loads();
-  series << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
-  if (surface_loads) {
-    series << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
-              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
-  }
-  series << '\n';
+  TimeSeriesTable series(coupling.has_surface_loads());
   auto record = [&](const MpmSolver& s) {
-    const EnergyBalance e = s.energy();
-    series << fmt(s.time()) << ',' << fmt(e.kinetic_energy) << ',' << fmt(e.external_work) << ','
-           << fmt(e.internal_work) << ',' << fmt(e.damping_work) << ',' << fmt(e.momentum.x())
-           << ',' << fmt(e.momentum.y());
-    if (surface_loads) {
-      const SurfaceLoadDiagnostics& d = coupling.diagnostics();
-      for (const Vec2& f : {d.target, d.applied, d.lost, d.off_grid})
-        series << ',' << fmt(f.x()) << ',' << fmt(f.y());
-      series << ',' << d.loaded_nodes << ',' << d.lost_nodes;
-    }
-    series << '\n';
+    series.record(s.time(), s.energy(), coupling.diagnostics());
   };
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
@@ -174,7 +144,7 @@ int run_case(const Case& c, const RunOptions& options) {
     coupling.save(file);
     file.put("run/next_output", next_output);
     file.put("run/next_series", next_series);
-    file.put_text("run/timeseries", series.str());
+    file.put_text("run/timeseries", series.text());
     file.put_text("run/outputs", outputs.dump());
     file.write(checkpoint_path);
   };
@@ -198,8 +168,7 @@ int run_case(const Case& c, const RunOptions& options) {
     coupling.restore(file);
     next_output = file.scalar("run/next_output");
     next_series = file.scalar("run/next_series");
-    series.str(file.text("run/timeseries"));
-    series.seekp(0, std::ios_base::end);
+    series.restore(file.text("run/timeseries"));
     outputs = nlohmann::json::parse(file.text("run/outputs"));
   };
   auto write_output = [&](ParticleSeriesWriter& writer) {
@@ -228,9 +197,10 @@ int run_case(const Case& c, const RunOptions& options) {
       for (const auto& f : coupling.nodal_forces()) {
         const int i = f.node % nnx, j = f.node / nnx;
         const Vec2 x = c.grid.node_position(i, j);
-        csv << f.node << ',' << i << ',' << j << ',' << fmt(x.x()) << ',' << fmt(x.y()) << ','
-            << fmt(f.force.x()) << ',' << fmt(f.force.y()) << ','
-            << fmt(solver.grid_state().mass[static_cast<std::size_t>(f.node)]) << '\n';
+        csv << f.node << ',' << i << ',' << j << ',' << format_exact(x.x()) << ','
+            << format_exact(x.y()) << ',' << format_exact(f.force.x()) << ','
+            << format_exact(f.force.y()) << ','
+            << format_exact(solver.grid_state().mass[static_cast<std::size_t>(f.node)]) << '\n';
       }
       char name[40];
       std::snprintf(name, sizeof name, "nodal_loads_%08ld.csv", solver.step_count());
@@ -277,7 +247,7 @@ int run_case(const Case& c, const RunOptions& options) {
       }
       if (t >= next_output - eps || k + 1 == n_steps) {
         write_output(writer);
-        write_file_atomically(dir + "/timeseries.csv", series.str());
+        write_file_atomically(dir + "/timeseries.csv", series.text());
         while (next_output <= t + eps) next_output += c.output.interval;
       }
       const bool by_steps =
@@ -299,7 +269,7 @@ int run_case(const Case& c, const RunOptions& options) {
     std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
               << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
   }
-  write_file_atomically(dir + "/timeseries.csv", series.str());
+  write_file_atomically(dir + "/timeseries.csv", series.text());
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
