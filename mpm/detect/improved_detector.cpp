@@ -681,7 +681,11 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   std::vector<double> sub_volume;
   std::vector<Mat2> sub_deformation;
   ParticleCloud band_cloud = cloud;
-  if (config.narrow_band && !cloud.position.empty()) {
+  // A kernel reaching across the whole grid (a huge stretch or radius) leaves nothing to screen.
+  const double widest = std::max(ncx, ncy);
+  const bool screened =
+      config.narrow_band && !cloud.position.empty() && particle_reach / h < widest;
+  if (screened) {
     const double solid_fraction = 1.0 - 0.15 * a0 / h;
     const int kernel_rings = std::max(1, static_cast<int>(std::ceil(kernel_reach / h)));
     const int particle_rings = std::max(1, static_cast<int>(std::ceil(particle_reach / h)));
@@ -779,10 +783,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     band_cloud.volume = sub_volume;
     band_cloud.deformation_gradient = sub_deformation;
   }
-  const bool band = config.narrow_band && !cloud.position.empty();
+  // The wall contacts found above are those of the whole cloud, which the band holds a part of.
   ImprovedField field(band_cloud, config, ImprovedField::DeferGuards{},
                       config.mirror_grid_edges ? &grid : nullptr, &lattice,
-                      band && config.mirror_grid_edges ? &contacts : nullptr);
+                      screened && config.mirror_grid_edges ? &contacts : nullptr);
   timings.field_particles = static_cast<long>(band_cloud.position.size());
   const double level = config.level;
   long field_evaluations = 0;
