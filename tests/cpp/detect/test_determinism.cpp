@@ -176,6 +176,28 @@ TEST(Determinism, NarrowBandEqualsFullFieldAcrossCracks) {
   EXPECT_LT(smallest_share, 0.7);
 }
 
+// One particle stretched 1e5 times reaches across the whole grid: the volume screening is
+// skipped (it would size its cell arrays by that reach) and the narrow band still equals the
+// full field.
+TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
+  auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(1, 1), Vec2(3, 3),
+                             [](const Vec2&) { return true; });
+  cloud.deformation_gradient.assign(cloud.position.size(), Mat2::Identity());
+  cloud.deformation_gradient[10] << 1e5, 0.0, 0.0, 1e-5;
+  Grid g;
+  g.cell_size = 0.5;
+  g.n_cells_x = g.n_cells_y = 8;
+  DetectorConfig band, full;
+  band.method = full.method = DetectorMethod::kImproved;
+  full.improved.narrow_band = false;
+  DetectorState s1, s2;
+  DetectionTimings t1, t2;
+  const auto a = detect(cloud.view(), g, band, s1, &t1);
+  const auto b = detect(cloud.view(), g, full, s2, &t2);
+  EXPECT_TRUE(identical(a, b));
+  EXPECT_EQ(t1.field_particles, static_cast<long>(cloud.position.size()));
+}
+
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
   const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(6, 6),
                                    [](const Vec2& x) { return (x - Vec2(4, 4)).norm() < 1.8; });
