@@ -247,13 +247,7 @@ TEST(Baselines, SlopeAndRingReported) {
       const auto b = detect(slope.view(), test_grid(), config_of(kBaselines[m]), s1);
       expect_contract(b, test_grid(), slope, name_of(kBaselines[m]));
       const auto r = face_distances(b, body, 1.5 * kH, kH);
-      Stats flat;
-      for (int f : {0, 1, 2, 4, 5}) {
-        flat.mean += r.face[f].mean * r.face[f].count;
-        flat.count += r.face[f].count;
-        flat.max = std::max(flat.max, r.face[f].max);
-      }
-      flat.finish();
+      const Stats flat = faces_of(r, {0, 1, 2, 4, 5});
       std::printf(
           "slope45   %-5s %-8s loops %zu  45deg mean %.4f h max %.4f h  flat max %.4f h"
           "  corners max %.4f h\n",

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <map>
 #include <numbers>
 #include <string>
@@ -277,6 +278,18 @@ inline FaceReport face_distances(const DetectedBoundary& b, const std::vector<Ve
   r.faces.finish();
   r.corner.finish();
   return r;
+}
+
+/// The samples of the faces listed (finished statistics of their union).
+inline Stats faces_of(const FaceReport& r, std::initializer_list<std::size_t> faces) {
+  Stats merged;
+  for (const std::size_t f : faces) {
+    merged.mean += r.face[f].mean * r.face[f].count;
+    merged.count += r.face[f].count;
+    merged.max = std::max(merged.max, r.face[f].max);
+  }
+  merged.finish();
+  return merged;
 }
 
 /// Radial errors (in units of h) of the boundary samples against the circle (centre, radius):

@@ -33,36 +33,6 @@ DetectorConfig thesis_config() {
   return c;
 }
 
-// A polygon body: faces with their end points; samples within `corner_zone` of a polygon vertex
-// are counted as corner samples, the rest by the face they are closest to.
-struct PolygonReport {
-  std::vector<Stats> face;
-  Stats corner;
-};
-
-PolygonReport polygon_distances(const DetectedBoundary& b, const std::vector<Vec2>& vertices,
-                                double corner_zone) {
-  PolygonReport r;
-  r.face.resize(vertices.size());
-  for (const auto& p : boundary_samples(b)) {
-    double best = 1e300;
-    std::size_t face = 0;
-    for (std::size_t k = 0; k < vertices.size(); ++k) {
-      const double d = segment_distance(p, vertices[k], vertices[(k + 1) % vertices.size()]);
-      if (d < best) {
-        best = d;
-        face = k;
-      }
-    }
-    bool near_corner = false;
-    for (const auto& v : vertices) near_corner = near_corner || (p - v).norm() < corner_zone;
-    (near_corner ? r.corner : r.face[face]).add(best / kH);
-  }
-  for (auto& s : r.face) s.finish();
-  r.corner.finish();
-  return r;
-}
-
 DetectedBoundary run(const OwnedCloud& cloud, const DetectorConfig& config,
                      DetectionTimings* timings = nullptr) {
   DetectorState state;
@@ -83,14 +53,8 @@ TEST(StaticShapes, RectangleFlatFaces) {
       DetectionTimings t;
       const auto b = run(cloud, config, &t);
       ASSERT_GE(b.contours.size(), 1u);
-      const auto r = polygon_distances(b, rect, 1.5 * kernel_radius(improved_config()) + kH);
-      Stats faces;
-      for (const auto& f : r.face) {
-        faces.mean += f.mean * f.count;
-        faces.count += f.count;
-        faces.max = std::max(faces.max, f.max);
-      }
-      faces.finish();
+      const auto r = face_distances(b, rect, 1.5 * kernel_radius(improved_config()) + kH, kH);
+      const Stats& faces = r.faces;
       std::printf(
           "rectangle %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h"
           "  (refinement %d, %.2f ms)\n",
@@ -121,15 +85,9 @@ TEST(StaticShapes, FortyFiveDegreeSlope) {
       const auto config = improved ? improved_config() : thesis_config();
       const auto b = run(cloud, config);
       ASSERT_GE(b.contours.size(), 1u);
-      const auto r = polygon_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH);
+      const auto r = face_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH, kH);
       const Stats& slope = r.face[3];
-      Stats flat;
-      for (int f : {0, 1, 2, 4, 5}) {
-        flat.mean += r.face[f].mean * r.face[f].count;
-        flat.count += r.face[f].count;
-        flat.max = std::max(flat.max, r.face[f].max);
-      }
-      flat.finish();
+      const Stats flat = faces_of(r, {0, 1, 2, 4, 5});
       std::printf(
           "slope45   %-5s %-8s loops %zu  45deg mean %.4f h max %.4f h  flat max %.4f h"
           "  corners max %.4f h\n",
@@ -163,14 +121,8 @@ TEST(StaticShapes, RotatedSquare) {
       const auto config = improved ? improved_config() : thesis_config();
       const auto b = run(cloud, config);
       ASSERT_GE(b.contours.size(), 1u);
-      const auto r = polygon_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH);
-      Stats faces;
-      for (const auto& f : r.face) {
-        faces.mean += f.mean * f.count;
-        faces.count += f.count;
-        faces.max = std::max(faces.max, f.max);
-      }
-      faces.finish();
+      const auto r = face_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH, kH);
+      const Stats& faces = r.faces;
       std::printf(
           "square30  %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
           placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
@@ -295,14 +247,8 @@ TEST(StaticShapes, AffinelyDeformedRectangleKeepsFlatFaces) {
       DetectorState state;
       const auto b = detect(cloud.view(), test_grid(), config, state);
       ASSERT_GE(b.contours.size(), 1u);
-      const auto r = polygon_distances(b, body, 1.5 * 1.4 * kernel_radius(improved_config()) + kH);
-      Stats faces;
-      for (const auto& s : r.face) {
-        faces.mean += s.mean * s.count;
-        faces.count += s.count;
-        faces.max = std::max(faces.max, s.max);
-      }
-      faces.finish();
+      const auto r = face_distances(b, body, 1.5 * 1.4 * kernel_radius(improved_config()) + kH, kH);
+      const Stats& faces = r.faces;
       std::printf(
           "sheared   %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
           placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
