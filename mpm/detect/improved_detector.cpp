@@ -587,59 +587,40 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   return survey;
 }
 
-// Cells whose every neighbour within `rings` (Chebyshev) is set in `in`; outside the grid counts
-// as unset. Separable: rows, then columns.
-std::vector<char> erode(const std::vector<char>& in, int n_x, int n_y, int rings) {
+// `line(in, out, n, stride)` along every row of the n_x x n_y cells, then along every column.
+template <class Line>
+std::vector<char> rows_then_columns(const std::vector<char>& in, int n_x, int n_y, Line line) {
   std::vector<char> rows(in.size(), 0), out(in.size(), 0);
   for (int j = 0; j < n_y; ++j) {
-    int run = 0;  // set cells ending at i
-    std::vector<int> run_at(static_cast<std::size_t>(n_x));
-    for (int i = 0; i < n_x; ++i) {
-      run = in[static_cast<std::size_t>(j) * n_x + i] ? run + 1 : 0;
-      run_at[static_cast<std::size_t>(i)] = run;
-    }
-    for (int i = rings; i + rings < n_x; ++i) {
-      rows[static_cast<std::size_t>(j) * n_x + i] =
-          run_at[static_cast<std::size_t>(i + rings)] >= 2 * rings + 1 ? 1 : 0;
-    }
+    const std::size_t first = static_cast<std::size_t>(j) * n_x;
+    line(in.data() + first, rows.data() + first, n_x, 1);
   }
-  for (int i = 0; i < n_x; ++i) {
-    int run = 0;
-    std::vector<int> run_at(static_cast<std::size_t>(n_y));
-    for (int j = 0; j < n_y; ++j) {
-      run = rows[static_cast<std::size_t>(j) * n_x + i] ? run + 1 : 0;
-      run_at[static_cast<std::size_t>(j)] = run;
-    }
-    for (int j = rings; j + rings < n_y; ++j) {
-      out[static_cast<std::size_t>(j) * n_x + i] =
-          run_at[static_cast<std::size_t>(j + rings)] >= 2 * rings + 1 ? 1 : 0;
-    }
-  }
+  for (int i = 0; i < n_x; ++i) line(rows.data() + i, out.data() + i, n_y, n_x);
   return out;
+}
+
+// Cells whose every neighbour within `rings` (Chebyshev) is set in `in`; outside the grid counts
+// as unset.
+std::vector<char> erode(const std::vector<char>& in, int n_x, int n_y, int rings) {
+  return rows_then_columns(in, n_x, n_y, [rings](const char* a, char* b, int n, int stride) {
+    int run = 0;  // set cells ending at k: when >= 2 rings + 1, the cell k - rings is kept
+    for (int k = 0; k < n; ++k) {
+      run = a[static_cast<std::size_t>(k) * stride] ? run + 1 : 0;
+      if (k >= 2 * rings) b[static_cast<std::size_t>(k - rings) * stride] = run > 2 * rings;
+    }
+  });
 }
 
 // Cells with a set cell within `rings` (Chebyshev) in `in`.
 std::vector<char> dilate(const std::vector<char>& in, int n_x, int n_y, int rings) {
-  std::vector<char> rows(in.size(), 0), out(in.size(), 0);
-  for (int j = 0; j < n_y; ++j) {
-    int last = -1000000000;  // last set cell at or left of i
-    for (int i = 0; i < n_x + rings; ++i) {
-      if (i < n_x && in[static_cast<std::size_t>(j) * n_x + i]) last = i;
-      const int target = i - rings;  // covered from the left up to `last + rings`
-      if (target >= 0 && last >= target - rings)
-        rows[static_cast<std::size_t>(j) * n_x + target] = 1;
+  return rows_then_columns(in, n_x, n_y, [rings](const char* a, char* b, int n, int stride) {
+    int last = -1000000000;  // last set cell at or before k
+    for (int k = 0; k < n + rings; ++k) {
+      if (k < n && a[static_cast<std::size_t>(k) * stride]) last = k;
+      const int target = k - rings;  // covered when a set cell lies within rings of it
+      if (target >= 0 && last >= target - rings) b[static_cast<std::size_t>(target) * stride] = 1;
     }
-  }
-  for (int i = 0; i < n_x; ++i) {
-    int last = -1000000000;
-    for (int j = 0; j < n_y + rings; ++j) {
-      if (j < n_y && rows[static_cast<std::size_t>(j) * n_x + i]) last = j;
-      const int target = j - rings;
-      if (target >= 0 && last >= target - rings)
-        out[static_cast<std::size_t>(target) * n_x + i] = 1;
-    }
-  }
-  return out;
+  });
 }
 
 }  // namespace
