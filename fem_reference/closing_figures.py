@@ -32,6 +32,7 @@ import numpy as np
 from fem_reference.crosscheck import (
     DATA,
     PRANDTL,
+    PRANDTL_DOLFINX_RUN,
     ROOT,
     boundary_distance,
     collapse_from_curve,
@@ -79,14 +80,7 @@ def prandtl(command, out: Path) -> tuple[dict, dict]:
     collapse, initial = collapse_from_curve(load, settlement)
     # dolfinx: the procedure of test_dolfinx_model.py::test_bearing_block_tresca_collapse_load
     result = run_static(
-        read_case(DATA / "bearing_block_tresca.json"),
-        steps=4,
-        collapse=True,
-        max_factor=1.5,
-        min_step=1e-3,
-        element_size=0.75,
-        refine_size=0.125,
-        refine_distance=1.5,
+        read_case(DATA / "bearing_block_tresca.json"), **PRANDTL_DOLFINX_RUN
     )
     curve = np.array(result.curve)
     figures = {

@@ -18,6 +18,19 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "fem_reference" / "tests" / "data"
 PRANDTL = (2.0 + math.pi) * 20.0  # kPa, (2 + pi) c for c = 20 kPa
 
+# dolfinx's collapse run of data/bearing_block_tresca.json (run_static keywords): load factor
+# raised in increments of 1/4, halved on failure, until an increment below 1e-3 fails or the
+# factor reaches 1.5; 0.75 m elements, 0.125 m within 1.5 m of the refinement points.
+PRANDTL_DOLFINX_RUN = dict(
+    steps=4,
+    collapse=True,
+    max_factor=1.5,
+    min_step=1e-3,
+    element_size=0.75,
+    refine_size=0.125,
+    refine_distance=1.5,
+)
+
 
 def build_dir() -> Path:
     """$PFM_BUILD_DIR, default build/ (as tests/python/conftest.py)."""

@@ -9,6 +9,7 @@ import os
 import numpy as np
 import pytest
 
+from fem_reference.crosscheck import PRANDTL_DOLFINX_RUN
 from fem_reference.dolfinx_model import (
     CaseError,
     Model,
@@ -140,16 +141,7 @@ def test_bearing_block_tresca_collapse_load():
     converged pressure is within 3 % of Prandtl's (2 + pi) c, and the last converged increment
     has a secant stiffness below 5 % of the initial elastic one (a plateau)."""
     case = read_case(data("bearing_block_tresca.json"))
-    result = run_static(
-        case,
-        steps=4,
-        collapse=True,
-        max_factor=1.5,
-        min_step=1e-3,
-        element_size=0.75,
-        refine_size=0.125,
-        refine_distance=1.5,
-    )
+    result = run_static(case, **PRANDTL_DOLFINX_RUN)
     prandtl = (2 + math.pi) * 20.0
     collapse = result.collapse_load
     curve = np.array(result.curve)
