@@ -7,7 +7,7 @@ API:
     run_static(case_or_path, steps=10, collapse=False, ..., **model_options) -> StaticResult
     run_explicit(case_or_path, end_time=None, ..., **model_options) -> ExplicitResult
     write_boundary_csv / write_curve_csv / write_series_csv / FieldWriter
-CLI: python3 -m fem_reference.dolfinx_model CASE.json --out DIR [--mode static|explicit] ...
+CLI: /usr/bin/python3 -m fem_reference.dolfinx_model CASE.json --out DIR [--mode static|explicit] ...
 """
 from .case import Case, CaseError, read_case, case_from_dict
 from .model import Model, NoConvergence

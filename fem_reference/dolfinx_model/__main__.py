@@ -1,4 +1,4 @@
-"""CLI: python3 -m fem_reference.dolfinx_model CASE.json --out DIR [--mode static|explicit] ..."""
+"""CLI: /usr/bin/python3 -m fem_reference.dolfinx_model CASE.json --out DIR [--mode static|explicit] ..."""
 from __future__ import annotations
 
 import argparse
@@ -28,7 +28,7 @@ def ignored_keys(case, mode):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(
-        prog="python3 -m fem_reference.dolfinx_model",
+        prog="/usr/bin/python3 -m fem_reference.dolfinx_model",
         description="dolfinx reference model of a pfm-mpm case",
     )
     parser.add_argument("case", help="case JSON file (schema: README.md)")

@@ -3,7 +3,7 @@
 * ``run_mpm(case, solver="mpm"|"ulfem")``  ``pfm-mpm run CASE.json --out DIR [--solver ulfem]
   [--threads N] --quiet`` (``pfm-ulfem CASE.json DIR`` while ``run`` has no ``--solver``)
 * ``run_detect(csv, config[, library=True])``  ``pfm-mpm detect PARTICLES.csv --config DETECT.json
-  --out DIR`` or the library baseline ``python3 -m studies.detectors.skimage_detector`` (same
+  --out DIR`` or the library baseline ``/usr/bin/python3 -m studies.detectors.skimage_detector`` (same
   arguments)
 * ``run_dolfinx(case)``  ``/usr/bin/python3 -m fem_reference.dolfinx_model CASE.json --out DIR``
 * ``run_tool(name, args)``  any other executable of the build (``{out}`` in args is replaced by

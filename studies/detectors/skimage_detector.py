@@ -431,7 +431,7 @@ def run(particles_csv: Path, config_json: Path, out_dir: Path) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python3 -m studies.detectors.skimage_detector",
+        prog="/usr/bin/python3 -m studies.detectors.skimage_detector",
         description="Library baseline: particles rasterised and contoured by scikit-image.",
     )
     parser.add_argument("particles", type=Path, help="particle CSV with x,y,volume")

@@ -4,7 +4,7 @@ from these seeds). Seeds: the shipped cases, the malformed cases of
 tests/python/test_case_validation.py, detector configurations, boundary-load entries and small
 particle CSV files, valid and invalid.
 
-Usage: python3 tests/fuzz/make_seeds.py DIR
+Usage: /usr/bin/python3 tests/fuzz/make_seeds.py DIR
 """
 
 import copy
