@@ -105,17 +105,23 @@ def _execute(
             ) from error
     seconds = time.perf_counter() - started
     if done.returncode not in accept:
-        tail = (folder / "stderr.log").read_text(errors="replace")[-2000:]
-        raise RunFailed(
-            f"{Path(str(command[0])).name} exited with code {done.returncode}: "
-            f"{tail.strip().splitlines()[-1] if tail.strip() else ''}",
-            done.returncode,
-            tail,
-        )
+        raise _failure(command, done.returncode, folder)
     (folder / "wall_time.json").write_text(
         json.dumps({"seconds": seconds, "returncode": done.returncode}) + "\n"
     )
     return seconds, done.returncode
+
+
+def _failure(command, returncode: int, folder: Path) -> RunFailed:
+    """The error of a run that exited with `returncode`: the program's name and the last line
+    of its stderr (the last 2000 characters kept in the error)."""
+    tail = (folder / "stderr.log").read_text(errors="replace")[-2000:]
+    return RunFailed(
+        f"{Path(str(command[0])).name} exited with code {returncode}: "
+        f"{tail.strip().splitlines()[-1] if tail.strip() else ''}",
+        returncode,
+        tail,
+    )
 
 
 def _run(
@@ -146,13 +152,7 @@ def _run(
             for name in drop:
                 (Path(out) / name).unlink(missing_ok=True)
 
-    if not use_cache:  # the caller removes result.folder when done with it
-        folder = Path(tempfile.mkdtemp(prefix="pfm-run-"))
-        try:
-            make(folder)
-        except BaseException:
-            shutil.rmtree(folder, ignore_errors=True)  # RunFailed carries the stderr
-            raise
+    def fresh(folder: Path) -> RunResult:
         return RunResult(
             folder,
             record["out"],
@@ -161,6 +161,15 @@ def _run(
             False,
             record["returncode"],
         )
+
+    if not use_cache:  # the caller removes result.folder when done with it
+        folder = Path(tempfile.mkdtemp(prefix="pfm-run-"))
+        try:
+            make(folder)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)  # RunFailed carries the stderr
+            raise
+        return fresh(folder)
     cache = cache or Cache()
     key = cache_key(key_case, key_arguments, extra, **_NO_REVISION)
     folder, hit = cache.produce(
@@ -174,24 +183,11 @@ def _run(
         if (
             returncode not in accept
         ):  # a stopped run cached for a caller that accepts it
-            tail = (folder / "stderr.log").read_text(errors="replace")[-2000:]
-            raise RunFailed(
-                f"{Path(str(command[0])).name} exited with code {returncode}: "
-                f"{tail.strip().splitlines()[-1] if tail.strip() else ''}",
-                returncode,
-                tail,
-            )
+            raise _failure(command, returncode, folder)
         return RunResult(
             folder, folder / out, command, wall["seconds"], True, returncode
         )
-    return RunResult(
-        folder,
-        record["out"],
-        record["command"],
-        record["seconds"],
-        False,
-        record["returncode"],
-    )
+    return fresh(folder)
 
 
 # Outputs no study reads, removed from cached runs to keep the cache small: the UL-FEM's mesh
