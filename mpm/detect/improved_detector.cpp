@@ -14,6 +14,23 @@
 
 namespace pfm {
 
+namespace {
+
+// Grid edge w (0 left, 1 right, 2 bottom, 3 top of the box g0 .. g1): the distance of x from
+// it (> 0 inside the box) and the position of x along it from the box's lower corner, m.
+double wall_distance(int w, const Vec2& x, const Vec2& g0, const Vec2& g1) {
+  return w == 0   ? x.x() - g0.x()
+         : w == 1 ? g1.x() - x.x()
+         : w == 2 ? x.y() - g0.y()
+                  : g1.y() - x.y();
+}
+
+double wall_along(int w, const Vec2& x, const Vec2& g0) {
+  return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
+}
+
+}  // namespace
+
 ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
                              const Grid* walls)
     : ImprovedField((detail::check_cloud(cloud), cloud), config, DeferGuards{}, walls) {
@@ -95,15 +112,8 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     }
     const bool* wall = contacts->wall;
     const std::vector<char>* touched = contacts->touched;
-    const auto distance_to = [&](int w, const Vec2& x) {
-      return w == 0   ? x.x() - g0.x()
-             : w == 1 ? g1.x() - x.x()
-             : w == 2 ? x.y() - g0.y()
-                      : g1.y() - x.y();
-    };
-    const auto along = [&](int w, const Vec2& x) {
-      return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
-    };
+    const auto distance_to = [&](int w, const Vec2& x) { return wall_distance(w, x, g0, g1); };
+    const auto along = [&](int w, const Vec2& x) { return wall_along(w, x, g0); };
     const auto mirrored = [&](int w, const Vec2& x, double half_across, double half_along) {
       if (!wall[w] || distance_to(w, x) >= half_across) return false;
       const auto& bins = touched[w];
@@ -226,13 +236,8 @@ ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Ve
     auto& bins = c.touched[w];
     bins.assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
     for (const Vec2& x : positions) {
-      const double distance = w == 0   ? x.x() - g0.x()
-                              : w == 1 ? g1.x() - x.x()
-                              : w == 2 ? x.y() - g0.y()
-                                       : g1.y() - x.y();
-      if (distance >= spacing) continue;
-      const double along = w < 2 ? x.y() - g0.y() : x.x() - g0.x();
-      const double t = std::clamp(along / spacing, 0.0, bins.size() - 1.0);
+      if (wall_distance(w, x, g0, g1) >= spacing) continue;
+      const double t = std::clamp(wall_along(w, x, g0) / spacing, 0.0, bins.size() - 1.0);
       bins[static_cast<std::size_t>(t)] = 1;
     }
   }
