@@ -274,6 +274,10 @@ class ImprovedField {
     bool wall[4] = {false, false, false, false};  ///< left, right, bottom, top
     std::vector<char> touched[4];
   };
+  /// Reach of an undeformed particle, m: its kernel's (radius_factor x spacing) or its guard's
+  /// support (sqrt 2 guard radius), whichever is larger; a particle with largest stretch s
+  /// reaches s times as far.
+  static double reference_reach(const ImprovedConfig& config, double initial_spacing);
   /// The contacts of the particles at `positions` (bounding box lo, hi) with the edges of `walls`.
   static WallContacts find_wall_contacts(std::span<const Vec2> positions, const Vec2& lo,
                                          const Vec2& hi, const Grid& walls, double spacing);

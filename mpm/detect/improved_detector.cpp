@@ -59,12 +59,13 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   const double mass_constant = (exponent_ + 1.0) / std::numbers::pi;  // C det S, unit mass
   const bool deformed = !cloud.deformation_gradient.empty();
   const double guard_reach = std::sqrt(2.0) * guard_radius_;  // guard defined for q_g < 2
+  const double unit_reach = reference_reach(config, cloud.initial_spacing);
   // Pass 1, by particle: reaches (for the bins, the mirror images and the narrow band).
   for (std::size_t p = 0; p < n; ++p) {
     if (!deformed) {
       smallest_stretch_[p] = 1.0;
       kernel_reach_[p] = a0;
-      particle_reach_[p] = guard_ ? std::max(a0, guard_reach) : a0;
+      particle_reach_[p] = unit_reach;
       reach_box_[p] = Vec2::Constant(particle_reach_[p]);
       reach_ = std::max(reach_, particle_reach_[p]);
       continue;
@@ -214,6 +215,13 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     }
     slot_[k] = m;
   }
+}
+
+double ImprovedField::reference_reach(const ImprovedConfig& config, double initial_spacing) {
+  const double a0 = config.radius_factor * initial_spacing;
+  if (!(config.guard_factor > 0.0)) return a0;
+  // The guard is defined where q_g < 2: out to sqrt 2 times its radius.
+  return std::max(a0, std::sqrt(2.0) * (config.guard_factor * 0.5 * initial_spacing));
 }
 
 ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,
@@ -643,11 +651,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    the same order as one built on all of them.
   const CloudSurvey survey = survey_cloud(cloud, grid, config.narrow_band);
   const double a0 = config.radius_factor * cloud.initial_spacing;
-  const double guard_reach =
-      config.guard_factor > 0.0 ? std::sqrt(2.0) * config.guard_factor * 0.5 * cloud.initial_spacing
-                                : 0.0;
   const double kernel_reach = a0 * survey.largest_stretch;
-  const double particle_reach = std::max(a0, guard_reach) * survey.largest_stretch;
+  const double particle_reach =
+      ImprovedField::reference_reach(config, cloud.initial_spacing) * survey.largest_stretch;
   // (The largest stretch comes from another formula than the field's: 1e-9 of slack.)
   ImprovedField::BinLattice lattice{
       Vec2::Zero(), particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / 2.0 : 1.0};
