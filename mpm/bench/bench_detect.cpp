@@ -75,8 +75,6 @@ Fixture& fixture(int scale) {
   return cache.emplace(scale, std::move(f)).first->second;
 }
 
-const char* kMethodNames[] = {"pfm", "improved", "smm", "vof", "density"};
-
 void BM_Detect(benchmark::State& state) {
   const int scale = static_cast<int>(state.range(0));
   const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
@@ -122,7 +120,7 @@ void BM_Detect(benchmark::State& state) {
     state.counters["edge_ms"] = 1e3 * timings.edge_points;
     state.counters["connection_ms"] = 1e3 * timings.connection;
   }
-  state.SetLabel(std::string(kMethodNames[static_cast<int>(method)]) + ", " +
+  state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
                  std::to_string(particles.size()) + " points");
 }
 

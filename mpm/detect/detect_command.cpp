@@ -217,9 +217,8 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     closed.push_back(contour.closed);
     n_closed += contour.closed ? 1 : 0;
   }
-  const char* method_names[] = {"pfm", "improved", "smm", "vof", "density"};
   nlohmann::json summary = {
-      {"method", method_names[static_cast<int>(config.method)]},
+      {"method", detector_method_name(config.method)},
       {"particles", table.position.size()},
       {"initial_spacing", spacing},
       {"grid",

@@ -227,16 +227,33 @@ DensityConfig parse_density(const JsonView& v) {
 
 }  // namespace
 
+const char* detector_method_name(DetectorMethod method) {
+  switch (method) {
+    case DetectorMethod::kPfm:
+      return "pfm";
+    case DetectorMethod::kImproved:
+      return "improved";
+    case DetectorMethod::kSmm:
+      return "smm";
+    case DetectorMethod::kVof:
+      return "vof";
+    case DetectorMethod::kDensity:
+      return "density";
+  }
+  return "?";
+}
+
 DetectorConfig parse_detector_config(const JsonView& json) {
   json.expect_object({"method", "pfm", "improved", "smm", "vof", "density"});
   DetectorConfig config;
+  constexpr DetectorMethod kMethods[] = {DetectorMethod::kPfm, DetectorMethod::kImproved,
+                                         DetectorMethod::kSmm, DetectorMethod::kVof,
+                                         DetectorMethod::kDensity};
   const std::string method =
       json.choice_or("method", {"pfm", "improved", "smm", "vof", "density"}, "improved");
-  config.method = method == "pfm"        ? DetectorMethod::kPfm
-                  : method == "improved" ? DetectorMethod::kImproved
-                  : method == "smm"      ? DetectorMethod::kSmm
-                  : method == "vof"      ? DetectorMethod::kVof
-                                         : DetectorMethod::kDensity;
+  for (const DetectorMethod m : kMethods) {
+    if (method == detector_method_name(m)) config.method = m;
+  }
   if (const auto v = json.find("pfm")) config.pfm = parse_pfm(*v);
   if (const auto v = json.find("improved")) config.improved = parse_improved(*v);
   if (const auto v = json.find("smm")) config.smm = parse_smm(*v);

@@ -33,6 +33,10 @@ struct ParticleCloud {
 
 enum class DetectorMethod { kPfm, kImproved, kSmm, kVof, kDensity };
 
+/// The method's name in configuration files and summaries: "pfm", "improved", "smm", "vof",
+/// "density".
+const char* detector_method_name(DetectorMethod method);
+
 /// Radial profile of a unit-mass kernel W(u) = C (1 - u.u)^k on the unit disk of the scaled
 /// coordinate u = S^-1 (x - x_p); C = (k + 1) / (pi det S). k = 1 is the thesis' Epanechnikov
 /// kernel (eq. 4.9, C from eq. 4.19).

@@ -26,22 +26,6 @@ DetectorConfig config_of(DetectorMethod method) {
   return c;
 }
 
-const char* name_of(DetectorMethod m) {
-  switch (m) {
-    case DetectorMethod::kSmm:
-      return "smm";
-    case DetectorMethod::kVof:
-      return "vof";
-    case DetectorMethod::kDensity:
-      return "density";
-    case DetectorMethod::kImproved:
-      return "improved";
-    case DetectorMethod::kPfm:
-      return "pfm";
-  }
-  return "?";
-}
-
 constexpr DetectorMethod kBaselines[] = {DetectorMethod::kSmm, DetectorMethod::kVof,
                                          DetectorMethod::kDensity};
 
@@ -85,18 +69,18 @@ TEST(Baselines, RectangleClosedLoopOnTheFaces) {
       DetectorState state;
       DetectionTimings t;
       const auto b = detect(cloud.view(), test_grid(), config_of(kBaselines[m]), state, &t);
-      ASSERT_EQ(b.contours.size(), 1u) << name_of(kBaselines[m]);
+      ASSERT_EQ(b.contours.size(), 1u) << detector_method_name(kBaselines[m]);
       EXPECT_GT(signed_area(b.contours[0]), 0.0);
-      expect_contract(b, test_grid(), cloud, name_of(kBaselines[m]));
+      expect_contract(b, test_grid(), cloud, detector_method_name(kBaselines[m]));
       const auto r = face_distances(b, rect, 1.5 * kH, kH);
       std::printf(
           "rectangle %-5s %-8s points %4zu  faces mean %.4f h max %.4f h  corners max %.4f h"
           "  (%.3f ms)\n",
-          placement_name(placement), name_of(kBaselines[m]), b.contours[0].points.size(),
-          r.faces.mean, r.faces.max, r.corner.max,
+          placement_name(placement), detector_method_name(kBaselines[m]),
+          b.contours[0].points.size(), r.faces.mean, r.faces.max, r.corner.max,
           1e3 * (t.field + t.edge_points + t.connection + t.filters));
       EXPECT_GT(r.faces.count, 20);
-      EXPECT_LE(r.faces.max, bound[m]) << name_of(kBaselines[m]);
+      EXPECT_LE(r.faces.max, bound[m]) << detector_method_name(kBaselines[m]);
     }
   }
 }
@@ -126,7 +110,7 @@ TEST(Baselines, RotatedSquareFacesWithinHalfACell) {
     for (int m = 0; m < 3; ++m) {
       DetectorState state;
       const auto b = detect(cloud.view(), test_grid(), config_of(kBaselines[m]), state);
-      expect_contract(b, test_grid(), cloud, name_of(kBaselines[m]));
+      expect_contract(b, test_grid(), cloud, detector_method_name(kBaselines[m]));
       DetectedBoundary outer;
       int holes = 0;
       for (const auto& c : b.contours) {
@@ -136,16 +120,16 @@ TEST(Baselines, RotatedSquareFacesWithinHalfACell) {
           ++holes;
         }
       }
-      ASSERT_EQ(outer.contours.size(), 1u) << name_of(kBaselines[m]);
+      ASSERT_EQ(outer.contours.size(), 1u) << detector_method_name(kBaselines[m]);
       if (kBaselines[m] != DetectorMethod::kVof) {
         EXPECT_EQ(holes, 0);
       }
       const auto r = face_distances(outer, body, 1.5 * kH, kH);
       std::printf(
           "square30  %-5s %-8s faces mean %.4f h max %.4f h  corners max %.4f h  holes %d\n",
-          placement_name(placement), name_of(kBaselines[m]), r.faces.mean, r.faces.max,
+          placement_name(placement), detector_method_name(kBaselines[m]), r.faces.mean, r.faces.max,
           r.corner.max, holes);
-      EXPECT_LE(r.faces.max, bound[m]) << name_of(kBaselines[m]);
+      EXPECT_LE(r.faces.max, bound[m]) << detector_method_name(kBaselines[m]);
     }
   }
 }
@@ -168,14 +152,14 @@ TEST(Baselines, DiskClosedLoopWithinBounds) {
     for (int m = 0; m < 3; ++m) {
       DetectorState state;
       const auto b = detect(cloud.view(), test_grid(), config_of(kBaselines[m]), state);
-      ASSERT_EQ(b.contours.size(), 1u) << name_of(kBaselines[m]);
+      ASSERT_EQ(b.contours.size(), 1u) << detector_method_name(kBaselines[m]);
       EXPECT_GT(signed_area(b.contours[0]), 0.0);
-      expect_contract(b, test_grid(), cloud, name_of(kBaselines[m]));
+      expect_contract(b, test_grid(), cloud, detector_method_name(kBaselines[m]));
       const auto r = circle_errors(b, centre, radius, kH);
       std::printf("disk      %-5s %-8s points %4zu  bias %+.4f h  mean %.4f h max %.4f h\n",
-                  placement_name(placement), name_of(kBaselines[m]), b.contours[0].points.size(),
-                  r.bias, r.absolute.mean, r.absolute.max);
-      EXPECT_LE(r.absolute.max, bound[m]) << name_of(kBaselines[m]);
+                  placement_name(placement), detector_method_name(kBaselines[m]),
+                  b.contours[0].points.size(), r.bias, r.absolute.mean, r.absolute.max);
+      EXPECT_LE(r.absolute.max, bound[m]) << detector_method_name(kBaselines[m]);
     }
   }
 }
@@ -198,8 +182,8 @@ TEST(Baselines, BodyOnTheGridEdgesHasNoBoundaryAlongThem) {
     for (const auto& c : b.contours) {
       for (const auto& p : c.points) along_walls += (p.x() < 5.5 && p.y() < 3.5) ? 1 : 0;
     }
-    std::printf("walls     %-8s contours %zu, points along the walls %zu", name_of(method),
-                b.contours.size(), along_walls);
+    std::printf("walls     %-8s contours %zu, points along the walls %zu",
+                detector_method_name(method), b.contours.size(), along_walls);
     if (!b.contours.empty()) {
       const auto& c = b.contours[0];
       std::printf(", first (%.4f, %.4f) last (%.4f, %.4f)", c.points.front().x(),
@@ -207,10 +191,10 @@ TEST(Baselines, BodyOnTheGridEdgesHasNoBoundaryAlongThem) {
     }
     std::printf("\n");
     if (method == DetectorMethod::kPfm) continue;
-    ASSERT_EQ(b.contours.size(), 1u) << name_of(method);
+    ASSERT_EQ(b.contours.size(), 1u) << detector_method_name(method);
     const auto& c = b.contours[0];
     EXPECT_FALSE(c.closed);
-    EXPECT_EQ(along_walls, 0u) << name_of(method);
+    EXPECT_EQ(along_walls, 0u) << detector_method_name(method);
     EXPECT_EQ(c.points.front().y(), 0.0);
     EXPECT_NEAR(c.points.front().x(), 6.0, 0.02 * kH);
     EXPECT_EQ(c.points.back().x(), 0.0);
@@ -245,17 +229,17 @@ TEST(Baselines, SlopeAndRingReported) {
     for (int m = 0; m < 3; ++m) {
       DetectorState s1, s2;
       const auto b = detect(slope.view(), test_grid(), config_of(kBaselines[m]), s1);
-      expect_contract(b, test_grid(), slope, name_of(kBaselines[m]));
+      expect_contract(b, test_grid(), slope, detector_method_name(kBaselines[m]));
       const auto r = face_distances(b, body, 1.5 * kH, kH);
       const Stats flat = faces_of(r, {0, 1, 2, 4, 5});
       std::printf(
           "slope45   %-5s %-8s loops %zu  45deg mean %.4f h max %.4f h  flat max %.4f h"
           "  corners max %.4f h\n",
-          placement_name(placement), name_of(kBaselines[m]), b.contours.size(), r.face[3].mean,
-          r.face[3].max, flat.max, r.corner.max);
+          placement_name(placement), detector_method_name(kBaselines[m]), b.contours.size(),
+          r.face[3].mean, r.face[3].max, flat.max, r.corner.max);
       const auto rb = detect(ring.view(), test_grid(), config_of(kBaselines[m]), s2);
-      expect_contract(rb, test_grid(), ring, name_of(kBaselines[m]));
-      ASSERT_EQ(rb.contours.size(), 2u) << name_of(kBaselines[m]);
+      expect_contract(rb, test_grid(), ring, detector_method_name(kBaselines[m]));
+      ASSERT_EQ(rb.contours.size(), 2u) << detector_method_name(kBaselines[m]);
       EXPECT_GT(signed_area(rb.contours[0]), 0.0);
       EXPECT_LT(signed_area(rb.contours[1]), 0.0);
       const auto ro = circle_errors(DetectedBoundary{{rb.contours[0]}}, centre, outer, kH);
@@ -263,8 +247,8 @@ TEST(Baselines, SlopeAndRingReported) {
       std::printf(
           "ring      %-5s %-8s outer R=%.3f bias %+.4f h max %.4f h; inner R=%.3f bias %+.4f h "
           "max %.4f h\n",
-          placement_name(placement), name_of(kBaselines[m]), outer, ro.bias, ro.absolute.max, inner,
-          ri.bias, ri.absolute.max);
+          placement_name(placement), detector_method_name(kBaselines[m]), outer, ro.bias,
+          ro.absolute.max, inner, ri.bias, ri.absolute.max);
     }
   }
 }
