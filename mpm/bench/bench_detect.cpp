@@ -119,6 +119,18 @@ void BM_Detect(benchmark::State& state) {
     state.counters["field_ms"] = 1e3 * timings.field;
     state.counters["edge_ms"] = 1e3 * timings.edge_points;
     state.counters["connection_ms"] = 1e3 * timings.connection;
+    // The field's parts (DetectionTimings::FieldParts).
+    const auto& parts = timings.field_parts;
+    state.counters["survey_ms"] = 1e3 * parts.survey;
+    state.counters["band_ms"] = 1e3 * parts.band;
+    state.counters["setup_ms"] = 1e3 * parts.setup;
+    state.counters["screening_ms"] = 1e3 * parts.screening;
+    state.counters["guards_ms"] = 1e3 * parts.guards;
+    state.counters["nodes_ms"] = 1e3 * parts.nodes;
+    // Exact field evaluations of the last detection (nodes, screening, guards, roots).
+    state.counters["field_evaluations"] = static_cast<double>(timings.field_evaluations);
+    state.counters["root_evaluations"] = static_cast<double>(timings.root_evaluations);
+    state.counters["processed_cells"] = static_cast<double>(timings.processed_cells);
   }
   state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
                  std::to_string(particles.size()) + " points");

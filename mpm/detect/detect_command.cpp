@@ -239,6 +239,12 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
       {"field_evaluations", timings.field_evaluations},
       {"edge_points", timings.edge_point_count},
   };
+  if (config.method == DetectorMethod::kImproved) {
+    const auto& parts = timings.field_parts;
+    summary["timings_s"]["field_parts"] = {{"survey", parts.survey}, {"band", parts.band},
+                                           {"setup", parts.setup},   {"screening", parts.screening},
+                                           {"guards", parts.guards}, {"nodes", parts.nodes}};
+  }
   const std::filesystem::path dir(out_dir);
   std::filesystem::create_directories(dir);
   write_atomically(dir, "boundary.csv", csv);

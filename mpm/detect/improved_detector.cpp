@@ -281,25 +281,40 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
   }
 }
 
-double ImprovedField::volume_fraction(const Vec2& x) const {
-  double phi = 0.0;
-  const double px = x.x(), py = x.y();
-  bins_.for_each_slot_near(x, rings_, [&](int k) {
-    const Slot& s = slot_[k];
-    const double dx = px - s.x, dy = py - s.y;
-    const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
-    const double q = ux * ux + uy * uy;
-    if (q < 1.0) {
-      const double w = 1.0 - q;
-      double wk = w;
-      for (int e = 1; e < exponent_; ++e) wk *= w;
-      phi += s.weight * wk;
-    }
-  });
-  return phi;
+namespace {
+
+// (1 - q)^E for the kernel exponent E, multiplied in the order w, w w, (w w) w.
+template <int E>
+double kernel_power(double w) {
+  if constexpr (E == 1) {
+    return w;
+  } else if constexpr (E == 2) {
+    return w * w;
+  } else {
+    return (w * w) * w;
+  }
 }
 
-double ImprovedField::operator()(const Vec2& x) const {
+// Calls f.template operator()<E>() for the exponent of the kernel profile (1, 2 or 3).
+template <class F>
+decltype(auto) with_exponent(int exponent, F&& f) {
+  switch (exponent) {
+    case 1:
+      return f.template operator()<1>();
+    case 2:
+      return f.template operator()<2>();
+    default:
+      return f.template operator()<3>();
+  }
+}
+
+}  // namespace
+
+// The terms are added in increasing slot order; a point outside a kernel adds an exact zero
+// (weight x 0), so the sum is bitwise that of the kernels reaching x, without a branch that
+// a point on a kernel's rim would mispredict half the time.
+template <int E, bool Guard>
+double ImprovedField::sum_at(const Vec2& x) const {
   double phi = 0.0, guard = 0.0;
   const double px = x.x(), py = x.y();
   bins_.for_each_slot_near(x, rings_, [&](int k) {
@@ -307,38 +322,53 @@ double ImprovedField::operator()(const Vec2& x) const {
     const double dx = px - s.x, dy = py - s.y;
     const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
     const double q = ux * ux + uy * uy;
-    if (q < 1.0) {
-      const double w = 1.0 - q;
-      double wk = w;
-      for (int e = 1; e < exponent_; ++e) wk *= w;
-      phi += s.weight * wk;
-    }
-    if (s.guarded != 0.0) {
+    const double w = std::max(1.0 - q, 0.0);
+    phi += s.weight * kernel_power<E>(w);
+    if (Guard && s.guarded != 0.0) {
       // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2;
       // G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q.
       const double qg = guard_scale_ * guard_scale_ * q;
       if (qg < 2.0) guard = std::max(guard, 1.0 - 0.5 * qg);
     }
   });
-  return std::max(phi, guard);
+  return Guard ? std::max(phi, guard) : phi;
+}
+
+double ImprovedField::volume_fraction(const Vec2& x) const {
+  return with_exponent(exponent_, [&]<int E>() { return sum_at<E, false>(x); });
+}
+
+double ImprovedField::operator()(const Vec2& x) const {
+  return with_exponent(exponent_, [&]<int E>() { return sum_at<E, true>(x); });
 }
 
 void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
-                                   int n_x, int n_y, std::vector<double>& out) const {
+                                   int n_x, int n_y, std::vector<double>& out, int stride) const {
+  with_exponent(exponent_, [&]<int E>() {
+    scatter_block<E>(origin, spacing, first_i, first_j, n_x, n_y, out, stride);
+  });
+}
+
+template <int E>
+void ImprovedField::scatter_block(const Vec2& origin, double spacing, int first_i, int first_j,
+                                  int n_x, int n_y, std::vector<double>& out, int stride) const {
   const std::size_t n_nodes = static_cast<std::size_t>(n_x) * n_y;
   out.assign(n_nodes, 0.0);
   std::vector<double> guard(n_nodes, 0.0);
   if (slot_.empty()) return;
   // The slots binned within reach of the block, in increasing slot order (the order in which
   // operator() adds them at any of its nodes).
-  // Node (a, b) sits at origin + (first_i + a, first_j + b) spacing, computed exactly as the
-  // caller of operator() computes it.
+  // Node (a, b) sits at origin + (first_i + stride a, first_j + stride b) spacing, computed
+  // exactly as the caller of operator() computes it.
   const auto node_x = [&](int a) {
-    return origin.x() + static_cast<double>(first_i + a) * spacing;
+    return origin.x() + static_cast<double>(first_i + stride * a) * spacing;
   };
   const auto node_y = [&](int b) {
-    return origin.y() + static_cast<double>(first_j + b) * spacing;
+    return origin.y() + static_cast<double>(first_j + stride * b) * spacing;
   };
+  const double step = stride * spacing;  // between block nodes (only for the index ranges)
+  std::vector<double> xs(static_cast<std::size_t>(n_x));
+  for (int a = 0; a < n_x; ++a) xs[static_cast<std::size_t>(a)] = node_x(a);
   const Vec2 lo = Vec2(node_x(0), node_y(0)) - Vec2::Constant(reach_);
   const Vec2 hi = Vec2(node_x(n_x - 1), node_y(n_y - 1)) + Vec2::Constant(reach_);
   std::vector<int> slots;
@@ -347,28 +377,30 @@ void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first
     const Slot& s = slot_[k];
     const double half_x = s.half_x, half_y = s.half_y;
     // One node of slack on each side: the q tests below decide, as in operator().
-    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / spacing)));
+    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / step)));
     const int i1 =
-        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / spacing)));
-    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / spacing)));
+        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / step)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / step)));
     const int j1 =
-        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / spacing)));
+        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / step)));
     for (int j = j0; j <= j1; ++j) {
       const double dy = node_y(j) - s.y;
+      const double ky0 = s.k01 * dy, ky1 = s.k11 * dy;
+      double* row = out.data() + static_cast<std::size_t>(j) * n_x;
       for (int i = i0; i <= i1; ++i) {
-        const double dx = node_x(i) - s.x;
-        const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
+        const double dx = xs[static_cast<std::size_t>(i)] - s.x;
+        const double ux = s.k00 * dx + ky0, uy = s.k10 * dx + ky1;
         const double q = ux * ux + uy * uy;
-        const std::size_t node = static_cast<std::size_t>(j) * n_x + i;
-        if (q < 1.0) {
-          const double w = 1.0 - q;
-          double wk = w;
-          for (int e = 1; e < exponent_; ++e) wk *= w;
-          out[node] += s.weight * wk;
-        }
-        if (s.guarded != 0.0) {
-          const double qg = guard_scale_ * guard_scale_ * q;
-          if (qg < 2.0) guard[node] = std::max(guard[node], 1.0 - 0.5 * qg);
+        const double w = std::max(1.0 - q, 0.0);
+        row[i] += s.weight * kernel_power<E>(w);
+      }
+      if (s.guarded != 0.0) {
+        double* guard_row = guard.data() + static_cast<std::size_t>(j) * n_x;
+        for (int i = i0; i <= i1; ++i) {
+          const double dx = xs[static_cast<std::size_t>(i)] - s.x;
+          const double ux = s.k00 * dx + ky0, uy = s.k10 * dx + ky1;
+          const double qg = guard_scale_ * guard_scale_ * (ux * ux + uy * uy);
+          if (qg < 2.0) guard_row[i] = std::max(guard_row[i], 1.0 - 0.5 * qg);
         }
       }
     }
@@ -649,7 +681,15 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    (anchored one reach and a bin below the grid origin and every particle, so that the mirror
   //    images fit too), so that a field built on part of the particles adds the same terms in
   //    the same order as one built on all of them.
+  auto& parts = timings.field_parts;
+  auto part_start = Clock::now();
+  // Adds the time since the last call (or the start) to `part`.
+  const auto lap = [&](double& part) {
+    part += seconds_since(part_start);
+    part_start = Clock::now();
+  };
   const CloudSurvey survey = survey_cloud(cloud, grid, config.narrow_band);
+  lap(parts.survey);
   const double a0 = config.radius_factor * cloud.initial_spacing;
   const double kernel_reach = a0 * survey.largest_stretch;
   const double particle_reach =
@@ -775,11 +815,13 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     band_cloud.volume = sub_volume;
     band_cloud.deformation_gradient = sub_deformation;
   }
+  lap(parts.band);
   // The wall contacts found above are those of the whole cloud, which the band holds a part of.
   ImprovedField field(band_cloud, config, ImprovedField::DeferGuards{},
                       config.mirror_grid_edges ? &grid : nullptr, &lattice,
                       screened && config.mirror_grid_edges ? &contacts : nullptr);
   timings.field_particles = static_cast<long>(band_cloud.position.size());
+  lap(parts.setup);
   const double level = config.level;
   long field_evaluations = 0;
   const auto positions = field.positions();
@@ -843,6 +885,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       }
     }
   }
+  lap(parts.screening);
   // 2. Guards: every particle outside the deep cells is a candidate (all without narrow band).
   std::vector<char> candidate;
   if (config.narrow_band) {
@@ -857,6 +900,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   field.decide_guards(candidate);
   field_evaluations += static_cast<long>(
       candidate.empty() ? n_particles : std::count(candidate.begin(), candidate.end(), 1));
+
+  lap(parts.guards);
 
   int refinement = config.refinement;
   if (refinement <= 0) {
@@ -886,25 +931,30 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   };
   const auto inside = [&](int i, int j) { return node_value(i, j) > level; };
 
-  // 3. The fine cells to contour. Full field: all of them. Narrow band: every fine cell of the
-  //    active coarse cells, then the contours traced on from there: a cell with a sign change
-  //    passes its contour on through every edge whose nodes differ, so a contour that leaves
-  //    the active cells is followed wherever it goes. Seeds for the guards too: for each guarded
-  //    particle the first cell with a sign change to its right.
+  // 3. The fine cells to contour. Full field: all of them. Narrow band: the contours are traced
+  //    from seeds, fine cell by fine cell: a cell with a sign change passes its contour on
+  //    through every edge whose nodes differ, so a contour is followed wherever it goes. Seeds:
+  //    (a) in the active coarse cells, the field on a lattice of every stride-th fine node
+  //    (stride: the largest divisor of the refinement up to half of it, so the lattice is at
+  //    most half a grid cell; every fine node near a guarded particle), and along every lattice
+  //    segment whose two ends differ, the fine cells beside each fine edge with a sign change;
+  //    (b) for each guarded particle the first cell with a sign change to its right.
   std::vector<int> cells;
   std::vector<double> block;
-  // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
-  // the run once, and the nodes on the edges between its cells once.
-  const auto evaluate_run = [&](int i0, int i1, int j) {
-    const int n_x = (i1 - i0) * r + 1;
-    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
+  // The nodes (of stride `stride`) of the coarse cells i0 .. i1 - 1 of row j, as one block: a
+  // particle visits the run once, and the nodes on the edges between its cells once.
+  const auto evaluate_run = [&](int i0, int i1, int j, int stride) {
+    const int n_x = (i1 - i0) * r / stride + 1, n_y = r / stride + 1;
+    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, n_y, block, stride);
     field_evaluations += static_cast<long>(block.size());
-    for (int b = 0; b <= r; ++b) {
-      for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
+    for (int b = 0; b < n_y; ++b) {
+      for (int a = 0; a < n_x; ++a) {
+        node_cache.at(i0 * r + stride * a, j * r + stride * b) = block[b * n_x + a];
+      }
     }
   };
   if (!config.narrow_band) {
-    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
+    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j, 1);
     cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
     for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
   } else {
@@ -924,11 +974,36 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       if (i >= 0 && j >= 0 && i < ncx && j < ncy)
         guard_here[static_cast<std::size_t>(j) * ncx + i] = 1;
     }
-    // Every fine cell of the active coarse cells (their fine nodes are all evaluated, so any
-    // sub-cell island or hole inside them is found), evaluated a cell at a time.
     const auto active = [&](int i, int j) {
       const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
       return reached[c] && !deep[c] && (!far[c] || guard_here[c]);
+    };
+    int coarse_stride = 1;
+    for (int d = 1; 2 * d <= r; ++d) {
+      if (r % d == 0) coarse_stride = d;
+    }
+    // Near a guarded particle (its cell and the ring around it) the guards' small ellipses and
+    // the gaps between them make sub-lattice islands and holes: every fine node there.
+    const std::vector<char> near_guard = dilate(guard_here, ncx, ncy, 1);
+    // Seeds along the fine edges from fine node (i, j) to (i + stride di, j + stride dj), whose
+    // two ends differ: beside each fine edge with a sign change, both cells.
+    const auto seed_segment = [&](int i, int j, int di, int dj, int stride) {
+      bool previous = inside(i, j);
+      for (int t = 1; t <= stride; ++t) {
+        const bool next = inside(i + t * di, j + t * dj);
+        if (next != previous) {
+          // The fine edge from (i + (t - 1) di, j + (t - 1) dj) to (i + t di, j + t dj).
+          const int ei = i + (t - 1) * di, ej = j + (t - 1) * dj;
+          if (di != 0) {
+            push(ei, ej - 1);
+            push(ei, ej);
+          } else {
+            push(ei - 1, ej);
+            push(ei, ej);
+          }
+        }
+        previous = next;
+      }
     };
     for (int j = 0; j < ncy; ++j) {
       for (int i = 0; i < ncx;) {
@@ -936,11 +1011,22 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
           ++i;
           continue;
         }
+        const bool fine = near_guard[static_cast<std::size_t>(j) * ncx + i] != 0;
         int end = i + 1;
-        while (end < ncx && active(end, j)) ++end;
-        evaluate_run(i, end, j);
-        for (int b = 0; b < r; ++b) {
-          for (int a = 0; a < (end - i) * r; ++a) push(i * r + a, j * r + b);
+        while (end < ncx && active(end, j) &&
+               (near_guard[static_cast<std::size_t>(j) * ncx + end] != 0) == fine) {
+          ++end;
+        }
+        const int stride = fine ? 1 : coarse_stride;
+        evaluate_run(i, end, j, stride);
+        // The lattice segments of the run: along its rows and up its columns.
+        const int last_i = end * r, last_j = (j + 1) * r;
+        for (int fj = j * r; fj <= last_j; fj += stride) {
+          for (int fi = i * r; fi <= last_i; fi += stride) {
+            const bool here = inside(fi, fj);
+            if (fi < last_i && inside(fi + stride, fj) != here) seed_segment(fi, fj, 1, 0, stride);
+            if (fj < last_j && inside(fi, fj + stride) != here) seed_segment(fi, fj, 0, 1, stride);
+          }
         }
         i = end;
       }
@@ -983,6 +1069,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       if (c01 != c00) push(i - 1, j);
     }
   }
+  lap(parts.nodes);
   timings.field = seconds_since(field_start);
 
   const auto contour_start = Clock::now();
