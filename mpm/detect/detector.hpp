@@ -102,10 +102,10 @@ struct ImprovedConfig {
   /// no kernel reaches are skipped (exact); cells whose corners and centre all have
   /// phi > level + band_margin (interior) or < level - band_margin with no guarded particle
   /// inside (exterior) are skipped too. In the remaining ("active") cells the field is evaluated
-  /// on a lattice of at most half a cell (a particle at a time, ImprovedField::evaluate_block),
-  /// at every fine node in the cells with a guarded particle and the ring around them; the
-  /// contours are traced, fine cell by fine cell, from every fine edge with a sign change on a
-  /// lattice segment whose ends differ and from the guarded particles, wherever they go. Only
+  /// on a lattice of at most half a cell, and at every fine node (a particle at a time,
+  /// ImprovedField::evaluate_block) in the cells with a guarded particle and the ring around
+  /// them; the contours are traced, fine cell by fine cell, from every fine edge with a sign
+  /// change on a lattice segment whose ends differ and from the guarded particles. Only
   /// particles outside the interior cells are tested for guards. The screenings and the lattice
   /// are heuristics: a hole or island smaller than the lattice inside a skipped cell, or in an
   /// active cell away from the guards, would be missed (none found in the tests: narrow band
@@ -308,11 +308,11 @@ class ImprovedField {
   void decide_guards(std::span<const char> candidate);
 
   double operator()(const Vec2& x) const;
-  /// The field at the n_x x n_y nodes origin + (first_i + stride a, first_j + stride b) spacing,
-  /// row by row into `out` (out[b n_x + a]); bitwise equal to operator() at each of these points
-  /// (the same terms added in the same order), but each particle visits only the nodes it covers.
+  /// The field at the n_x x n_y nodes origin + (first_i + a, first_j + b) spacing, row by row
+  /// into `out` (out[b n_x + a]); bitwise equal to operator() at each of these points (the same
+  /// terms added in the same order), but each particle visits only the nodes it covers.
   void evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j, int n_x,
-                      int n_y, std::vector<double>& out, int stride = 1) const;
+                      int n_y, std::vector<double>& out) const;
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;
   /// Largest kernel or guard reach, m.
@@ -340,7 +340,7 @@ class ImprovedField {
   double sum_at(const Vec2& x) const;
   template <int E>
   void scatter_block(const Vec2& origin, double spacing, int first_i, int first_j, int n_x, int n_y,
-                     std::vector<double>& out, int stride) const;
+                     std::vector<double>& out) const;
 
   // Per particle, by particle index.
   std::vector<Vec2> position_;

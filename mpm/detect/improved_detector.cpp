@@ -343,30 +343,29 @@ double ImprovedField::operator()(const Vec2& x) const {
 }
 
 void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
-                                   int n_x, int n_y, std::vector<double>& out, int stride) const {
+                                   int n_x, int n_y, std::vector<double>& out) const {
   with_exponent(exponent_, [&]<int E>() {
-    scatter_block<E>(origin, spacing, first_i, first_j, n_x, n_y, out, stride);
+    scatter_block<E>(origin, spacing, first_i, first_j, n_x, n_y, out);
   });
 }
 
 template <int E>
 void ImprovedField::scatter_block(const Vec2& origin, double spacing, int first_i, int first_j,
-                                  int n_x, int n_y, std::vector<double>& out, int stride) const {
+                                  int n_x, int n_y, std::vector<double>& out) const {
   const std::size_t n_nodes = static_cast<std::size_t>(n_x) * n_y;
   out.assign(n_nodes, 0.0);
   std::vector<double> guard(n_nodes, 0.0);
   if (slot_.empty()) return;
   // The slots binned within reach of the block, in increasing slot order (the order in which
   // operator() adds them at any of its nodes).
-  // Node (a, b) sits at origin + (first_i + stride a, first_j + stride b) spacing, computed
-  // exactly as the caller of operator() computes it.
+  // Node (a, b) sits at origin + (first_i + a, first_j + b) spacing, computed exactly as the
+  // caller of operator() computes it.
   const auto node_x = [&](int a) {
-    return origin.x() + static_cast<double>(first_i + stride * a) * spacing;
+    return origin.x() + static_cast<double>(first_i + a) * spacing;
   };
   const auto node_y = [&](int b) {
-    return origin.y() + static_cast<double>(first_j + stride * b) * spacing;
+    return origin.y() + static_cast<double>(first_j + b) * spacing;
   };
-  const double step = stride * spacing;  // between block nodes (only for the index ranges)
   std::vector<double> xs(static_cast<std::size_t>(n_x));
   for (int a = 0; a < n_x; ++a) xs[static_cast<std::size_t>(a)] = node_x(a);
   const Vec2 lo = Vec2(node_x(0), node_y(0)) - Vec2::Constant(reach_);
@@ -377,12 +376,12 @@ void ImprovedField::scatter_block(const Vec2& origin, double spacing, int first_
     const Slot& s = slot_[k];
     const double half_x = s.half_x, half_y = s.half_y;
     // One node of slack on each side: the q tests below decide, as in operator().
-    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / step)));
+    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / spacing)));
     const int i1 =
-        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / step)));
-    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / step)));
+        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / spacing)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / spacing)));
     const int j1 =
-        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / step)));
+        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / spacing)));
     for (int j = j0; j <= j1; ++j) {
       const double dy = node_y(j) - s.y;
       const double ky0 = s.k01 * dy, ky1 = s.k11 * dy;
@@ -941,20 +940,18 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    (b) for each guarded particle the first cell with a sign change to its right.
   std::vector<int> cells;
   std::vector<double> block;
-  // The nodes (of stride `stride`) of the coarse cells i0 .. i1 - 1 of row j, as one block: a
-  // particle visits the run once, and the nodes on the edges between its cells once.
-  const auto evaluate_run = [&](int i0, int i1, int j, int stride) {
-    const int n_x = (i1 - i0) * r / stride + 1, n_y = r / stride + 1;
-    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, n_y, block, stride);
+  // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
+  // the run once, and the nodes on the edges between its cells once.
+  const auto evaluate_run = [&](int i0, int i1, int j) {
+    const int n_x = (i1 - i0) * r + 1;
+    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
     field_evaluations += static_cast<long>(block.size());
-    for (int b = 0; b < n_y; ++b) {
-      for (int a = 0; a < n_x; ++a) {
-        node_cache.at(i0 * r + stride * a, j * r + stride * b) = block[b * n_x + a];
-      }
+    for (int b = 0; b <= r; ++b) {
+      for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
     }
   };
   if (!config.narrow_band) {
-    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j, 1);
+    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
     cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
     for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
   } else {
@@ -1018,7 +1015,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
           ++end;
         }
         const int stride = fine ? 1 : coarse_stride;
-        evaluate_run(i, end, j, stride);
+        // Every fine node by blocks; the lattice point by point (as needed below): a particle
+        // would visit few lattice nodes of a block, in which it would cost more.
+        if (fine) evaluate_run(i, end, j);
         // The lattice segments of the run: along its rows and up its columns.
         const int last_i = end * r, last_j = (j + 1) * r;
         for (int fj = j * r; fj <= last_j; fj += stride) {
