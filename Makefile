@@ -60,7 +60,8 @@ sanitize: deps
 	  ctest --output-on-failure -j $(JOBS) --timeout 900
 
 # Reliability (issue 7): `make test` also runs the C++ tests under ASan + UBSan, and `make fuzz`
-# runs libFuzzer on the input readers for FUZZ_SECONDS each (clang; tests/fuzz/README.md).
+# runs libFuzzer on the input readers and the detector for FUZZ_SECONDS each (clang;
+# tests/fuzz/README.md).
 .PHONY: test-sanitize fuzz
 FUZZ_DIR ?= build-fuzz
 FUZZ_SECONDS ?= 600
@@ -69,7 +70,7 @@ test-sanitize: sanitize
 fuzz: deps
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="clang libclang-rt-dev libomp-dev"
 	@CC=clang CXX=clang++ cmake -S . -B $(FUZZ_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPFM_FUZZ=ON > /dev/null
-	@cmake --build $(FUZZ_DIR) -j $(JOBS) --target fuzz_case fuzz_particle_csv fuzz_config
+	@cmake --build $(FUZZ_DIR) -j $(JOBS) --target fuzz_case fuzz_particle_csv fuzz_config fuzz_detect
 	PYTHON=$(PYTHON) tests/fuzz/run_fuzz.sh $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 bench: build

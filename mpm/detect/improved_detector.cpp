@@ -936,8 +936,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   //    (a) in the active coarse cells, the field on a lattice of every stride-th fine node
   //    (stride: the largest divisor of the refinement up to half of it, so the lattice is at
   //    most half a grid cell; every fine node near a guarded particle), and along every lattice
-  //    segment whose two ends differ, the fine cells beside each fine edge with a sign change;
-  //    (b) for each guarded particle the first cell with a sign change to its right.
+  //    segment whose two ends differ and along the grid edge, the fine cells beside each fine
+  //    edge with a sign change; (b) for each guarded particle, and each other particle of an
+  //    island that may hold no lattice node, the first cell with a sign change from it.
   std::vector<int> cells;
   std::vector<double> block;
   // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
@@ -1027,6 +1028,12 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
             if (fj < last_j && inside(fi, fj + stride) != here) seed_segment(fi, fj, 0, 1, stride);
           }
         }
+        // Along the grid edge every fine edge: a region cut by the edge has a contour for each
+        // stretch of the edge it leaves, which may start and end between two lattice nodes.
+        if (j == 0) seed_segment(i * r, 0, 1, 0, last_i - i * r);
+        if (j == ncy - 1) seed_segment(i * r, n_fine_y, 1, 0, last_i - i * r);
+        if (i == 0) seed_segment(0, j * r, 0, 1, r);
+        if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
         i = end;
       }
     }
@@ -1034,24 +1041,54 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       const bool a = inside(i, j);
       return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
     };
+    // The fine cell of particle p, or false outside the grid.
+    const auto fine_cell = [&](std::size_t p, int& i, int& j) {
+      i = static_cast<int>(std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
+      j = static_cast<int>(std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
+      return i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
+    };
+    // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the
+    // row has none up to the grid edge (a contour cut by the edge), to the left, then in p's
+    // column upwards and downwards.
+    const auto seed_from = [&](std::size_t p) {
+      int i0 = 0, j0 = 0;
+      fine_cell(p, i0, j0);
+      i0 = std::clamp(i0, 0, n_fine_x - 1);
+      j0 = std::clamp(j0, 0, n_fine_y - 1);
+      const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+      for (const auto& [di, dj] : steps) {
+        for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
+             i += di, j += dj) {
+          // Cells found interior by their volume are passed as inside without evaluation: the
+          // particles deep inside them are not in the field, whose values there would be too
+          // low.
+          if (!interior_by_volume.empty() &&
+              interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
+            continue;
+          }
+          if (sign_change(i, j)) {
+            push(i, j);
+            return;
+          }
+        }
+      }
+    };
     for (std::size_t p = 0; p < n_particles; ++p) {
-      if (!field.guarded(p)) continue;
-      int i =
-          static_cast<int>(std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
-      const int j =
-          static_cast<int>(std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
-      if (j < 0 || j >= n_fine_y) continue;
-      for (i = std::max(i, 0); i < n_fine_x; ++i) {
-        // Cells found interior by their volume are passed as inside without evaluation: the
-        // particles deep inside them are not in the field, whose values there would be too low.
-        if (!interior_by_volume.empty() &&
-            interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
-          continue;
-        }
-        if (sign_change(i, j)) {
-          push(i, j);
-          break;
-        }
+      if (field.guarded(p)) seed_from(p);
+    }
+    // Islands that hold no lattice node: an unguarded candidate particle (phi > level there)
+    // seeds like a guarded one when its coarse cell is not active (no lattice there) or when
+    // all four corners of its lattice square are outside.
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      int i = 0, j = 0;
+      if (!candidate[p] || field.guarded(p) || !fine_cell(p, i, j)) continue;
+      const std::size_t c = static_cast<std::size_t>(j / r) * ncx + i / r;
+      const int stride = near_guard[c] ? 1 : coarse_stride;
+      const int ci = i / stride * stride, cj = j / stride * stride;
+      if (!active(i / r, j / r) ||
+          (!inside(ci, cj) && !inside(ci + stride, cj) && !inside(ci, cj + stride) &&
+           !inside(ci + stride, cj + stride))) {
+        seed_from(p);
       }
     }
     // Trace: a cell with a sign change passes the contour on through each edge whose two nodes

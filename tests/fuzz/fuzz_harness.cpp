@@ -2,9 +2,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -13,6 +16,7 @@
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
+#include "tests/cpp/detect/detect_test_support.hpp"
 
 namespace pfm::fuzz {
 
@@ -130,6 +134,112 @@ Outcome run_config(const std::string& path) {
   return accepted ? Outcome::kAccepted : Outcome::kRejected;
 }
 
+// The bytes of a detector input as a particle cloud on its field grid (tests/fuzz/README.md):
+//   0, 1  grid cells n_x, n_y = 3 + b % 10 (cells of 0.5 m, origin 0)
+//   2     points per cell k = 2 + b % 4 (spacing 0.5 / k); bit 2: deformation gradients;
+//         bit 3: no mirroring at the grid edges
+//   3-6   a block of k x k points per cell: lattice columns i0 .. i1 - 1, rows j0 .. j1 - 1
+//         (spacing units, b % (n k)), points at the lattice centres
+//   7-10  the block's deformation gradient I + (b - 128) / 160 (about its centre), with bit 2
+//   then  8 bytes per free point (at most 128): x, y (16 bits each over the grid) and its own
+//         F = I + (b - 128) / 160 with bit 2
+// A deformation gradient outside the invariants' domain (J in [0.5, 2], stretch ratio <= 4) is
+// replaced by I. Points that land outside the grid are left out. Volume: spacing^2 det F.
+struct DetectInput {
+  test::OwnedCloud cloud;
+  Grid grid;
+  bool mirror = true;
+};
+
+DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
+  const auto byte = [&](std::size_t k) -> int { return k < bytes.size() ? bytes[k] : 0; };
+  DetectInput in;
+  in.grid.cell_size = 0.5;
+  in.grid.n_cells_x = 3 + byte(0) % 10;
+  in.grid.n_cells_y = 3 + byte(1) % 10;
+  const int k = 2 + byte(2) % 4;
+  const bool deformed = (byte(2) & 4) != 0;
+  in.mirror = (byte(2) & 8) == 0;
+  const double spacing = in.grid.cell_size / k;
+  in.cloud.initial_spacing = spacing;
+  const auto gradient = [&](std::size_t at) {
+    Mat2 f = Mat2::Identity();
+    if (!deformed) return f;
+    f(0, 0) += (byte(at) - 128) / 160.0;
+    f(0, 1) += (byte(at + 1) - 128) / 160.0;
+    f(1, 0) += (byte(at + 2) - 128) / 160.0;
+    f(1, 1) += (byte(at + 3) - 128) / 160.0;
+    // The domain of the invariants (issue 3): J in [0.5, 2], stretch ratio up to 4.
+    // Singular values: s^2 = (|F|^2 +- sqrt(|F|^4 - 4 J^2)) / 2.
+    const double j = f.determinant(), norm2 = f.squaredNorm();
+    const double root = std::sqrt(std::max(norm2 * norm2 - 4.0 * j * j, 0.0));
+    const double largest = std::sqrt(0.5 * (norm2 + root));
+    const double smallest = std::sqrt(std::max(0.5 * (norm2 - root), 0.0));
+    return j >= 0.5 && j <= 2.0 && largest <= 4.0 * smallest ? f : Mat2::Identity();
+  };
+  const Vec2 upper = in.grid.upper_corner();
+  const auto add = [&](const Vec2& x, const Mat2& f) {
+    if (!(x.x() > 0.0 && x.y() > 0.0 && x.x() < upper.x() && x.y() < upper.y())) return;
+    in.cloud.position.push_back(x);
+    in.cloud.volume.push_back(spacing * spacing * f.determinant());
+    in.cloud.deformation_gradient.push_back(f);
+  };
+  const int columns = in.grid.n_cells_x * k, rows = in.grid.n_cells_y * k;
+  const int i0 = byte(3) % columns, j0 = byte(4) % rows;
+  const int i1 = i0 + byte(5) % (columns - i0 + 1), j1 = j0 + byte(6) % (rows - j0 + 1);
+  const Mat2 block = gradient(7);
+  const Vec2 centre = 0.5 * spacing * Vec2(i0 + i1, j0 + j1);
+  for (int j = j0; j < j1; ++j) {
+    for (int i = i0; i < i1; ++i) {
+      add(centre + block * (spacing * Vec2(i + 0.5, j + 0.5) - centre), block);
+    }
+  }
+  for (std::size_t at = 11; at + 8 <= bytes.size() && at < 11 + 8 * 128; at += 8) {
+    const double u = (byte(at) * 256 + byte(at + 1)) / 65536.0;
+    const double v = (byte(at + 2) * 256 + byte(at + 3)) / 65536.0;
+    add(Vec2(u * upper.x(), v * upper.y()), gradient(at + 4));
+  }
+  if (!deformed) in.cloud.deformation_gradient.clear();
+  return in;
+}
+
+// The improved detector on the decoded cloud: the contour invariants of issue 3 (closed or
+// ending on the grid edge, no shared point, no crossing, orientation, every material point
+// inside) and the narrow band bitwise equal to the full field.
+Outcome run_detect(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(file)),
+                                        std::istreambuf_iterator<char>());
+  const DetectInput in = decode_detect(bytes);
+  if (in.cloud.position.empty()) return Outcome::kRejected;
+  DetectorConfig band;
+  band.method = DetectorMethod::kImproved;
+  band.improved.mirror_grid_edges = in.mirror;
+  DetectorConfig full = band;
+  full.improved.narrow_band = false;
+  const ParticleCloud cloud = in.cloud.view();
+  DetectorState band_state, full_state;
+  const DetectedBoundary a = detect(cloud, in.grid, band, band_state);
+  const DetectedBoundary b = detect(cloud, in.grid, full, full_state);
+  bool same = a.contours.size() == b.contours.size();
+  for (std::size_t c = 0; same && c < a.contours.size(); ++c) {
+    same = a.contours[c].closed == b.contours[c].closed &&
+           a.contours[c].points == b.contours[c].points;
+  }
+  check(same, path, "the narrow band gives the full field's contours");
+  const test::Violations v = test::check_invariants(a, in.grid, in.cloud.position);
+  if (v.total() != 0) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "contour invariants (open off the edge %ld, shared points %ld, crossings %ld, "
+                  "orientation %ld, winding %ld, points outside %ld)",
+                  v.open_not_on_edge, v.shared_points, v.self_intersections, v.orientation,
+                  v.winding, v.particles_outside);
+    check(false, path, what);
+  }
+  return Outcome::kAccepted;
+}
+
 }  // namespace
 
 const char* target_name(Target target) {
@@ -140,6 +250,8 @@ const char* target_name(Target target) {
       return "particle_csv";
     case Target::kConfig:
       return "config";
+    case Target::kDetect:
+      return "detect";
   }
   return "unknown";
 }
@@ -159,6 +271,8 @@ Outcome run_file(Target target, const std::string& path) {
       return run_particle_csv(path);
     case Target::kConfig:
       return run_config(path);
+    case Target::kDetect:
+      return run_detect(path);
   }
   return Outcome::kRejected;
 }

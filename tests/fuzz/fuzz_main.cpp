@@ -1,5 +1,6 @@
-// libFuzzer entry point of one reader; PFM_FUZZ_TARGET (case, particle_csv or config) is set by
-// tests/cpp/fuzz/CMakeLists.txt. Built only with -DPFM_FUZZ=ON and clang; see tests/fuzz/README.md.
+// libFuzzer entry point of one target; PFM_FUZZ_TARGET (case, particle_csv, config or detect) is
+// set by tests/cpp/fuzz/CMakeLists.txt. Built only with -DPFM_FUZZ=ON and clang; see
+// tests/fuzz/README.md.
 #include <cstddef>
 #include <cstdint>
 

@@ -1,8 +1,9 @@
-"""Write the seed inputs of the three fuzz targets into DIR/<target>/ (used once by `make fuzz`
+"""Write the seed inputs of the four fuzz targets into DIR/<target>/ (used once by `make fuzz`
 before a run; the committed corpora in tests/fuzz/corpus/ are minimised fuzzer output grown
 from these seeds). Seeds: the shipped cases, the malformed cases of
-tests/python/test_case_validation.py, detector configurations, boundary-load entries and small
-particle CSV files, valid and invalid.
+tests/python/test_case_validation.py, detector configurations, boundary-load entries, small
+particle CSV files, valid and invalid, and detector clouds (the byte layout of decode_detect()
+in tests/fuzz/fuzz_harness.cpp).
 
 Usage: /usr/bin/python3 tests/fuzz/make_seeds.py DIR
 """
@@ -235,6 +236,40 @@ def csv_seeds():
     ]
 
 
+def detect_seeds():
+    """Blocks, sheared and stretched blocks, blocks with free points around them, scattered
+    points: header (grid, points per cell and flags, block, block F) then 8 bytes per point.
+    """
+
+    def cloud(nx, ny, flags, block, block_f=(128, 128, 128, 128), points=()):
+        data = bytes([nx, ny, flags, *block, *block_f])
+        for x, y, f in points:
+            data += bytes([x >> 8, x & 255, y >> 8, y & 255, *f])
+        return data
+
+    identity = (128, 128, 128, 128)
+    ring = [
+        (20000 + (i * 7919) % 25000, 20000 + (i * 104729) % 25000, identity)
+        for i in range(24)
+    ]
+    return [
+        cloud(7, 5, 0, (4, 4, 20, 12)),
+        cloud(7, 5, 1, (0, 0, 30, 9)),
+        cloud(9, 9, 4, (6, 6, 20, 20), (180, 150, 128, 100)),
+        cloud(9, 9, 4 | 2, (6, 6, 30, 24), (128, 200, 90, 128)),
+        cloud(5, 5, 8, (2, 2, 10, 10), identity, ring[:8]),
+        cloud(
+            9,
+            7,
+            4,
+            (0, 0, 0, 0),
+            identity,
+            [(x, y, (170, 100, 150, 90)) for x, y, _ in ring],
+        ),
+        cloud(9, 9, 3, (10, 10, 12, 3), identity, ring[8:]),
+    ]
+
+
 def main() -> None:
     out = Path(sys.argv[1])
     for seed in case_seeds():
@@ -243,7 +278,9 @@ def main() -> None:
         put(out / "particle_csv", seed)
     for seed in config_seeds():
         put(out / "config", seed)
-    for target in ("case", "particle_csv", "config"):
+    for seed in detect_seeds():
+        put(out / "detect", seed)
+    for target in ("case", "particle_csv", "config", "detect"):
         print(target, len(list((out / target).iterdir())), "seeds")
 
 

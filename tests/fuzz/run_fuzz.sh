@@ -12,7 +12,7 @@ set -eu
 build=$1
 seconds=$2
 shift 2
-targets=${*:-case particle_csv config}
+targets=${*:-case particle_csv config detect}
 here=$(cd "$(dirname "$0")" && pwd)
 work=$build/fuzz-work
 python=${PYTHON:-/usr/bin/python3}

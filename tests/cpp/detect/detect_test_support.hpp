@@ -129,12 +129,91 @@ inline int winding_number(const Contour& c, const Vec2& x) {
 }
 
 /// Total winding number of all closed contours around x (1 inside the material, 0 outside).
+/// Open chains are left out: see close_along_grid_edge().
 inline int material_winding(const DetectedBoundary& b, const Vec2& x) {
   int w = 0;
   for (const auto& c : b.contours) {
     if (c.closed) w += winding_number(c, x);
   }
   return w;
+}
+
+/// The boundary with its open chains (material on the left, ends on the edge of the box lo..hi)
+/// closed along the box: from each chain's end, counter-clockwise along the box (corners
+/// included) to the nearest chain start, then that chain, until the first chain comes round
+/// again; closed loops are kept. Returns false (and leaves `out` partial) when a chain does not
+/// end on the box or the next end point counter-clockwise is another chain's end (material on
+/// both sides of the box edge: the chains contradict each other).
+inline bool close_along_grid_edge(const DetectedBoundary& b, const Vec2& lo, const Vec2& hi,
+                                  double eps, DetectedBoundary& out) {
+  out.contours.clear();
+  const double w = hi.x() - lo.x(), h = hi.y() - lo.y(), perimeter = 2.0 * (w + h);
+  // Position along the box, counter-clockwise from its lower-left corner; -1 off the box.
+  const auto along = [&](const Vec2& p) {
+    if (std::abs(p.y() - lo.y()) < eps) return std::clamp(p.x() - lo.x(), 0.0, w);
+    if (std::abs(p.x() - hi.x()) < eps) return w + std::clamp(p.y() - lo.y(), 0.0, h);
+    if (std::abs(p.y() - hi.y()) < eps) return w + h + std::clamp(hi.x() - p.x(), 0.0, w);
+    if (std::abs(p.x() - lo.x()) < eps) return 2.0 * w + h + std::clamp(hi.y() - p.y(), 0.0, h);
+    return -1.0;
+  };
+  const Vec2 corners[4] = {Vec2(hi.x(), lo.y()), hi, Vec2(lo.x(), hi.y()), lo};
+  const double corner_at[4] = {w, w + h, 2.0 * w + h, perimeter};
+  struct End {
+    double t;
+    std::size_t chain;
+    bool start;
+  };
+  std::vector<End> ends;
+  std::vector<std::size_t> chains;
+  for (std::size_t c = 0; c < b.contours.size(); ++c) {
+    const Contour& contour = b.contours[c];
+    if (contour.closed) {
+      out.contours.push_back(contour);
+      continue;
+    }
+    const double ts = along(contour.points.front()), te = along(contour.points.back());
+    if (ts < 0.0 || te < 0.0) return false;
+    ends.push_back({ts, c, true});
+    ends.push_back({te, c, false});
+    chains.push_back(c);
+  }
+  // Ends in counter-clockwise order; at equal positions a chain's end before a start.
+  std::sort(ends.begin(), ends.end(), [](const End& e, const End& f) {
+    return e.t < f.t || (e.t == f.t && !e.start && f.start);
+  });
+  std::map<std::size_t, std::size_t> next_start;  // chain -> index in ends of the start after it
+  for (std::size_t k = 0; k < ends.size(); ++k) {
+    if (ends[k].start) continue;
+    const End& following = ends[(k + 1) % ends.size()];
+    if (!following.start) return false;
+    next_start[ends[k].chain] = (k + 1) % ends.size();
+  }
+  std::map<std::size_t, bool> used;
+  for (const std::size_t first : chains) {
+    if (used[first]) continue;
+    Contour loop;
+    loop.closed = true;
+    std::size_t c = first;
+    do {
+      used[c] = true;
+      const Contour& chain = b.contours[c];
+      loop.points.insert(loop.points.end(), chain.points.begin(), chain.points.end());
+      const End& start = ends[next_start[c]];
+      const double from = along(chain.points.back());
+      double to = start.t;
+      if (to < from) to += perimeter;
+      for (int turn = 0; turn < 2; ++turn) {
+        for (int k = 0; k < 4; ++k) {
+          const double at = corner_at[k] + turn * perimeter;
+          if (at > from && at < to) loop.points.push_back(corners[k]);
+        }
+      }
+      c = start.chain;
+    } while (c != first && !used[c]);
+    if (c != first) return false;
+    out.contours.push_back(std::move(loop));
+  }
+  return true;
 }
 
 /// Counts of violated contour invariants.
@@ -222,21 +301,28 @@ inline Violations check_invariants(const DetectedBoundary& b, const Grid& field_
       }
     }
   }
-  // Orientation versus nesting depth (closed loops): even depth counter-clockwise.
-  for (std::size_t c = 0; c < b.contours.size(); ++c) {
-    const auto& loop = b.contours[c];
+  // The boundary with its open chains closed along the grid edge (the material region's).
+  DetectedBoundary closed_boundary;
+  if (!close_along_grid_edge(b, lo, hi, eps, closed_boundary)) {
+    ++v.open_not_on_edge;
+    closed_boundary = b;
+  }
+  // Orientation versus nesting depth (closed loops, in the loops and the closed chains): even
+  // depth counter-clockwise.
+  for (const auto& loop : b.contours) {
     if (!loop.closed) continue;
     const Vec2 probe = loop.points[0];
     int depth = 0;
-    for (std::size_t o = 0; o < b.contours.size(); ++o) {
-      if (o == c || !b.contours[o].closed) continue;
-      depth += winding_number(b.contours[o], probe) != 0 ? 1 : 0;
+    for (const auto& other : closed_boundary.contours) {
+      if (!other.closed || other.points == loop.points) continue;
+      depth += winding_number(other, probe) != 0 ? 1 : 0;
     }
     const bool ccw = signed_area(loop) > 0.0;
     if (ccw != (depth % 2 == 0)) ++v.orientation;
   }
+  // Material points: the winding number of the closed boundary.
   for (const auto& p : particles) {
-    const int w = material_winding(b, p);
+    const int w = material_winding(closed_boundary, p);
     if (w != 0 && w != 1) ++v.winding;
     if (w != 1) ++v.particles_outside;
   }
