@@ -262,22 +262,33 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
     if (!candidate.empty() && !candidate[p]) continue;
     if (volume_fraction(position_[p]) <= level_ + guard_margin_) newly.push_back(p);
   }
-  for (const std::size_t p : newly) {
-    guarded_[p] = 1;
-    ++n_guarded_;
-    smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
-    Slot& slot = slot_[bins_.slot_of(static_cast<int>(p))];
-    slot.guarded = 1.0;
-    // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
-    const double guard_box = std::sqrt(2.0) / guard_scale_;
-    if (guard_box > 1.0) {
-      slot.half_x *= guard_box;
-      slot.half_y *= guard_box;
-    }
-  }
+  for (const std::size_t p : newly) switch_guard_on(p);
   // Particles without a guard reach as far as their kernel.
   for (std::size_t p = 0; p < n; ++p) {
     if (!guarded_[p]) particle_reach_[p] = kernel_reach_[p];
+  }
+}
+
+void ImprovedField::add_guards(std::span<const std::size_t> particles) {
+  if (!guard_) return;
+  for (const std::size_t p : particles) {
+    if (guarded_[p]) continue;
+    switch_guard_on(p);
+    particle_reach_[p] = kernel_reach_[p] * std::max(1.0, std::sqrt(2.0) / guard_scale_);
+  }
+}
+
+void ImprovedField::switch_guard_on(std::size_t p) {
+  guarded_[p] = 1;
+  ++n_guarded_;
+  smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
+  Slot& slot = slot_[bins_.slot_of(static_cast<int>(p))];
+  slot.guarded = 1.0;
+  // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
+  const double guard_box = std::sqrt(2.0) / guard_scale_;
+  if (guard_box > 1.0) {
+    slot.half_x *= guard_box;
+    slot.half_y *= guard_box;
   }
 }
 
@@ -314,24 +325,36 @@ decltype(auto) with_exponent(int exponent, F&& f) {
 // (weight x 0), so the sum is bitwise that of the kernels reaching x, without a branch that
 // a point on a kernel's rim would mispredict half the time.
 template <int E, bool Guard>
+[[gnu::always_inline]] inline void ImprovedField::add_slot(int k, double px, double py, double& phi,
+                                                           double& guard) const {
+  const Slot& s = slot_[k];
+  const double dx = px - s.x, dy = py - s.y;
+  const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
+  const double q = ux * ux + uy * uy;
+  const double w = std::max(1.0 - q, 0.0);
+  phi += s.weight * kernel_power<E>(w);
+  if (Guard && s.guarded != 0.0) {
+    // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2;
+    // G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q.
+    const double qg = guard_scale_ * guard_scale_ * q;
+    if (qg < 2.0) guard = std::max(guard, 1.0 - 0.5 * qg);
+  }
+}
+
+template <int E, bool Guard>
 double ImprovedField::sum_at(const Vec2& x) const {
   double phi = 0.0, guard = 0.0;
   const double px = x.x(), py = x.y();
-  bins_.for_each_slot_near(x, rings_, [&](int k) {
-    const Slot& s = slot_[k];
-    const double dx = px - s.x, dy = py - s.y;
-    const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
-    const double q = ux * ux + uy * uy;
-    const double w = std::max(1.0 - q, 0.0);
-    phi += s.weight * kernel_power<E>(w);
-    if (Guard && s.guarded != 0.0) {
-      // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2;
-      // G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q.
-      const double qg = guard_scale_ * guard_scale_ * q;
-      if (qg < 2.0) guard = std::max(guard, 1.0 - 0.5 * qg);
-    }
-  });
+  bins_.for_each_slot_near(x, rings_, [&](int k) { add_slot<E, Guard>(k, px, py, phi, guard); });
   return Guard ? std::max(phi, guard) : phi;
+}
+
+template <int E>
+double ImprovedField::sum_over(const Vec2& x, std::span<const int> slots) const {
+  double phi = 0.0, guard = 0.0;
+  const double px = x.x(), py = x.y();
+  for (const int k : slots) add_slot<E, true>(k, px, py, phi, guard);
+  return std::max(phi, guard);
 }
 
 double ImprovedField::volume_fraction(const Vec2& x) const {
@@ -340,6 +363,25 @@ double ImprovedField::volume_fraction(const Vec2& x) const {
 
 double ImprovedField::operator()(const Vec2& x) const {
   return with_exponent(exponent_, [&]<int E>() { return sum_at<E, true>(x); });
+}
+
+double ImprovedField::operator()(const Vec2& x, std::span<const int> slots) const {
+  return with_exponent(exponent_, [&]<int E>() { return sum_over<E>(x, slots); });
+}
+
+void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, std::vector<int>& out) const {
+  out.clear();
+  // The bins within reach of the box (a superset), then each slot's own support box, widened by
+  // a hair so that rounding at a kernel's rim never drops a nonzero term.
+  const double hair = 1e-9 * reach_;
+  bins_.for_each_slot_in_box(lo - Vec2::Constant(reach_), hi + Vec2::Constant(reach_), [&](int k) {
+    const Slot& s = slot_[k];
+    const double half_x = s.half_x + hair, half_y = s.half_y + hair;
+    if (s.x + half_x >= lo.x() && s.x - half_x <= hi.x() && s.y + half_y >= lo.y() &&
+        s.y - half_y <= hi.y()) {
+      out.push_back(k);
+    }
+  });
 }
 
 void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
@@ -672,7 +714,6 @@ std::vector<char> dilate(const std::vector<char>& in, int n_x, int n_y, int ring
 DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
                                  const ImprovedConfig& config, DetectionTimings& timings) {
   using Clock = std::chrono::steady_clock;
-  const auto field_start = Clock::now();
   const double h = grid.cell_size;
   const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
 
@@ -902,237 +943,322 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
 
   lap(parts.guards);
 
-  int refinement = config.refinement;
-  if (refinement <= 0) {
-    // A field cell whose diagonal fits in the smallest guard semi-axis has all four corners in
-    // the guard ellipse of any particle inside it: that particle is then inside the contour.
-    const double axis = field.smallest_guard_axis();
-    refinement = std::isfinite(axis) ? static_cast<int>(std::ceil(h * std::sqrt(2.0) / axis)) : 4;
-    refinement = std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
-  }
-  const int r = refinement;
-  timings.refinement = r;
-  NodalField geometry;
-  geometry.origin = grid.origin;
-  geometry.spacing = h / r;
-  geometry.n_x = ncx * r + 1;
-  geometry.n_y = ncy * r + 1;
-  const int n_fine_x = geometry.n_x - 1, n_fine_y = geometry.n_y - 1;
-  BlockStore<double> node_cache(ncx, ncy, r, std::numeric_limits<double>::quiet_NaN());
-  const auto node_value = [&](int i, int j) {
-    double& slot = node_cache.at(i, j);
-    if (std::isnan(slot)) {
-      slot = field(Vec2(geometry.origin.x() + static_cast<double>(i) * geometry.spacing,
-                        geometry.origin.y() + static_cast<double>(j) * geometry.spacing));
-      ++field_evaluations;
+  // Steps 3-5 run twice when the contours of the first pass leave a particle outside (step 5):
+  // those particles are then guarded.
+  const double tolerance_fraction = config.root_tolerance;
+  double edge_seconds = 0.0, connection_seconds = 0.0;
+  long root_evaluations = 0, edge_points = 0;
+  std::vector<int> edge_slots;
+  DetectedBoundary boundary;
+  for (int pass = 0;; ++pass) {
+    part_start = Clock::now();
+    int refinement = config.refinement;
+    if (refinement <= 0) {
+      // A field cell whose diagonal fits in the smallest guard semi-axis has all four corners in
+      // the guard ellipse of any particle inside it: that particle is then inside the contour.
+      const double axis = field.smallest_guard_axis();
+      refinement = std::isfinite(axis) ? static_cast<int>(std::ceil(h * std::sqrt(2.0) / axis)) : 4;
+      refinement = std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
     }
-    return slot;
-  };
-  const auto inside = [&](int i, int j) { return node_value(i, j) > level; };
+    const int r = refinement;
+    timings.refinement = r;
+    NodalField geometry;
+    geometry.origin = grid.origin;
+    geometry.spacing = h / r;
+    geometry.n_x = ncx * r + 1;
+    geometry.n_y = ncy * r + 1;
+    const int n_fine_x = geometry.n_x - 1, n_fine_y = geometry.n_y - 1;
+    BlockStore<double> node_cache(ncx, ncy, r, std::numeric_limits<double>::quiet_NaN());
+    const auto node_value = [&](int i, int j) {
+      double& slot = node_cache.at(i, j);
+      if (std::isnan(slot)) {
+        slot = field(Vec2(geometry.origin.x() + static_cast<double>(i) * geometry.spacing,
+                          geometry.origin.y() + static_cast<double>(j) * geometry.spacing));
+        ++field_evaluations;
+      }
+      return slot;
+    };
+    const auto inside = [&](int i, int j) { return node_value(i, j) > level; };
 
-  // 3. The fine cells to contour. Full field: all of them. Narrow band: the contours are traced
-  //    from seeds, fine cell by fine cell: a cell with a sign change passes its contour on
-  //    through every edge whose nodes differ, so a contour is followed wherever it goes. Seeds:
-  //    (a) in the active coarse cells, the field on a lattice of every stride-th fine node
-  //    (stride: the largest divisor of the refinement up to half of it, so the lattice is at
-  //    most half a grid cell; every fine node near a guarded particle), and along every lattice
-  //    segment whose two ends differ and along the grid edge, the fine cells beside each fine
-  //    edge with a sign change; (b) for each guarded particle, and each other particle of an
-  //    island that may hold no lattice node, the first cell with a sign change from it.
-  std::vector<int> cells;
-  std::vector<double> block;
-  // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
-  // the run once, and the nodes on the edges between its cells once.
-  const auto evaluate_run = [&](int i0, int i1, int j) {
-    const int n_x = (i1 - i0) * r + 1;
-    field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
-    field_evaluations += static_cast<long>(block.size());
-    for (int b = 0; b <= r; ++b) {
-      for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
-    }
-  };
-  if (!config.narrow_band) {
-    for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
-    cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
-    for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
-  } else {
-    BlockStore<char> visited(ncx, ncy, r, 0);
-    std::vector<int> queue;
-    const auto push = [&](int i, int j) {
-      if (i < 0 || j < 0 || i >= n_fine_x || j >= n_fine_y) return;
-      char& v = visited.at(i, j);
-      if (v) return;
-      v = 1;
-      queue.push_back(j * n_fine_x + i);
-    };
-    std::vector<char> guard_here(reached.size(), 0);
-    for (std::size_t p = 0; p < n_particles; ++p) {
-      if (!field.guarded(p)) continue;
-      const int i = grid.cell_i(positions[p].x()), j = grid.cell_j(positions[p].y());
-      if (i >= 0 && j >= 0 && i < ncx && j < ncy)
-        guard_here[static_cast<std::size_t>(j) * ncx + i] = 1;
-    }
-    const auto active = [&](int i, int j) {
-      const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
-      return reached[c] && !deep[c] && (!far[c] || guard_here[c]);
-    };
-    int coarse_stride = 1;
-    for (int d = 1; 2 * d <= r; ++d) {
-      if (r % d == 0) coarse_stride = d;
-    }
-    // Near a guarded particle (its cell and the ring around it) the guards' small ellipses and
-    // the gaps between them make sub-lattice islands and holes: every fine node there.
-    const std::vector<char> near_guard = dilate(guard_here, ncx, ncy, 1);
-    // Seeds along the fine edges from fine node (i, j) to (i + stride di, j + stride dj), whose
-    // two ends differ: beside each fine edge with a sign change, both cells.
-    const auto seed_segment = [&](int i, int j, int di, int dj, int stride) {
-      bool previous = inside(i, j);
-      for (int t = 1; t <= stride; ++t) {
-        const bool next = inside(i + t * di, j + t * dj);
-        if (next != previous) {
-          // The fine edge from (i + (t - 1) di, j + (t - 1) dj) to (i + t di, j + t dj).
-          const int ei = i + (t - 1) * di, ej = j + (t - 1) * dj;
-          if (di != 0) {
-            push(ei, ej - 1);
-            push(ei, ej);
-          } else {
-            push(ei - 1, ej);
-            push(ei, ej);
-          }
-        }
-        previous = next;
+    // 3. The fine cells to contour. Full field: all of them. Narrow band: the contours are traced
+    //    from seeds, fine cell by fine cell: a cell with a sign change passes its contour on
+    //    through every edge whose nodes differ, so a contour is followed wherever it goes. Seeds:
+    //    (a) in the active coarse cells, the field on a lattice of every stride-th fine node
+    //    (stride: the largest divisor of the refinement up to half of it, so the lattice is at
+    //    most half a grid cell; every fine node near a guarded particle), and along every lattice
+    //    segment whose two ends differ and along the grid edge, the fine cells beside each fine
+    //    edge with a sign change; (b) for each guarded particle, and each other particle of an
+    //    island that may hold no lattice node, the first cell with a sign change from it.
+    std::vector<int> cells;
+    std::vector<double> block;
+    // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
+    // the run once, and the nodes on the edges between its cells once.
+    const auto evaluate_run = [&](int i0, int i1, int j) {
+      const int n_x = (i1 - i0) * r + 1;
+      field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
+      field_evaluations += static_cast<long>(block.size());
+      for (int b = 0; b <= r; ++b) {
+        for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
       }
     };
-    for (int j = 0; j < ncy; ++j) {
-      for (int i = 0; i < ncx;) {
-        if (!active(i, j)) {
-          ++i;
-          continue;
-        }
-        const bool fine = near_guard[static_cast<std::size_t>(j) * ncx + i] != 0;
-        int end = i + 1;
-        while (end < ncx && active(end, j) &&
-               (near_guard[static_cast<std::size_t>(j) * ncx + end] != 0) == fine) {
-          ++end;
-        }
-        const int stride = fine ? 1 : coarse_stride;
-        // Every fine node by blocks; the lattice point by point (as needed below): a particle
-        // would visit few lattice nodes of a block, in which it would cost more.
-        if (fine) evaluate_run(i, end, j);
-        // The lattice segments of the run: along its rows and up its columns.
-        const int last_i = end * r, last_j = (j + 1) * r;
-        for (int fj = j * r; fj <= last_j; fj += stride) {
-          for (int fi = i * r; fi <= last_i; fi += stride) {
-            const bool here = inside(fi, fj);
-            if (fi < last_i && inside(fi + stride, fj) != here) seed_segment(fi, fj, 1, 0, stride);
-            if (fj < last_j && inside(fi, fj + stride) != here) seed_segment(fi, fj, 0, 1, stride);
-          }
-        }
-        // Along the grid edge every fine edge: a region cut by the edge has a contour for each
-        // stretch of the edge it leaves, which may start and end between two lattice nodes.
-        if (j == 0) seed_segment(i * r, 0, 1, 0, last_i - i * r);
-        if (j == ncy - 1) seed_segment(i * r, n_fine_y, 1, 0, last_i - i * r);
-        if (i == 0) seed_segment(0, j * r, 0, 1, r);
-        if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
-        i = end;
+    if (!config.narrow_band) {
+      for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
+      cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
+      for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
+    } else {
+      BlockStore<char> visited(ncx, ncy, r, 0);
+      std::vector<int> queue;
+      const auto push = [&](int i, int j) {
+        if (i < 0 || j < 0 || i >= n_fine_x || j >= n_fine_y) return;
+        char& v = visited.at(i, j);
+        if (v) return;
+        v = 1;
+        queue.push_back(j * n_fine_x + i);
+      };
+      std::vector<char> guard_here(reached.size(), 0);
+      for (std::size_t p = 0; p < n_particles; ++p) {
+        if (!field.guarded(p)) continue;
+        const int i = grid.cell_i(positions[p].x()), j = grid.cell_j(positions[p].y());
+        if (i >= 0 && j >= 0 && i < ncx && j < ncy)
+          guard_here[static_cast<std::size_t>(j) * ncx + i] = 1;
       }
-    }
-    const auto sign_change = [&](int i, int j) {
-      const bool a = inside(i, j);
-      return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
-    };
-    // The fine cell of particle p, or false outside the grid.
-    const auto fine_cell = [&](std::size_t p, int& i, int& j) {
-      i = static_cast<int>(std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
-      j = static_cast<int>(std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
-      return i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
-    };
-    // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the
-    // row has none up to the grid edge (a contour cut by the edge), to the left, then in p's
-    // column upwards and downwards.
-    const auto seed_from = [&](std::size_t p) {
-      int i0 = 0, j0 = 0;
-      fine_cell(p, i0, j0);
-      i0 = std::clamp(i0, 0, n_fine_x - 1);
-      j0 = std::clamp(j0, 0, n_fine_y - 1);
-      const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-      for (const auto& [di, dj] : steps) {
-        for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
-             i += di, j += dj) {
-          // Cells found interior by their volume are passed as inside without evaluation: the
-          // particles deep inside them are not in the field, whose values there would be too
-          // low.
-          if (!interior_by_volume.empty() &&
-              interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
+      const auto active = [&](int i, int j) {
+        const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
+        return reached[c] && !deep[c] && (!far[c] || guard_here[c]);
+      };
+      int coarse_stride = 1;
+      for (int d = 1; 2 * d <= r; ++d) {
+        if (r % d == 0) coarse_stride = d;
+      }
+      // Near a guarded particle (its cell and the cells its guard reaches, at least the ring
+      // around it) the guards' small ellipses and the gaps between them make sub-lattice islands
+      // and holes: every fine node there.
+      const double guard_reach = std::sqrt(2.0) * config.guard_factor * 0.5 *
+                                 cloud.initial_spacing * survey.largest_stretch;
+      const int guard_rings = static_cast<int>(std::clamp(std::ceil(guard_reach / h), 1.0, widest));
+      const std::vector<char> near_guard = dilate(guard_here, ncx, ncy, guard_rings);
+      // Seeds along the fine edges from fine node (i, j) to (i + stride di, j + stride dj), whose
+      // two ends differ: beside each fine edge with a sign change, both cells.
+      const auto seed_segment = [&](int i, int j, int di, int dj, int stride) {
+        bool previous = inside(i, j);
+        for (int t = 1; t <= stride; ++t) {
+          const bool next = inside(i + t * di, j + t * dj);
+          if (next != previous) {
+            // The fine edge from (i + (t - 1) di, j + (t - 1) dj) to (i + t di, j + t dj).
+            const int ei = i + (t - 1) * di, ej = j + (t - 1) * dj;
+            if (di != 0) {
+              push(ei, ej - 1);
+              push(ei, ej);
+            } else {
+              push(ei - 1, ej);
+              push(ei, ej);
+            }
+          }
+          previous = next;
+        }
+      };
+      for (int j = 0; j < ncy; ++j) {
+        for (int i = 0; i < ncx;) {
+          if (!active(i, j)) {
+            ++i;
             continue;
           }
-          if (sign_change(i, j)) {
-            push(i, j);
-            return;
+          const bool fine = near_guard[static_cast<std::size_t>(j) * ncx + i] != 0;
+          int end = i + 1;
+          while (end < ncx && active(end, j) &&
+                 (near_guard[static_cast<std::size_t>(j) * ncx + end] != 0) == fine) {
+            ++end;
           }
+          const int stride = fine ? 1 : coarse_stride;
+          // Every fine node by blocks; the lattice point by point (as needed below): a particle
+          // would visit few lattice nodes of a block, in which it would cost more.
+          if (fine) evaluate_run(i, end, j);
+          // The lattice segments of the run: along its rows and up its columns.
+          const int last_i = end * r, last_j = (j + 1) * r;
+          for (int fj = j * r; fj <= last_j; fj += stride) {
+            for (int fi = i * r; fi <= last_i; fi += stride) {
+              const bool here = inside(fi, fj);
+              if (fi < last_i && inside(fi + stride, fj) != here)
+                seed_segment(fi, fj, 1, 0, stride);
+              if (fj < last_j && inside(fi, fj + stride) != here)
+                seed_segment(fi, fj, 0, 1, stride);
+            }
+          }
+          // Along the grid edge every fine edge: a region cut by the edge has a contour for each
+          // stretch of the edge it leaves, which may start and end between two lattice nodes.
+          if (j == 0) seed_segment(i * r, 0, 1, 0, last_i - i * r);
+          if (j == ncy - 1) seed_segment(i * r, n_fine_y, 1, 0, last_i - i * r);
+          if (i == 0) seed_segment(0, j * r, 0, 1, r);
+          if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
+          i = end;
         }
       }
-    };
-    for (std::size_t p = 0; p < n_particles; ++p) {
-      if (field.guarded(p)) seed_from(p);
-    }
-    // Islands that hold no lattice node: an unguarded candidate particle (phi > level there)
-    // seeds like a guarded one when its coarse cell is not active (no lattice there) or when
-    // all four corners of its lattice square are outside.
-    for (std::size_t p = 0; p < n_particles; ++p) {
-      int i = 0, j = 0;
-      if (!candidate[p] || field.guarded(p) || !fine_cell(p, i, j)) continue;
-      const std::size_t c = static_cast<std::size_t>(j / r) * ncx + i / r;
-      const int stride = near_guard[c] ? 1 : coarse_stride;
-      const int ci = i / stride * stride, cj = j / stride * stride;
-      if (!active(i / r, j / r) ||
-          (!inside(ci, cj) && !inside(ci + stride, cj) && !inside(ci, cj + stride) &&
-           !inside(ci + stride, cj + stride))) {
-        seed_from(p);
+      const auto sign_change = [&](int i, int j) {
+        const bool a = inside(i, j);
+        return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
+      };
+      // The fine cell of particle p, or false outside the grid.
+      const auto fine_cell = [&](std::size_t p, int& i, int& j) {
+        i = static_cast<int>(
+            std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
+        j = static_cast<int>(
+            std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
+        return i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
+      };
+      // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the
+      // row has none up to the grid edge (a contour cut by the edge), to the left, then in p's
+      // column upwards and downwards.
+      const auto seed_from = [&](std::size_t p) {
+        int i0 = 0, j0 = 0;
+        fine_cell(p, i0, j0);
+        i0 = std::clamp(i0, 0, n_fine_x - 1);
+        j0 = std::clamp(j0, 0, n_fine_y - 1);
+        const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+        for (const auto& [di, dj] : steps) {
+          for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
+               i += di, j += dj) {
+            // Cells found interior by their volume are passed as inside without evaluation: the
+            // particles deep inside them are not in the field, whose values there would be too
+            // low.
+            if (!interior_by_volume.empty() &&
+                interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
+              continue;
+            }
+            if (sign_change(i, j)) {
+              push(i, j);
+              return;
+            }
+          }
+        }
+      };
+      for (std::size_t p = 0; p < n_particles; ++p) {
+        if (field.guarded(p)) seed_from(p);
+      }
+      // Islands that hold no lattice node: an unguarded candidate particle (phi > level there)
+      // seeds like a guarded one when its coarse cell is not active (no lattice there) or when
+      // all four corners of its lattice square are outside.
+      for (std::size_t p = 0; p < n_particles; ++p) {
+        int i = 0, j = 0;
+        if (!candidate[p] || field.guarded(p) || !fine_cell(p, i, j)) continue;
+        const std::size_t c = static_cast<std::size_t>(j / r) * ncx + i / r;
+        const int stride = near_guard[c] ? 1 : coarse_stride;
+        const int ci = i / stride * stride, cj = j / stride * stride;
+        if (!active(i / r, j / r) ||
+            (!inside(ci, cj) && !inside(ci + stride, cj) && !inside(ci, cj + stride) &&
+             !inside(ci + stride, cj + stride))) {
+          seed_from(p);
+        }
+      }
+      // Trace: a cell with a sign change passes the contour on through each edge whose two nodes
+      // differ; cells reached without a sign change (none in exact arithmetic) are dropped.
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const int i = queue[q] % n_fine_x, j = queue[q] / n_fine_x;
+        const bool c00 = inside(i, j), c10 = inside(i + 1, j);
+        const bool c11 = inside(i + 1, j + 1), c01 = inside(i, j + 1);
+        if (c00 == c10 && c00 == c11 && c00 == c01) continue;
+        cells.push_back(queue[q]);
+        if (c00 != c10) push(i, j - 1);
+        if (c10 != c11) push(i + 1, j);
+        if (c11 != c01) push(i, j + 1);
+        if (c01 != c00) push(i - 1, j);
       }
     }
-    // Trace: a cell with a sign change passes the contour on through each edge whose two nodes
-    // differ; cells reached without a sign change (none in exact arithmetic) are dropped.
-    for (std::size_t q = 0; q < queue.size(); ++q) {
-      const int i = queue[q] % n_fine_x, j = queue[q] / n_fine_x;
-      const bool c00 = inside(i, j), c10 = inside(i + 1, j);
-      const bool c11 = inside(i + 1, j + 1), c01 = inside(i, j + 1);
-      if (c00 == c10 && c00 == c11 && c00 == c01) continue;
-      cells.push_back(queue[q]);
-      if (c00 != c10) push(i, j - 1);
-      if (c10 != c11) push(i + 1, j);
-      if (c11 != c01) push(i, j + 1);
-      if (c01 != c00) push(i - 1, j);
-    }
-  }
-  lap(parts.nodes);
-  timings.field = seconds_since(field_start);
+    lap(parts.nodes);
 
-  const auto contour_start = Clock::now();
-  double edge_seconds = 0.0;
-  long root_evaluations = 0, edge_points = 0;
-  const double tolerance_t = config.root_tolerance * r;  // fraction of the fine edge
-  const EdgeRefiner refine = [&](const Vec2& a, double value_a, const Vec2& b, double value_b) {
-    const auto start = Clock::now();
-    const Vec2 d = b - a;
-    const double t = brent_root([&](double s) { return field(a + s * d) - level; }, value_a,
-                                value_b, tolerance_t, &root_evaluations);
-    ++edge_points;
-    edge_seconds += seconds_since(start);
-    return Vec2(a + t * d);
-  };
-  const std::function<double(const Vec2&)> exact_sample = [&](const Vec2& x) {
-    ++field_evaluations;
-    return field(x);
-  };
-  DetectedBoundary boundary = marching_squares_cells(geometry, node_value, cells, level,
-                                                     config.saddle_rule, refine, exact_sample);
+    // 4. Edge points and contours.
+    const auto contour_start = Clock::now();
+    const double edge_seconds_before = edge_seconds;
+    const double tolerance_t = tolerance_fraction * r;  // fraction of the fine edge
+    const EdgeRefiner refine = [&](const Vec2& a, double value_a, const Vec2& b, double value_b) {
+      const auto start = Clock::now();
+      const Vec2 d = b - a;
+      // Every evaluation of the root lies on the edge: its slots are gathered once.
+      field.slots_reaching(a.cwiseMin(b), a.cwiseMax(b), edge_slots);
+      const double t = brent_root([&](double s) { return field(a + s * d, edge_slots) - level; },
+                                  value_a, value_b, tolerance_t, &root_evaluations);
+      ++edge_points;
+      edge_seconds += seconds_since(start);
+      return Vec2(a + t * d);
+    };
+    const std::function<double(const Vec2&)> exact_sample = [&](const Vec2& x) {
+      ++field_evaluations;
+      return field(x);
+    };
+    boundary = marching_squares_cells(geometry, node_value, cells, level, config.saddle_rule,
+                                      refine, exact_sample);
+    timings.processed_cells = static_cast<long>(cells.size());
+
+    // 5. Containment: an unguarded particle (of those tested for guards) in a fine cell that a
+    //    contour crosses must lie on the material side of the cell's segment nearest to it (left
+    //    of it: one segment, or two in a saddle cell, which the nearest one decides). The first
+    //    pass's contours can cut off a particle whose phi is above the guard margin where the
+    //    level set curves within a fine cell (a small island); such particles get their guard and
+    //    the contours are found again.
+    struct CellSegment {
+      int cell;
+      Vec2 a, b;
+    };
+    std::vector<CellSegment> segments;
+    std::vector<char> crossed(static_cast<std::size_t>(ncx) * ncy, 0);
+    const auto fine_index = [&](double x, double origin, int n) {
+      return std::clamp(static_cast<int>(std::floor((x - origin) / geometry.spacing)), 0, n - 1);
+    };
+    for (const Contour& c : boundary.contours) {
+      const std::size_t n = c.points.size();
+      for (std::size_t k = 0; k + 1 < n || (c.closed && k < n); ++k) {
+        const Vec2& a = c.points[k];
+        const Vec2& b = c.points[(k + 1) % n];
+        const Vec2 mid = 0.5 * (a + b);
+        const int i = fine_index(mid.x(), geometry.origin.x(), n_fine_x);
+        const int j = fine_index(mid.y(), geometry.origin.y(), n_fine_y);
+        segments.push_back({j * n_fine_x + i, a, b});
+        crossed[static_cast<std::size_t>(j / r) * ncx + i / r] = 1;
+      }
+    }
+    std::stable_sort(segments.begin(), segments.end(),
+                     [](const CellSegment& x, const CellSegment& y) { return x.cell < y.cell; });
+    std::vector<std::size_t> left_out;
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      if ((!candidate.empty() && !candidate[p]) || field.guarded(p)) continue;
+      const Vec2& x = positions[p];
+      const int ci = static_cast<int>(std::floor((x.x() - grid.origin.x()) / h));
+      const int cj = static_cast<int>(std::floor((x.y() - grid.origin.y()) / h));
+      if (ci < 0 || cj < 0 || ci >= ncx || cj >= ncy ||
+          !crossed[static_cast<std::size_t>(cj) * ncx + ci]) {
+        continue;
+      }
+      const int cell = fine_index(x.y(), geometry.origin.y(), n_fine_y) * n_fine_x +
+                       fine_index(x.x(), geometry.origin.x(), n_fine_x);
+      auto it = std::lower_bound(segments.begin(), segments.end(), cell,
+                                 [](const CellSegment& s, int value) { return s.cell < value; });
+      const CellSegment* nearest = nullptr;
+      double best = std::numeric_limits<double>::infinity();
+      for (; it != segments.end() && it->cell == cell; ++it) {
+        const Vec2 d = it->b - it->a;
+        const double t =
+            std::clamp((x - it->a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
+        const double distance = (it->a + t * d - x).squaredNorm();
+        if (distance < best) {
+          best = distance;
+          nearest = &*it;
+        }
+      }
+      if (nearest == nullptr) continue;
+      const Vec2 d = nearest->b - nearest->a, e = x - nearest->a;
+      if (d.x() * e.y() - d.y() * e.x() < 0.0) left_out.push_back(p);
+    }
+    connection_seconds += seconds_since(contour_start) - (edge_seconds - edge_seconds_before);
+    if (left_out.empty() || pass > 0 || config.guard_factor <= 0.0) break;
+    field.add_guards(left_out);
+    timings.particles_guarded_after_contouring = static_cast<long>(left_out.size());
+  }
   timings.edge_points = edge_seconds;
-  timings.connection = seconds_since(contour_start) - edge_seconds;
-  timings.processed_cells = static_cast<long>(cells.size());
+  timings.connection = connection_seconds;
   timings.edge_point_count = edge_points;
   timings.root_evaluations = root_evaluations;
   timings.field_evaluations = field_evaluations + root_evaluations;
+  timings.field =
+      parts.survey + parts.band + parts.setup + parts.screening + parts.guards + parts.nodes;
   if (config.curvature_correction) {
     const auto start = Clock::now();
     correct_curvature(boundary, field.curvature_moment(),
