@@ -87,9 +87,10 @@ struct ImprovedConfig {
   /// 0 disables. With the automatic refinement this guarantees that such a particle lies inside
   /// the detected region (isolated points, thin filaments, sharp tips). A particle with a larger
   /// phi is inside the exact level set, but the contour's chords can still cut it off where the
-  /// level set curves within a fine cell (a small island): the contours are checked, and the
-  /// particles left outside are guarded for a second pass (with guards on; fuzz_detect found
-  /// such islands, the 10,000 random clouds of the invariants test have none).
+  /// level set curves within a fine cell, or miss an island smaller than a fine cell (a few
+  /// stacked points): the contours are checked, and the particles left outside are guarded for a
+  /// second pass (with guards on; fuzz_detect found such islands, the 10,000 random clouds of the
+  /// invariants test have none).
   double guard_factor = 0.6;
   double guard_margin = 0.02;
   /// Field cell = grid cell / refinement. 0 = automatic: the smallest refinement >= 4 whose cells

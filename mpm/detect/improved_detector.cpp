@@ -570,6 +570,11 @@ class BlockStore {
     }
     return pool_[offset + static_cast<long>(j % r_) * r_ + i % r_];
   }
+  /// The value at (i, j), or nullptr where its block is not allocated yet.
+  const T* find(int i, int j) const {
+    const long offset = offset_[static_cast<std::size_t>(j / r_) * n_x_ + i / r_];
+    return offset < 0 ? nullptr : &pool_[offset + static_cast<long>(j % r_) * r_ + i % r_];
+  }
 
  private:
   int n_x_, r_;
@@ -957,7 +962,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       // A field cell whose diagonal fits in the smallest guard semi-axis has all four corners in
       // the guard ellipse of any particle inside it: that particle is then inside the contour.
       const double axis = field.smallest_guard_axis();
-      refinement = std::isfinite(axis) ? static_cast<int>(std::ceil(h * std::sqrt(2.0) / axis)) : 4;
+      // (Capped before the conversion: a guard squeezed to nothing asks for any refinement.)
+      refinement = std::isfinite(axis)
+                       ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
+                       : 4;
       refinement = std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
     }
     const int r = refinement;
@@ -1223,14 +1231,29 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       const Vec2& x = positions[p];
       const int ci = static_cast<int>(std::floor((x.x() - grid.origin.x()) / h));
       const int cj = static_cast<int>(std::floor((x.y() - grid.origin.y()) / h));
-      if (ci < 0 || cj < 0 || ci >= ncx || cj >= ncy ||
-          !crossed[static_cast<std::size_t>(cj) * ncx + ci]) {
+      if (ci < 0 || cj < 0 || ci >= ncx || cj >= ncy) continue;
+      const int fi = fine_index(x.x(), geometry.origin.x(), n_fine_x);
+      const int fj = fine_index(x.y(), geometry.origin.y(), n_fine_y);
+      const int cell = fj * n_fine_x + fi;
+      auto it = segments.end();
+      if (crossed[static_cast<std::size_t>(cj) * ncx + ci]) {
+        it = std::lower_bound(segments.begin(), segments.end(), cell,
+                              [](const CellSegment& s, int value) { return s.cell < value; });
+      }
+      if (it == segments.end() || it->cell != cell) {
+        // No contour in p's fine cell: its corners share one sign, which must be inside (a
+        // few stacked points make an island smaller than a fine cell, which no node sees).
+        // Any corner tells; one already evaluated (the lattice holds one of every fine cell at
+        // stride 2) saves an evaluation.
+        double corner = std::numeric_limits<double>::quiet_NaN();
+        for (int k = 0; k < 4 && std::isnan(corner); ++k) {
+          const double* known = node_cache.find(fi + (k & 1), fj + (k >> 1));
+          if (known != nullptr) corner = *known;
+        }
+        if (std::isnan(corner)) corner = node_value(fi, fj);
+        if (!(corner > level)) left_out.push_back(p);
         continue;
       }
-      const int cell = fine_index(x.y(), geometry.origin.y(), n_fine_y) * n_fine_x +
-                       fine_index(x.x(), geometry.origin.x(), n_fine_x);
-      auto it = std::lower_bound(segments.begin(), segments.end(), cell,
-                                 [](const CellSegment& s, int value) { return s.cell < value; });
       const CellSegment* nearest = nullptr;
       double best = std::numeric_limits<double>::infinity();
       for (; it != segments.end() && it->cell == cell; ++it) {
