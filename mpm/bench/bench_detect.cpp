@@ -131,6 +131,9 @@ void BM_Detect(benchmark::State& state) {
     state.counters["field_evaluations"] = static_cast<double>(timings.field_evaluations);
     state.counters["root_evaluations"] = static_cast<double>(timings.root_evaluations);
     state.counters["processed_cells"] = static_cast<double>(timings.processed_cells);
+    // Particles the containment check guarded for a second pass (0: one pass).
+    state.counters["second_pass_guards"] =
+        static_cast<double>(timings.particles_guarded_after_contouring);
   }
   state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
                  std::to_string(particles.size()) + " points");

@@ -244,6 +244,7 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     summary["timings_s"]["field_parts"] = {{"survey", parts.survey}, {"band", parts.band},
                                            {"setup", parts.setup},   {"screening", parts.screening},
                                            {"guards", parts.guards}, {"nodes", parts.nodes}};
+    summary["particles_guarded_after_contouring"] = timings.particles_guarded_after_contouring;
   }
   const std::filesystem::path dir(out_dir);
   std::filesystem::create_directories(dir);

@@ -82,6 +82,34 @@ TEST(Invariants, ImprovedDetectorHasNoViolationsThesisCountsReported) {
 namespace pfm::test {
 namespace {
 
+// Four points stacked at a fine cell's centre (spacing 0.1 m, so phi = 0.566 there, above the
+// guard margin) make an island of radius 0.06 m that no node of the 0.125 m fine cells sees:
+// the first contours miss it, the containment check guards the four points, and the second
+// pass finds their island (fuzz_detect's finding, tests/fuzz/README.md).
+TEST(Invariants, StackedPointsSmallerThanAFineCellAreGuardedInASecondPass) {
+  OwnedCloud cloud;
+  cloud.initial_spacing = 0.1;
+  for (int k = 0; k < 4; ++k) {
+    cloud.position.emplace_back(3.0625, 2.4375);
+    cloud.volume.push_back(0.01);
+  }
+  Grid g;
+  g.cell_size = 0.5;
+  g.n_cells_x = 12;
+  g.n_cells_y = 10;
+  DetectorConfig band, full;
+  band.method = full.method = DetectorMethod::kImproved;
+  full.improved.narrow_band = false;
+  for (const DetectorConfig* config : {&band, &full}) {
+    DetectorState state;
+    DetectionTimings t;
+    const auto b = detect(cloud.view(), g, *config, state, &t);
+    EXPECT_EQ(t.particles_guarded_after_contouring, 4);
+    ASSERT_EQ(b.contours.size(), 1u);
+    EXPECT_EQ(check_invariants(b, g, cloud.position).total(), 0);
+  }
+}
+
 TEST(Invariants, BodyCutByTheFieldGridGivesOneOpenChainEndingOnItsEdge) {
   // The rectangle [2, 8] x [2, 6] on a grid starting at y = 3: one open chain from the grid's
   // bottom edge (x = 8 side) over the top back to the bottom edge (x = 2 side), material on the
