@@ -6,7 +6,8 @@ JOBS ?= 2
 CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
-# Debian packages the build, the tests and the studies need.
+# Debian packages the build, the tests and the studies need (python3-* are package names: Python
+# itself always runs as $(PYTHON)).
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \

@@ -976,6 +976,14 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     geometry.n_x = ncx * r + 1;
     geometry.n_y = ncy * r + 1;
     const int n_fine_x = geometry.n_x - 1, n_fine_y = geometry.n_y - 1;
+    // The fine cell (i, j) holding x, clamped to the grid; false when x lies outside the grid.
+    const auto fine_cell = [&](const Vec2& x, int& i, int& j) {
+      const double u = std::floor((x.x() - geometry.origin.x()) / geometry.spacing);
+      const double v = std::floor((x.y() - geometry.origin.y()) / geometry.spacing);
+      i = static_cast<int>(std::clamp(u, 0.0, n_fine_x - 1.0));
+      j = static_cast<int>(std::clamp(v, 0.0, n_fine_y - 1.0));
+      return u >= 0.0 && v >= 0.0 && u < n_fine_x && v < n_fine_y;
+    };
     BlockStore<double> node_cache(ncx, ncy, r, std::numeric_limits<double>::quiet_NaN());
     const auto node_value = [&](int i, int j) {
       double& slot = node_cache.at(i, j);
@@ -1105,22 +1113,12 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
         const bool a = inside(i, j);
         return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
       };
-      // The fine cell of particle p, or false outside the grid.
-      const auto fine_cell = [&](std::size_t p, int& i, int& j) {
-        i = static_cast<int>(
-            std::floor((positions[p].x() - geometry.origin.x()) / geometry.spacing));
-        j = static_cast<int>(
-            std::floor((positions[p].y() - geometry.origin.y()) / geometry.spacing));
-        return i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
-      };
       // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the
       // row has none up to the grid edge (a contour cut by the edge), to the left, then in p's
       // column upwards and downwards.
       const auto seed_from = [&](std::size_t p) {
         int i0 = 0, j0 = 0;
-        fine_cell(p, i0, j0);
-        i0 = std::clamp(i0, 0, n_fine_x - 1);
-        j0 = std::clamp(j0, 0, n_fine_y - 1);
+        fine_cell(positions[p], i0, j0);  // from the nearest cell for a particle off the grid
         const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
         for (const auto& [di, dj] : steps) {
           for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y;
@@ -1147,7 +1145,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       // all four corners of its lattice square are outside.
       for (std::size_t p = 0; p < n_particles; ++p) {
         int i = 0, j = 0;
-        if (!candidate[p] || field.guarded(p) || !fine_cell(p, i, j)) continue;
+        if (!candidate[p] || field.guarded(p) || !fine_cell(positions[p], i, j)) continue;
         const std::size_t c = static_cast<std::size_t>(j / r) * ncx + i / r;
         const int stride = near_guard[c] ? 1 : coarse_stride;
         const int ci = i / stride * stride, cj = j / stride * stride;
@@ -1208,17 +1206,13 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     };
     std::vector<CellSegment> segments;
     std::vector<char> crossed(static_cast<std::size_t>(ncx) * ncy, 0);
-    const auto fine_index = [&](double x, double origin, int n) {
-      return std::clamp(static_cast<int>(std::floor((x - origin) / geometry.spacing)), 0, n - 1);
-    };
     for (const Contour& c : boundary.contours) {
       const std::size_t n = c.points.size();
       for (std::size_t k = 0; k + 1 < n || (c.closed && k < n); ++k) {
         const Vec2& a = c.points[k];
         const Vec2& b = c.points[(k + 1) % n];
-        const Vec2 mid = 0.5 * (a + b);
-        const int i = fine_index(mid.x(), geometry.origin.x(), n_fine_x);
-        const int j = fine_index(mid.y(), geometry.origin.y(), n_fine_y);
+        int i = 0, j = 0;
+        fine_cell(0.5 * (a + b), i, j);
         segments.push_back({j * n_fine_x + i, a, b});
         crossed[static_cast<std::size_t>(j / r) * ncx + i / r] = 1;
       }
@@ -1229,11 +1223,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     for (std::size_t p = 0; p < n_particles; ++p) {
       if ((!candidate.empty() && !candidate[p]) || field.guarded(p)) continue;
       const Vec2& x = positions[p];
-      const int ci = static_cast<int>(std::floor((x.x() - grid.origin.x()) / h));
-      const int cj = static_cast<int>(std::floor((x.y() - grid.origin.y()) / h));
-      if (ci < 0 || cj < 0 || ci >= ncx || cj >= ncy) continue;
-      const int fi = fine_index(x.x(), geometry.origin.x(), n_fine_x);
-      const int fj = fine_index(x.y(), geometry.origin.y(), n_fine_y);
+      int fi = 0, fj = 0;
+      if (!fine_cell(x, fi, fj)) continue;
+      const int ci = fi / r, cj = fj / r;
       const int cell = fj * n_fine_x + fi;
       auto it = segments.end();
       if (crossed[static_cast<std::size_t>(cj) * ncx + ci]) {

@@ -14,6 +14,7 @@
 #include "mpm/boundary/load_input.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/detect/detect_command.hpp"
+#include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
 #include "tests/cpp/detect/detect_test_support.hpp"
@@ -170,11 +171,9 @@ DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
     f(1, 0) += (byte(at + 2) - 128) / 160.0;
     f(1, 1) += (byte(at + 3) - 128) / 160.0;
     // The domain of the invariants (issue 3): J in [0.5, 2], stretch ratio up to 4.
-    // Singular values: s^2 = (|F|^2 +- sqrt(|F|^4 - 4 J^2)) / 2.
-    const double j = f.determinant(), norm2 = f.squaredNorm();
-    const double root = std::sqrt(std::max(norm2 * norm2 - 4.0 * j * j, 0.0));
-    const double largest = std::sqrt(0.5 * (norm2 + root));
-    const double smallest = std::sqrt(std::max(0.5 * (norm2 - root), 0.0));
+    double largest = 0.0, smallest = 0.0;
+    detail::singular_values(f, largest, smallest);
+    const double j = f.determinant();
     return j >= 0.5 && j <= 2.0 && largest <= 4.0 * smallest ? f : Mat2::Identity();
   };
   const Vec2 upper = in.grid.upper_corner();
@@ -221,12 +220,7 @@ Outcome run_detect(const std::string& path) {
   DetectorState band_state, full_state;
   const DetectedBoundary a = detect(cloud, in.grid, band, band_state);
   const DetectedBoundary b = detect(cloud, in.grid, full, full_state);
-  bool same = a.contours.size() == b.contours.size();
-  for (std::size_t c = 0; same && c < a.contours.size(); ++c) {
-    same = a.contours[c].closed == b.contours[c].closed &&
-           a.contours[c].points == b.contours[c].points;
-  }
-  check(same, path, "the narrow band gives the full field's contours");
+  check(test::same_contours(a, b), path, "the narrow band gives the full field's contours");
   if (a.contours.empty()) {
     // No contour: the material covers the whole grid (every edge a wall), and then the field is
     // inside at every node along the grid edge; otherwise a contour was missed.

@@ -100,6 +100,18 @@ inline std::vector<Vec2> boundary_samples(const DetectedBoundary& b) {
   return s;
 }
 
+/// Bitwise the same contours, in the same order.
+inline bool same_contours(const DetectedBoundary& a, const DetectedBoundary& b) {
+  if (a.contours.size() != b.contours.size()) return false;
+  for (std::size_t c = 0; c < a.contours.size(); ++c) {
+    if (a.contours[c].closed != b.contours[c].closed ||
+        a.contours[c].points != b.contours[c].points) {
+      return false;
+    }
+  }
+  return true;
+}
+
 /// Signed area (> 0 counter-clockwise) of a closed contour.
 inline double signed_area(const Contour& c) {
   double a = 0.0;

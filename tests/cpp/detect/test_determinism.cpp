@@ -9,17 +9,6 @@
 namespace pfm::test {
 namespace {
 
-bool identical(const DetectedBoundary& a, const DetectedBoundary& b) {
-  if (a.contours.size() != b.contours.size()) return false;
-  for (std::size_t c = 0; c < a.contours.size(); ++c) {
-    if (a.contours[c].closed != b.contours[c].closed ||
-        a.contours[c].points != b.contours[c].points) {
-      return false;
-    }
-  }
-  return true;
-}
-
 TEST(Determinism, RepeatedCallsGiveBitwiseIdenticalOrderedOutput) {
   for (const auto method : {DetectorMethod::kImproved, DetectorMethod::kPfm, DetectorMethod::kSmm,
                             DetectorMethod::kVof, DetectorMethod::kDensity}) {
@@ -30,7 +19,7 @@ TEST(Determinism, RepeatedCallsGiveBitwiseIdenticalOrderedOutput) {
       DetectorState s1, s2;
       const auto a = detect(rc.cloud.view(), rc.grid, config, s1);
       const auto b = detect(rc.cloud.view(), rc.grid, config, s2);
-      ASSERT_TRUE(identical(a, b)) << "seed " << seed;
+      ASSERT_TRUE(same_contours(a, b)) << "seed " << seed;
       // Canonical order: closed loops start at their lowest-then-leftmost point and contours are
       // sorted by that point.
       for (std::size_t c = 0; c < a.contours.size(); ++c) {
@@ -71,7 +60,7 @@ TEST(Determinism, NarrowBandEqualsFullField) {
     const auto b = detect(rc.cloud.view(), rc.grid, full, s2, &t2);
     band_evaluations += t1.field_evaluations;
     full_evaluations += t2.field_evaluations;
-    if (!identical(a, b)) {
+    if (!same_contours(a, b)) {
       ++mismatches;
       std::printf("narrow band differs: seed %llu (%s)\n",
                   static_cast<unsigned long long>(seed + 100000), rc.kind);
@@ -92,7 +81,7 @@ TEST(Determinism, NarrowBandEqualsFullField) {
     DetectionTimings t1, t2;
     const auto a = detect(big.view(), g, band, s1, &t1);
     const auto b = detect(big.view(), g, full, s2, &t2);
-    EXPECT_TRUE(identical(a, b));
+    EXPECT_TRUE(same_contours(a, b));
     band_cost[scale - 1] = t1.field_evaluations;
     full_cost[scale - 1] = t2.field_evaluations;
     std::printf(
@@ -155,7 +144,7 @@ TEST(Determinism, NarrowBandEqualsFullFieldAcrossCracks) {
               smallest_share =
                   std::min(smallest_share, static_cast<double>(t1.field_particles) /
                                                static_cast<double>(t2.field_particles));
-              if (!identical(a, b)) {
+              if (!same_contours(a, b)) {
                 ++mismatches;
                 std::printf("narrow band differs: %d per cell, crack %.2f h at +%.2f h%s%s%s\n",
                             per_cell, width, offset, through ? ", through" : "",
@@ -194,7 +183,7 @@ TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
   DetectionTimings t1, t2;
   const auto a = detect(cloud.view(), g, band, s1, &t1);
   const auto b = detect(cloud.view(), g, full, s2, &t2);
-  EXPECT_TRUE(identical(a, b));
+  EXPECT_TRUE(same_contours(a, b));
   EXPECT_EQ(t1.field_particles, static_cast<long>(cloud.position.size()));
 }
 
