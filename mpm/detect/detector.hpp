@@ -8,6 +8,7 @@
 // (usually the MPM grid) refined by an integer factor; open contours end on its edge.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <optional>
 #include <span>
@@ -278,12 +279,43 @@ class ImprovedField {
  public:
   /// Tag of the constructor that leaves the guards undecided (see decide_guards()).
   struct DeferGuards {};
-  /// A fixed bin lattice (origin below every particle and mirror image, bin side >= half the
-  /// largest reach): the narrow band and the full field then add the same terms in the same
-  /// order, whatever particles each holds.
+  /// A point's sum visits the bins kBinRings rings around its own; bins are at least the largest
+  /// reach / kBinRings.
+  static constexpr int kBinRings = 2;
+  /// The bins and the fixed-point unit of a field that holds part of a cloud (the narrow band):
+  /// bins anchored below every particle and mirror image, of side >= the largest reach /
+  /// kBinRings, and the unit set by the whole cloud's largest weight, so that its sums are
+  /// bitwise those of a field holding every particle (the sums do not depend on the order of
+  /// their terms, kernel_sums.hpp).
   struct BinLattice {
     Vec2 origin;
     double bin_size;
+    /// Bound of the largest kernel weight V_p C_p of the whole cloud (weight_bound()): fixes the
+    /// fixed-point unit of the sums (kernel_sums.hpp), the same for any part of the cloud.
+    double weight_bound;
+  };
+  /// Kernel data by slot, one array per quantity, each padded with detail::kKernelPadding zeros
+  /// (the sums read four slots at a time).
+  struct KernelArrays {
+    std::vector<double> x, y;                ///< centre, m
+    std::vector<double> k00, k01, k10, k11;  ///< S^-1, 1/m
+    std::vector<double> weight;              ///< V_p C_p x 2^fixed_point_bits()
+    std::vector<double> guarded;             ///< 1 where the guard is active, else 0
+    std::vector<double> half_x, half_y;      ///< half widths of the box around kernel and guard, m
+    std::size_t size() const { return n_; }
+    /// n slots (zeros), padding included.
+    void assign_zeros(std::size_t n);
+    /// The slots `slots` of `from`, in that order.
+    void gather(const KernelArrays& from, std::span<const int> slots);
+
+   private:
+    std::array<std::vector<double>*, 10> columns() {
+      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &guarded, &half_x, &half_y};
+    }
+    std::array<const std::vector<double>*, 10> columns() const {
+      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &guarded, &half_x, &half_y};
+    }
+    std::size_t n_ = 0;
   };
 
   /// `walls`: the field grid whose edges mirror the particles (ImprovedConfig::mirror_grid_edges);
@@ -319,16 +351,21 @@ class ImprovedField {
 
   double operator()(const Vec2& x) const;
   /// The field at the n_x x n_y nodes origin + (first_i + a, first_j + b) spacing, row by row
-  /// into `out` (out[b n_x + a]); bitwise equal to operator() at each of these points (the same
-  /// terms added in the same order), but each particle visits only the nodes it covers.
+  /// into `out` (out[b n_x + a]), each computed as the callers of operator() compute it.
   void evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j, int n_x,
                       int n_y, std::vector<double>& out) const;
-  /// The slots (kernels and guards) whose support box meets the box lo..hi, in increasing slot
-  /// order, into `out`: the terms of operator() at any point of the box that are not exact zeros.
-  void slots_reaching(const Vec2& lo, const Vec2& hi, std::vector<int>& out) const;
+  /// The slots (kernels and guards) whose support box meets the box lo..hi, copied into `out`:
+  /// the terms of operator() at any point of the box that are not exact zeros.
+  void slots_reaching(const Vec2& lo, const Vec2& hi, KernelArrays& out) const;
   /// operator() at x summed over `slots` only (from slots_reaching() for a box holding x):
   /// bitwise equal to operator(), without visiting the bins' other candidates.
-  double operator()(const Vec2& x, std::span<const int> slots) const;
+  double operator()(const Vec2& x, const KernelArrays& slots) const;
+  /// A bound of the largest kernel weight V_p C_p of particles with volume <= largest_volume
+  /// and det F >= smallest_det (1 without F), as the constructor computes the weights.
+  static double weight_bound(const ImprovedConfig& config, double initial_spacing,
+                             double largest_volume, double smallest_det);
+  /// s of the fixed-point unit 2^-s of the kernel sums (detail::kernel_sum()).
+  int fixed_point_bits() const { return fixed_point_bits_; }
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;
   /// Largest kernel or guard reach, m.
@@ -353,16 +390,11 @@ class ImprovedField {
   // The sums behind volume_fraction() (guard = false) and operator() (guard = true) for the
   // kernel exponent E.
   void switch_guard_on(std::size_t p);
-  template <int E, bool Guard>
-  double sum_at(const Vec2& x) const;
-  template <int E>
-  double sum_over(const Vec2& x, std::span<const int> slots) const;
-  // Slot k's terms at (px, py): added to phi, and the guard's value maxed into guard.
-  template <int E, bool Guard>
-  void add_slot(int k, double px, double py, double& phi, double& guard) const;
-  template <int E>
-  void scatter_block(const Vec2& origin, double spacing, int first_i, int first_j, int n_x, int n_y,
-                     std::vector<double>& out) const;
+  // The sum over the slot ranges [begin[r], end[r]) of `kernels` at x: phi (fixed point
+  // converted back) and, with `guard`, max(phi, guard).
+  double sum_ranges(const KernelArrays& kernels, const int* begin, const int* end, int n_ranges,
+                    const Vec2& x, bool guard) const;
+  double sum_at(const Vec2& x, bool guard) const;
 
   // Per particle, by particle index.
   std::vector<Vec2> position_;
@@ -373,14 +405,9 @@ class ImprovedField {
   std::vector<double> smallest_stretch_;  ///< smallest singular value of F
   // Per particle and mirror image in bin order (slot k holds bins_.particle_at(k); indices past
   // the particles are mirror images): what the evaluations read.
-  struct Slot {
-    double x, y;                ///< position, m
-    double k00, k01, k10, k11;  ///< S^-1, 1/m
-    double weight;              ///< V_p C_p
-    double guarded;             ///< 1 when the guard is active
-    double half_x, half_y;      ///< half widths of the box around the kernel (and guard), m
-  };
-  std::vector<Slot> slot_;
+  KernelArrays slot_;
+  int fixed_point_bits_ = 0;
+  double fixed_point_unit_ = 1.0;  ///< 2^-fixed_point_bits_
   std::size_t n_guarded_ = 0;
   int exponent_ = 3;
   bool guard_ = true;
@@ -391,7 +418,7 @@ class ImprovedField {
   double reach_ = 0.0;
   double smallest_guard_axis_ = 0.0;
   double curvature_moment_ = 0.0;
-  int rings_ = 1;  ///< bins searched around a point (bin size = reach / rings)
+  int rings_ = kBinRings;  ///< bins searched around a point (bin size = reach / rings)
   ParticleBins bins_;
 };
 

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/kernel_sums.hpp"
 
 namespace pfm {
 
@@ -153,20 +154,22 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
       }
     }
   }
-  // Bins of half the largest reach searched two rings out: 6.25 reach^2 of candidates per
-  // evaluation instead of 9 reach^2 with bins of the full reach.
-  rings_ = 2;
+  // Bins of the largest reach / kBinRings, searched kBinRings rings out (bin_rings()).
+  rings_ = kBinRings;
   if (lattice != nullptr && lattice->bin_size * rings_ < reach_) {
     char message[160];
     std::snprintf(message, sizeof message,
-                  "ImprovedField: the bin lattice (%.17g m) is finer than half the largest reach "
-                  "(%.17g m)",
-                  lattice->bin_size, reach_);
+                  "ImprovedField: the bin lattice (%.17g m) is finer than 1/%d of the largest "
+                  "reach (%.17g m)",
+                  lattice->bin_size, rings_, reach_);
     throw std::logic_error(message);
   }
   bins_ = lattice != nullptr ? ParticleBins(all_positions, lattice->bin_size, lattice->origin)
                              : ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
   // Pass 2, in bin order (the cloud's arrays are read in a few streams): the slots.
+  struct Slot {
+    double x, y, k00, k01, k10, k11, weight, half_x, half_y;
+  };
   const auto kernel_of = [&](std::size_t p) {
     Slot slot{position_[p].x(),
               position_[p].y(),
@@ -175,7 +178,6 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
               0.0,
               1.0 / a0,
               cloud.volume[p] * mass_constant / (a0 * a0),
-              0.0,
               a0,
               a0};
     if (deformed) {
@@ -194,26 +196,80 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     }
     return slot;
   };
-  slot_.resize(all_positions.size());
+  slot_.assign_zeros(all_positions.size());
+  double largest_weight = 0.0;
   for (std::size_t k = 0; k < slot_.size(); ++k) {
     const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
-    if (q < n) {
-      slot_[k] = kernel_of(q);
-      continue;
+    Slot m = kernel_of(q < n ? q : images[q - n].particle);
+    if (q >= n) {
+      const Image& image = images[q - n];
+      if (image.in_x) {
+        m.x = 2.0 * image.ex - m.x;
+        m.k01 = -m.k01;
+        m.k10 = -m.k10;
+      }
+      if (image.in_y) {
+        m.y = 2.0 * image.ey - m.y;
+        m.k01 = -m.k01;
+        m.k10 = -m.k10;
+      }
     }
-    const Image& image = images[q - n];
-    Slot m = kernel_of(image.particle);
-    if (image.in_x) {
-      m.x = 2.0 * image.ex - m.x;
-      m.k01 = -m.k01;
-      m.k10 = -m.k10;
+    slot_.x[k] = m.x;
+    slot_.y[k] = m.y;
+    slot_.k00[k] = m.k00;
+    slot_.k01[k] = m.k01;
+    slot_.k10[k] = m.k10;
+    slot_.k11[k] = m.k11;
+    slot_.weight[k] = m.weight;
+    slot_.half_x[k] = m.half_x;
+    slot_.half_y[k] = m.half_y;
+    largest_weight = std::max(largest_weight, m.weight);
+  }
+  // The fixed-point unit: a term of the largest weight stays below 2^45 units (kernel_sums.hpp).
+  // The narrow band takes the bound of the whole cloud, so that its unit is the full field's.
+  double bound = largest_weight;
+  if (lattice != nullptr) {
+    if (!(largest_weight <= 2.0 * lattice->weight_bound)) {
+      char message[160];
+      std::snprintf(message, sizeof message,
+                    "ImprovedField: a kernel weight (%.17g) exceeds twice the lattice's bound "
+                    "(%.17g)",
+                    largest_weight, lattice->weight_bound);
+      throw std::logic_error(message);
     }
-    if (image.in_y) {
-      m.y = 2.0 * image.ey - m.y;
-      m.k01 = -m.k01;
-      m.k10 = -m.k10;
-    }
-    slot_[k] = m;
+    bound = lattice->weight_bound;
+  }
+  int exponent_of_bound = 0;
+  std::frexp(bound > 0.0 ? bound : 1.0, &exponent_of_bound);  // bound < 2^exponent_of_bound
+  fixed_point_bits_ = 44 - exponent_of_bound;
+  fixed_point_unit_ = std::ldexp(1.0, -fixed_point_bits_);
+  for (std::size_t k = 0; k < slot_.size(); ++k) {
+    slot_.weight[k] = std::ldexp(slot_.weight[k], fixed_point_bits_);
+  }
+}
+
+double ImprovedField::weight_bound(const ImprovedConfig& config, double initial_spacing,
+                                   double largest_volume, double smallest_det) {
+  const double a0 = config.radius_factor * initial_spacing;
+  const double mass_constant = (static_cast<int>(config.profile) + 1.0) / std::numbers::pi;
+  return largest_volume * mass_constant / (a0 * a0) / smallest_det;
+}
+
+void ImprovedField::KernelArrays::assign_zeros(std::size_t n) {
+  n_ = n;
+  for (std::vector<double>* v : columns()) v->assign(n + detail::kKernelPadding, 0.0);
+}
+
+void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<const int> slots) {
+  n_ = slots.size();
+  const auto to = columns();
+  const auto source = from.columns();
+  for (std::size_t c = 0; c < to.size(); ++c) {
+    std::vector<double>& column = *to[c];
+    const double* values = source[c]->data();
+    column.resize(n_ + detail::kKernelPadding);
+    for (std::size_t k = 0; k < n_; ++k) column[k] = values[slots[k]];
+    std::fill(column.begin() + static_cast<long>(n_), column.end(), 0.0);
   }
 }
 
@@ -282,171 +338,92 @@ void ImprovedField::switch_guard_on(std::size_t p) {
   guarded_[p] = 1;
   ++n_guarded_;
   smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
-  Slot& slot = slot_[bins_.slot_of(static_cast<int>(p))];
-  slot.guarded = 1.0;
+  const auto k = static_cast<std::size_t>(bins_.slot_of(static_cast<int>(p)));
+  slot_.guarded[k] = 1.0;
   // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
   const double guard_box = std::sqrt(2.0) / guard_scale_;
   if (guard_box > 1.0) {
-    slot.half_x *= guard_box;
-    slot.half_y *= guard_box;
+    slot_.half_x[k] *= guard_box;
+    slot_.half_y[k] *= guard_box;
   }
 }
 
-namespace {
-
-// (1 - q)^E for the kernel exponent E, multiplied in the order w, w w, (w w) w.
-template <int E>
-double kernel_power(double w) {
-  if constexpr (E == 1) {
-    return w;
-  } else if constexpr (E == 2) {
-    return w * w;
-  } else {
-    return (w * w) * w;
-  }
-}
-
-// Calls f.template operator()<E>() for the exponent of the kernel profile (1, 2 or 3).
-template <class F>
-decltype(auto) with_exponent(int exponent, F&& f) {
-  switch (exponent) {
-    case 1:
-      return f.template operator()<1>();
-    case 2:
-      return f.template operator()<2>();
-    default:
-      return f.template operator()<3>();
-  }
-}
-
-}  // namespace
-
-// The terms are added in increasing slot order; a point outside a kernel adds an exact zero
-// (weight x 0), so the sum is bitwise that of the kernels reaching x, without a branch that
-// a point on a kernel's rim would mispredict half the time.
-template <int E, bool Guard>
-[[gnu::always_inline]] inline void ImprovedField::add_slot(int k, double px, double py, double& phi,
-                                                           double& guard) const {
-  const Slot& s = slot_[k];
-  const double dx = px - s.x, dy = py - s.y;
-  const double ux = s.k00 * dx + s.k01 * dy, uy = s.k10 * dx + s.k11 * dy;
-  const double q = ux * ux + uy * uy;
-  const double w = std::max(1.0 - q, 0.0);
-  phi += s.weight * kernel_power<E>(w);
-  if (Guard && s.guarded != 0.0) {
-    // 0.5 + 0.5 (1 - |G^-1 d|^2): > 0.5 inside the guard ellipse, continuous, 0 at q = 2;
-    // G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q.
-    const double qg = guard_scale_ * guard_scale_ * q;
-    if (qg < 2.0) guard = std::max(guard, 1.0 - 0.5 * qg);
-  }
-}
-
-template <int E, bool Guard>
-double ImprovedField::sum_at(const Vec2& x) const {
-  double phi = 0.0, guard = 0.0;
+double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, const int* end,
+                                 int n_ranges, const Vec2& x, bool guard) const {
+  const detail::KernelColumns columns{kernels.x.data(),     kernels.y.data(),   kernels.k00.data(),
+                                      kernels.k01.data(),   kernels.k10.data(), kernels.k11.data(),
+                                      kernels.weight.data()};
   const double px = x.x(), py = x.y();
-  bins_.for_each_slot_near(x, rings_, [&](int k) { add_slot<E, Guard>(k, px, py, phi, guard); });
-  return Guard ? std::max(phi, guard) : phi;
+  const std::uint64_t units = detail::kernel_sum(exponent_, columns, begin, end, n_ranges, px, py);
+  const double phi = static_cast<double>(units) * fixed_point_unit_;
+  if (!guard || n_guarded_ == 0) return phi;
+  // The guards (few): 0.5 + 0.5 (1 - |G^-1 d|^2), > 0.5 inside the guard ellipse, continuous,
+  // 0 at q = 2; G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q. A maximum, so in any
+  // order.
+  const double scale_squared = guard_scale_ * guard_scale_;
+  double best = 0.0;
+  for (int r = 0; r < n_ranges; ++r) {
+    for (int k = begin[r]; k < end[r]; ++k) {
+      const auto s = static_cast<std::size_t>(k);
+      if (kernels.guarded[s] == 0.0) continue;
+      const double dx = px - kernels.x[s], dy = py - kernels.y[s];
+      const double ux = kernels.k00[s] * dx + kernels.k01[s] * dy;
+      const double uy = kernels.k10[s] * dx + kernels.k11[s] * dy;
+      const double qg = scale_squared * (ux * ux + uy * uy);
+      if (qg < 2.0) best = std::max(best, 1.0 - 0.5 * qg);
+    }
+  }
+  return std::max(phi, best);
 }
 
-template <int E>
-double ImprovedField::sum_over(const Vec2& x, std::span<const int> slots) const {
-  double phi = 0.0, guard = 0.0;
-  const double px = x.x(), py = x.y();
-  for (const int k : slots) add_slot<E, true>(k, px, py, phi, guard);
-  return std::max(phi, guard);
+double ImprovedField::sum_at(const Vec2& x, bool guard) const {
+  int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
+  const int rows = bins_.slot_rows_near(x, rings_, begin, end);
+  return sum_ranges(slot_, begin, end, rows, x, guard);
 }
 
 double ImprovedField::volume_fraction(const Vec2& x) const {
-  return with_exponent(exponent_, [&]<int E>() { return sum_at<E, false>(x); });
+  return sum_at(x, false);
 }
 
 double ImprovedField::operator()(const Vec2& x) const {
-  return with_exponent(exponent_, [&]<int E>() { return sum_at<E, true>(x); });
+  return sum_at(x, true);
 }
 
-double ImprovedField::operator()(const Vec2& x, std::span<const int> slots) const {
-  return with_exponent(exponent_, [&]<int E>() { return sum_over<E>(x, slots); });
+double ImprovedField::operator()(const Vec2& x, const KernelArrays& slots) const {
+  const int begin = 0, end = static_cast<int>(slots.size());
+  return sum_ranges(slots, &begin, &end, 1, x, true);
 }
 
-void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, std::vector<int>& out) const {
-  out.clear();
+void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, KernelArrays& out) const {
   // The bins within reach of the box (a superset), then each slot's own support box, widened by
   // a hair so that rounding at a kernel's rim never drops a nonzero term.
   const double hair = 1e-9 * reach_;
+  thread_local std::vector<int> found;
+  found.clear();
   bins_.for_each_slot_in_box(lo - Vec2::Constant(reach_), hi + Vec2::Constant(reach_), [&](int k) {
-    const Slot& s = slot_[k];
-    const double half_x = s.half_x + hair, half_y = s.half_y + hair;
-    if (s.x + half_x >= lo.x() && s.x - half_x <= hi.x() && s.y + half_y >= lo.y() &&
-        s.y - half_y <= hi.y()) {
-      out.push_back(k);
+    const auto s = static_cast<std::size_t>(k);
+    const double half_x = slot_.half_x[s] + hair, half_y = slot_.half_y[s] + hair;
+    if (slot_.x[s] + half_x >= lo.x() && slot_.x[s] - half_x <= hi.x() &&
+        slot_.y[s] + half_y >= lo.y() && slot_.y[s] - half_y <= hi.y()) {
+      found.push_back(k);
     }
   });
+  out.gather(slot_, found);
 }
 
 void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
                                    int n_x, int n_y, std::vector<double>& out) const {
-  with_exponent(exponent_, [&]<int E>() {
-    scatter_block<E>(origin, spacing, first_i, first_j, n_x, n_y, out);
-  });
-}
-
-template <int E>
-void ImprovedField::scatter_block(const Vec2& origin, double spacing, int first_i, int first_j,
-                                  int n_x, int n_y, std::vector<double>& out) const {
-  const std::size_t n_nodes = static_cast<std::size_t>(n_x) * n_y;
-  out.assign(n_nodes, 0.0);
-  std::vector<double> guard(n_nodes, 0.0);
-  if (slot_.empty()) return;
-  // The slots binned within reach of the block, in increasing slot order (the order in which
-  // operator() adds them at any of its nodes).
   // Node (a, b) sits at origin + (first_i + a, first_j + b) spacing, computed exactly as the
   // caller of operator() computes it.
-  const auto node_x = [&](int a) {
-    return origin.x() + static_cast<double>(first_i + a) * spacing;
-  };
-  const auto node_y = [&](int b) {
-    return origin.y() + static_cast<double>(first_j + b) * spacing;
-  };
-  std::vector<double> xs(static_cast<std::size_t>(n_x));
-  for (int a = 0; a < n_x; ++a) xs[static_cast<std::size_t>(a)] = node_x(a);
-  const Vec2 lo = Vec2(node_x(0), node_y(0)) - Vec2::Constant(reach_);
-  const Vec2 hi = Vec2(node_x(n_x - 1), node_y(n_y - 1)) + Vec2::Constant(reach_);
-  std::vector<int> slots;
-  bins_.for_each_slot_in_box(lo, hi, [&](int k) { slots.push_back(k); });
-  for (const int k : slots) {
-    const Slot& s = slot_[k];
-    const double half_x = s.half_x, half_y = s.half_y;
-    // One node of slack on each side: the q tests below decide, as in operator().
-    const int i0 = std::max(0, static_cast<int>(std::floor((s.x - half_x - node_x(0)) / spacing)));
-    const int i1 =
-        std::min(n_x - 1, static_cast<int>(std::ceil((s.x + half_x - node_x(0)) / spacing)));
-    const int j0 = std::max(0, static_cast<int>(std::floor((s.y - half_y - node_y(0)) / spacing)));
-    const int j1 =
-        std::min(n_y - 1, static_cast<int>(std::ceil((s.y + half_y - node_y(0)) / spacing)));
-    for (int j = j0; j <= j1; ++j) {
-      const double dy = node_y(j) - s.y;
-      const double ky0 = s.k01 * dy, ky1 = s.k11 * dy;
-      double* row = out.data() + static_cast<std::size_t>(j) * n_x;
-      for (int i = i0; i <= i1; ++i) {
-        const double dx = xs[static_cast<std::size_t>(i)] - s.x;
-        const double ux = s.k00 * dx + ky0, uy = s.k10 * dx + ky1;
-        const double q = ux * ux + uy * uy;
-        const double w = std::max(1.0 - q, 0.0);
-        row[i] += s.weight * kernel_power<E>(w);
-      }
-      if (s.guarded != 0.0) {
-        double* guard_row = guard.data() + static_cast<std::size_t>(j) * n_x;
-        for (int i = i0; i <= i1; ++i) {
-          const double dx = xs[static_cast<std::size_t>(i)] - s.x;
-          const double ux = s.k00 * dx + ky0, uy = s.k10 * dx + ky1;
-          const double qg = guard_scale_ * guard_scale_ * (ux * ux + uy * uy);
-          if (qg < 2.0) guard_row[i] = std::max(guard_row[i], 1.0 - 0.5 * qg);
-        }
-      }
+  out.resize(static_cast<std::size_t>(n_x) * n_y);
+  for (int b = 0; b < n_y; ++b) {
+    const double y = origin.y() + static_cast<double>(first_j + b) * spacing;
+    for (int a = 0; a < n_x; ++a) {
+      const double x = origin.x() + static_cast<double>(first_i + a) * spacing;
+      out[static_cast<std::size_t>(b) * n_x + a] = (*this)(Vec2(x, y));
     }
   }
-  for (std::size_t node = 0; node < n_nodes; ++node) out[node] = std::max(out[node], guard[node]);
 }
 
 double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
@@ -589,6 +566,8 @@ namespace {
 struct CloudSurvey {
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< bounding box of the positions, m
   double largest_stretch = 1.0;               ///< largest singular value of any F (1 without F)
+  double largest_volume = 0.0;                ///< m^2
+  double smallest_det = 1.0;                  ///< smallest det F (1 without F)
   std::vector<double> cell_volume;            ///< particle volume per grid cell, m^2 (narrow band)
   std::vector<int> cell;                      ///< grid cell of each particle, -1 outside
 };
@@ -603,7 +582,7 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   if (n == 0) return survey;
   const double* x = cloud.position.data()->data();  // x0 y0 x1 y1 ...
   const double* volume = cloud.volume.data();
-  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1];
+  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1], largest_volume = 0.0;
   double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
   int positive = 1;
   // The grid cell of each particle (narrow band) in the same sweep: truncation is the floor for
@@ -614,14 +593,15 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   if (cells) survey.cell.resize(n);
   int* cell = survey.cell.data();
   const auto sweep = [&](auto with_cells) {
-#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y) reduction(+ : finite) \
-    reduction(& : positive)
+#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y, largest_volume) \
+    reduction(+ : finite) reduction(& : positive)
     for (std::size_t p = 0; p < n; ++p) {
       const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
       lo_x = std::min(lo_x, px);
       lo_y = std::min(lo_y, py);
       hi_x = std::max(hi_x, px);
       hi_y = std::max(hi_y, py);
+      largest_volume = std::max(largest_volume, v);
       finite += (px + py + v) * 0.0;
       positive &= v > 0.0 ? 1 : 0;
       if constexpr (decltype(with_cells)::value) {
@@ -642,17 +622,22 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
     // / 2.
     const double* f = cloud.deformation_gradient.data()->data();  // column-major 2 x 2
     largest_squared = 0.0;
-#pragma omp simd reduction(max : largest_squared) reduction(+ : finite) reduction(& : positive)
+    double smallest_det = std::numeric_limits<double>::infinity();
+#pragma omp simd reduction(max : largest_squared) reduction(min : smallest_det) \
+    reduction(+ : finite) reduction(& : positive)
     for (std::size_t p = 0; p < n; ++p) {
       const double f00 = f[4 * p], f10 = f[4 * p + 1], f01 = f[4 * p + 2], f11 = f[4 * p + 3];
       const double a = f00 * f00 + f10 * f10, c = f01 * f01 + f11 * f11;
       const double b = f00 * f01 + f10 * f11, d = f00 * f11 - f01 * f10;
       finite += (a + c) * 0.0;
       positive &= d > 0.0 ? 1 : 0;
+      smallest_det = std::min(smallest_det, d);
       largest_squared =
           std::max(largest_squared, 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
     }
+    survey.smallest_det = smallest_det;
   }
+  survey.largest_volume = largest_volume;
   if (!(finite == 0.0) || !positive) {
     for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
@@ -722,10 +707,11 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const double h = grid.cell_size;
   const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
 
-  // 0. One sweep over the cloud. The bins of the field sit on a lattice fixed by the whole cloud
-  //    (anchored one reach and a bin below the grid origin and every particle, so that the mirror
-  //    images fit too), so that a field built on part of the particles adds the same terms in
-  //    the same order as one built on all of them.
+  // 0. One sweep over the cloud. The fixed-point unit of the kernel sums follows from the whole
+  //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
+  //    sums of one built on all of them (the sums are of integers: any order gives the same);
+  //    the bins sit on a lattice anchored one reach and a bin below the grid origin and every
+  //    particle, so that the mirror images fit too.
   auto& parts = timings.field_parts;
   auto part_start = Clock::now();
   // Adds the time since the last call (or the start) to `part`.
@@ -741,7 +727,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       ImprovedField::reference_reach(config, cloud.initial_spacing) * survey.largest_stretch;
   // (The largest stretch comes from another formula than the field's: 1e-9 of slack.)
   ImprovedField::BinLattice lattice{
-      Vec2::Zero(), particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / 2.0 : 1.0};
+      Vec2::Zero(),
+      particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / ImprovedField::kBinRings : 1.0,
+      ImprovedField::weight_bound(config, cloud.initial_spacing, survey.largest_volume,
+                                  survey.smallest_det)};
   lattice.origin =
       survey.lo.cwiseMin(grid.origin) - Vec2::Constant(particle_reach + lattice.bin_size);
 
@@ -953,7 +942,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const double tolerance_fraction = config.root_tolerance;
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
-  std::vector<int> edge_slots;
+  ImprovedField::KernelArrays edge_slots;
+  int edge_slots_cell = -1;  // the grid cell whose slots edge_slots holds
   DetectedBoundary boundary;
   for (int pass = 0;; ++pass) {
     part_start = Clock::now();
@@ -1178,8 +1168,18 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     const EdgeRefiner refine = [&](const Vec2& a, double value_a, const Vec2& b, double value_b) {
       const auto start = Clock::now();
       const Vec2 d = b - a;
-      // Every evaluation of the root lies on the edge: its slots are gathered once.
-      field.slots_reaching(a.cwiseMin(b), a.cwiseMax(b), edge_slots);
+      // Every evaluation of the root lies on the edge, in the grid cell that holds its middle
+      // (a closed box): the slots reaching that cell are gathered once for all its edges (the
+      // contours are followed cell by cell).
+      const Vec2 middle = 0.5 * (a + b);
+      const int ci = std::clamp(grid.cell_i(middle.x()), 0, ncx - 1);
+      const int cj = std::clamp(grid.cell_j(middle.y()), 0, ncy - 1);
+      if (cj * ncx + ci != edge_slots_cell) {
+        edge_slots_cell = cj * ncx + ci;
+        const Vec2 corner = grid.node_position(ci, cj);
+        field.slots_reaching(corner.cwiseMin(a.cwiseMin(b)),
+                             (corner + Vec2::Constant(h)).cwiseMax(a.cwiseMax(b)), edge_slots);
+      }
       const double t = brent_root([&](double s) { return field(a + s * d, edge_slots) - level; },
                                   value_a, value_b, tolerance_t, &root_evaluations);
       ++edge_points;
@@ -1265,6 +1265,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     connection_seconds += seconds_since(contour_start) - (edge_seconds - edge_seconds_before);
     if (left_out.empty() || pass > 0 || config.guard_factor <= 0.0) break;
     field.add_guards(left_out);
+    edge_slots_cell = -1;  // guards changed
     timings.particles_guarded_after_contouring = static_cast<long>(left_out.size());
   }
   timings.edge_points = edge_seconds;

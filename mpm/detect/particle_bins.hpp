@@ -54,6 +54,22 @@ class ParticleBins {
     }
   }
 
+  /// The slots of for_each_slot_near(x, rings) as ranges [begin[r], end[r]), one per bin row
+  /// (the arrays hold 2 rings + 1); returns the number of ranges.
+  int slot_rows_near(const Vec2& x, int rings, int* begin, int* end) const {
+    if (n_x_ == 0) return 0;
+    const int bi = bin_i(x.x()), bj = bin_j(x.y());
+    const int i0 = std::max(bi - rings, 0), i1 = std::min(bi + rings, n_x_ - 1);
+    if (i0 > i1) return 0;
+    int rows = 0;
+    for (int j = std::max(bj - rings, 0); j <= std::min(bj + rings, n_y_ - 1); ++j) {
+      begin[rows] = start_[j * n_x_ + i0];
+      end[rows] = start_[j * n_x_ + i1 + 1];
+      ++rows;
+    }
+    return rows;
+  }
+
   /// Calls visit(k) for the slots of every bin that overlaps the box [lo, hi], in increasing
   /// slot order.
   template <class Visitor>

@@ -2,8 +2,11 @@
 // root-finder cost, and configuration errors with JSON pointers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <random>
 
+#include "mpm/detect/kernel_sums.hpp"
 #include "random_clouds.hpp"
 
 namespace pfm::test {
@@ -96,6 +99,61 @@ TEST(Determinism, NarrowBandEqualsFullField) {
   EXPECT_LT(static_cast<double>(band_cost[1]) / band_cost[0], 2.3);
   EXPECT_GT(static_cast<double>(full_cost[1]) / full_cost[0], 2.7);
   EXPECT_EQ(mismatches, 0);
+}
+
+// The number of random cases (seeds first .. first + n - 1) whose improved boundary from
+// `second(case)` differs from that of the case as it is; prints each.
+template <class Second>
+int cases_that_differ(std::uint64_t first, int n, const char* what, Second second) {
+  DetectorConfig config;
+  config.method = DetectorMethod::kImproved;
+  int mismatches = 0;
+  for (std::uint64_t seed = first; seed < first + n; ++seed) {
+    const auto rc = random_case(seed);
+    DetectorState state;
+    const auto a = detect(rc.cloud.view(), rc.grid, config, state);
+    if (!same_contours(a, second(rc, config))) {
+      ++mismatches;
+      std::printf("%s: seed %llu (%s)\n", what, static_cast<unsigned long long>(seed), rc.kind);
+    }
+  }
+  return mismatches;
+}
+
+// The improved detector's kernel sums are integer sums of rounded terms (kernel_sums.hpp): the
+// order of the particles does not change the field, so a shuffled cloud gives bitwise the same
+// boundary.
+TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
+  const auto shuffled = [](const RandomCase& rc, const DetectorConfig& config) {
+    OwnedCloud c = rc.cloud;
+    std::vector<std::size_t> order(c.position.size());
+    for (std::size_t p = 0; p < order.size(); ++p) order[p] = p;
+    std::shuffle(order.begin(), order.end(), std::mt19937_64(order.size()));
+    for (std::size_t p = 0; p < order.size(); ++p) {
+      c.position[p] = rc.cloud.position[order[p]];
+      c.volume[p] = rc.cloud.volume[order[p]];
+      if (!c.deformation_gradient.empty()) {
+        c.deformation_gradient[p] = rc.cloud.deformation_gradient[order[p]];
+      }
+    }
+    DetectorState state;
+    return detect(c.view(), rc.grid, config, state);
+  };
+  EXPECT_EQ(cases_that_differ(200000, 300, "shuffled cloud differs", shuffled), 0);
+}
+
+// The kernel sums run with AVX2 where the processor has it and on plain x86-64 otherwise; both
+// must give the same boundary, bit for bit (no fused multiply-add in either).
+TEST(Determinism, KernelSumsWithAndWithoutAvx2GiveTheSameBoundary) {
+  if (!detail::kernel_sum_uses_avx2()) GTEST_SKIP() << "no AVX2 on this processor";
+  const auto plain = [](const RandomCase& rc, const DetectorConfig& config) {
+    detail::set_kernel_sum_avx2(false);
+    DetectorState state;
+    auto b = detect(rc.cloud.view(), rc.grid, config, state);
+    detail::set_kernel_sum_avx2(true);
+    return b;
+  };
+  EXPECT_EQ(cases_that_differ(300000, 300, "plain and AVX2 sums differ", plain), 0);
 }
 
 // The narrow band skips, without evaluating the field, the cells whose neighbourhood is full of
