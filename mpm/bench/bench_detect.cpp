@@ -134,6 +134,8 @@ void BM_Detect(benchmark::State& state) {
     // Particles the containment check guarded for a second pass (0: one pass).
     state.counters["second_pass_guards"] =
         static_cast<double>(timings.particles_guarded_after_contouring);
+    state.counters["outside_first_contours"] =
+        static_cast<double>(timings.particles_outside_first_contours);
   }
   state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
                  std::to_string(particles.size()) + " points");

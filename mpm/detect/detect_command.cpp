@@ -245,6 +245,7 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
                                            {"setup", parts.setup},   {"screening", parts.screening},
                                            {"guards", parts.guards}, {"nodes", parts.nodes}};
     summary["particles_guarded_after_contouring"] = timings.particles_guarded_after_contouring;
+    summary["particles_outside_first_contours"] = timings.particles_outside_first_contours;
   }
   const std::filesystem::path dir(out_dir);
   std::filesystem::create_directories(dir);

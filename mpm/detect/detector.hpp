@@ -86,17 +86,19 @@ struct ImprovedConfig {
   /// A particle whose own phi(x_p) <= level + guard_margin keeps an ellipse
   /// F * disk(guard_factor * initial_spacing / 2) in the material (the field is max(phi, guard));
   /// 0 disables. With the automatic refinement this guarantees that such a particle lies inside
-  /// the detected region (isolated points, thin filaments, sharp tips). A particle with a larger
-  /// phi is inside the exact level set, but the contour's chords can still cut it off where the
-  /// level set curves within a fine cell, or miss an island smaller than a fine cell (a few
-  /// stacked points): the contours are checked, and the particles left outside are guarded for a
-  /// second pass (with guards on; fuzz_detect found such islands, the 10,000 random clouds of the
-  /// invariants test have none).
+  /// the detected region (isolated points, thin filaments, sharp tips): the contours are checked,
+  /// and if they leave a particle outside a second pass runs with cells that fit in the guards.
+  /// A particle with a larger phi is inside the exact level set, but the contour's chords can
+  /// still cut it off where the level set curves within a fine cell, or miss an island smaller
+  /// than a fine cell (a few stacked points): such particles are guarded for the second pass
+  /// (fuzz_detect found such islands, the 10,000 random clouds of the invariants test have
+  /// none).
   double guard_factor = 0.6;
   double guard_margin = 0.02;
-  /// Field cell = grid cell / refinement. 0 = automatic: the smallest refinement >= 4 whose cells
-  /// fit in every active guard ellipse (cell diagonal <= smallest guard semi-axis), capped at
-  /// max_refinement.
+  /// Field cell = grid cell / refinement. 0 = automatic: 4, and if the contours leave a particle
+  /// outside (the containment check tests every particle outside the interior cells, guarded or
+  /// not), a second pass at the smallest refinement >= 4 whose cells fit in every active guard
+  /// ellipse (cell diagonal <= smallest guard semi-axis), capped at max_refinement.
   int refinement = 0;
   int max_refinement = 32;
   SaddleRule saddle_rule = SaddleRule::kAsymptoticDecider;
@@ -231,6 +233,9 @@ struct DetectionTimings {
   long field_particles = 0;
   /// Improved detector: particles its first contours left outside, guarded for a second pass.
   long particles_guarded_after_contouring = 0;
+  /// Improved detector: particles (guarded or not) its first contours left outside; any makes
+  /// a second pass, at the guards' refinement when the refinement is automatic.
+  long particles_outside_first_contours = 0;
   /// Improved detector: the parts of `field`, s. survey: the one sweep over every particle;
   /// band: the cells interior by volume and the copy of the particles within reach of the
   /// others; setup: the field's slots, bins and mirror images; screening: the coarse
