@@ -291,12 +291,12 @@ class ImprovedField {
   /// bins anchored below every particle and mirror image, of side >= the largest reach /
   /// kBinRings, and the unit set by the whole cloud's largest weight, so that its sums are
   /// bitwise those of a field holding every particle (the sums do not depend on the order of
-  /// their terms, kernel_sums.hpp).
+  /// their terms, vector_loops.hpp).
   struct BinLattice {
     Vec2 origin;
     double bin_size;
     /// Bound of the largest kernel weight V_p C_p of the whole cloud (weight_bound()): fixes the
-    /// fixed-point unit of the sums (kernel_sums.hpp), the same for any part of the cloud.
+    /// fixed-point unit of the sums (vector_loops.hpp), the same for any part of the cloud.
     double weight_bound;
   };
   /// Kernel data by slot, one array per quantity, each padded with detail::kKernelPadding zeros

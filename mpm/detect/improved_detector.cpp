@@ -11,7 +11,7 @@
 #include <utility>
 
 #include "mpm/detect/detect_internal.hpp"
-#include "mpm/detect/kernel_sums.hpp"
+#include "mpm/detect/vector_loops.hpp"
 
 namespace pfm {
 
@@ -225,7 +225,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     slot_.half_y[k] = m.half_y;
     largest_weight = std::max(largest_weight, m.weight);
   }
-  // The fixed-point unit: a term of the largest weight stays below 2^45 units (kernel_sums.hpp).
+  // The fixed-point unit: a term of the largest weight stays below 2^45 units (vector_loops.hpp).
   // The narrow band takes the bound of the whole cloud, so that its unit is the full field's.
   double bound = largest_weight;
   if (lattice != nullptr) {
@@ -574,76 +574,27 @@ struct CloudSurvey {
 
 // The one pass over every particle the improved detector makes: checks each particle (with the
 // messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
-// band, the cell of each particle and the volume in each cell. Written on plain arrays without
-// branches so that the compiler vectorises the sweeps.
+// band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised).
 CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
   if (n == 0) return survey;
-  const double* x = cloud.position.data()->data();  // x0 y0 x1 y1 ...
   const double* volume = cloud.volume.data();
-  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1], largest_volume = 0.0;
-  double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
-  int positive = 1;
-  // The grid cell of each particle (narrow band) in the same sweep: truncation is the floor for
-  // the offsets in [0, n); the others are outside.
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
-  const double inv_h = 1.0 / grid.cell_size, x0 = grid.origin.x(), y0 = grid.origin.y();
-  const double upper_i = n_x, upper_j = n_y;
   if (cells) survey.cell.resize(n);
-  int* cell = survey.cell.data();
-  const auto sweep = [&](auto with_cells) {
-#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y, largest_volume) \
-    reduction(+ : finite) reduction(& : positive)
-    for (std::size_t p = 0; p < n; ++p) {
-      const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
-      lo_x = std::min(lo_x, px);
-      lo_y = std::min(lo_y, py);
-      hi_x = std::max(hi_x, px);
-      hi_y = std::max(hi_y, py);
-      largest_volume = std::max(largest_volume, v);
-      finite += (px + py + v) * 0.0;
-      positive &= v > 0.0 ? 1 : 0;
-      if constexpr (decltype(with_cells)::value) {
-        const double ti = (px - x0) * inv_h, tj = (py - y0) * inv_h;
-        const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
-        cell[p] = in ? static_cast<int>(tj) * n_x + static_cast<int>(ti) : -1;
-      }
-    }
-  };
-  if (cells) {
-    sweep(std::true_type{});
-  } else {
-    sweep(std::false_type{});
-  }
-  double largest_squared = 1.0;
-  if (!cloud.deformation_gradient.empty()) {
-    // sigma_max^2, the larger eigenvalue of F^T F = [a b; b c]: (a + c + sqrt((a - c)^2 + 4 b^2))
-    // / 2.
-    const double* f = cloud.deformation_gradient.data()->data();  // column-major 2 x 2
-    largest_squared = 0.0;
-    double smallest_det = std::numeric_limits<double>::infinity();
-#pragma omp simd reduction(max : largest_squared) reduction(min : smallest_det) \
-    reduction(+ : finite) reduction(& : positive)
-    for (std::size_t p = 0; p < n; ++p) {
-      const double f00 = f[4 * p], f10 = f[4 * p + 1], f01 = f[4 * p + 2], f11 = f[4 * p + 3];
-      const double a = f00 * f00 + f10 * f10, c = f01 * f01 + f11 * f11;
-      const double b = f00 * f01 + f10 * f11, d = f00 * f11 - f01 * f10;
-      finite += (a + c) * 0.0;
-      positive &= d > 0.0 ? 1 : 0;
-      smallest_det = std::min(smallest_det, d);
-      largest_squared =
-          std::max(largest_squared, 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
-    }
-    survey.smallest_det = smallest_det;
-  }
-  survey.largest_volume = largest_volume;
-  if (!(finite == 0.0) || !positive) {
+  int* cell = cells ? survey.cell.data() : nullptr;
+  const CloudTotals totals = sweep_cloud(
+      cloud.position.data()->data(), volume,
+      cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data(), n,
+      {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, n_x, n_y}, cell);
+  if (!totals.valid) {
     for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
-  survey.lo = Vec2(lo_x, lo_y);
-  survey.hi = Vec2(hi_x, hi_y);
-  survey.largest_stretch = std::sqrt(largest_squared);
+  survey.lo = Vec2(totals.lo_x, totals.lo_y);
+  survey.hi = Vec2(totals.hi_x, totals.hi_y);
+  survey.largest_stretch = std::sqrt(totals.largest_squared);
+  survey.largest_volume = totals.largest_volume;
+  survey.smallest_det = totals.smallest_det;
   if (cells) {
     survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
     // Runs of particles in one cell (the usual order) add up in a register.

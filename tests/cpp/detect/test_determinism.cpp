@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <random>
 
-#include "mpm/detect/kernel_sums.hpp"
+#include "mpm/detect/vector_loops.hpp"
 #include "random_clouds.hpp"
 
 namespace pfm::test {
@@ -120,7 +120,7 @@ int cases_that_differ(std::uint64_t first, int n, const char* what, Second secon
   return mismatches;
 }
 
-// The improved detector's kernel sums are integer sums of rounded terms (kernel_sums.hpp): the
+// The improved detector's kernel sums are integer sums of rounded terms (vector_loops.hpp): the
 // order of the particles does not change the field, so a shuffled cloud gives bitwise the same
 // boundary.
 TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
@@ -142,18 +142,19 @@ TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
   EXPECT_EQ(cases_that_differ(200000, 300, "shuffled cloud differs", shuffled), 0);
 }
 
-// The kernel sums run with AVX2 where the processor has it and on plain x86-64 otherwise; both
-// must give the same boundary, bit for bit (no fused multiply-add in either).
+// The vectorised loops (kernel sums, the sweep over the cloud) run with AVX2 where the processor
+// has it and on plain x86-64 otherwise; both must give the same boundary, bit for bit (no fused
+// multiply-add in either).
 TEST(Determinism, KernelSumsWithAndWithoutAvx2GiveTheSameBoundary) {
-  if (!detail::kernel_sum_uses_avx2()) GTEST_SKIP() << "no AVX2 on this processor";
+  if (!detail::vector_loops_use_avx2()) GTEST_SKIP() << "no AVX2 on this processor";
   const auto plain = [](const RandomCase& rc, const DetectorConfig& config) {
-    detail::set_kernel_sum_avx2(false);
+    detail::set_vector_loops_avx2(false);
     DetectorState state;
     auto b = detect(rc.cloud.view(), rc.grid, config, state);
-    detail::set_kernel_sum_avx2(true);
+    detail::set_vector_loops_avx2(true);
     return b;
   };
-  EXPECT_EQ(cases_that_differ(300000, 300, "plain and AVX2 sums differ", plain), 0);
+  EXPECT_EQ(cases_that_differ(300000, 300, "plain and AVX2 loops differ", plain), 0);
 }
 
 // The narrow band skips, without evaluating the field, the cells whose neighbourhood is full of

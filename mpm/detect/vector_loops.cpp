@@ -1,0 +1,193 @@
+#include "mpm/detect/vector_loops.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace pfm::detail {
+
+namespace {
+
+// Four lanes (GCC vector extensions: one AVX2 register, or two SSE2 registers without AVX2).
+using V4 = double __attribute__((vector_size(32)));
+using I4 = std::int64_t __attribute__((vector_size(32)));
+using U4 = std::uint64_t __attribute__((vector_size(32)));
+
+// 2^52: a double in [2^52, 2^53) is an integer and its bits less those of 2^52 are that integer,
+// so round(v) of 0 <= v < 2^51 is bits(v + 2^52) - bits(2^52).
+constexpr double kMagic = 0x1p52;
+constexpr std::uint64_t kMagicBits = 0x4330000000000000ULL;
+
+// The body of kernel_sum() for exponent E: compiled once for plain x86-64 and once for AVX2.
+// Lanes past a range's end (reading the arrays' padding or the next range) add 0; every
+// operation is a plain IEEE one, so both compilations give the same terms.
+template <int E>
+[[gnu::always_inline]] inline std::uint64_t sum_ranges(const KernelColumns& c, const int* begin,
+                                                       const int* end, int n_ranges, double px,
+                                                       double py) {
+  U4 acc = {0, 0, 0, 0};
+  std::uint64_t lanes = 0;
+  const I4 lane = {0, 1, 2, 3};
+  const I4 no_sign = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+  for (int r = 0; r < n_ranges; ++r) {
+    const int last = end[r];
+    for (int k = begin[r]; k < last; k += 4) {
+      V4 x, y, k00, k01, k10, k11, weight;
+      std::memcpy(&x, c.x + k, sizeof x);
+      std::memcpy(&y, c.y + k, sizeof y);
+      std::memcpy(&k00, c.k00 + k, sizeof k00);
+      std::memcpy(&k01, c.k01 + k, sizeof k01);
+      std::memcpy(&k10, c.k10 + k, sizeof k10);
+      std::memcpy(&k11, c.k11 + k, sizeof k11);
+      std::memcpy(&weight, c.weight + k, sizeof weight);
+      const V4 dx = px - x, dy = py - y;
+      const V4 ux = k00 * dx + k01 * dy, uy = k10 * dx + k11 * dy;
+      const V4 t = 1.0 - (ux * ux + uy * uy);
+      // max(t, 0) = (|t| + t) / 2 exactly, without a branch.
+      const V4 w = 0.5 * ((V4)((I4)t & no_sign) + t);
+      V4 term;
+      if constexpr (E == 1) {
+        term = weight * w;
+      } else if constexpr (E == 2) {
+        term = weight * (w * w);
+      } else {
+        term = weight * ((w * w) * w);
+      }
+      const I4 in_range = (lane + k) < last;  // all ones or zero per lane
+      term = (V4)((I4)term & in_range);
+      acc += (U4)(term + kMagic);
+      lanes += 4;
+    }
+  }
+  return acc[0] + acc[1] + acc[2] + acc[3] - lanes * kMagicBits;
+}
+
+// The sweep of sweep_cloud(), compiled like sum_ranges(). Minima, maxima and the sums of zeros
+// that test finiteness are exact in any order, so the vector lanes change nothing.
+template <bool Cells>
+[[gnu::always_inline]] inline CloudTotals sweep(const double* x, const double* volume,
+                                                const double* f, std::size_t n,
+                                                const CellLattice& g, int* cell) {
+  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1], largest_volume = 0.0;
+  double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
+  int positive = 1;
+  // Truncation is the floor for the offsets in [0, n); the others are outside.
+  const double upper_i = g.n_x, upper_j = g.n_y;
+#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y, largest_volume) \
+    reduction(+ : finite) reduction(& : positive)
+  for (std::size_t p = 0; p < n; ++p) {
+    const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
+    lo_x = std::min(lo_x, px);
+    lo_y = std::min(lo_y, py);
+    hi_x = std::max(hi_x, px);
+    hi_y = std::max(hi_y, py);
+    largest_volume = std::max(largest_volume, v);
+    finite += (px + py + v) * 0.0;
+    positive &= v > 0.0 ? 1 : 0;
+    if constexpr (Cells) {
+      const double ti = (px - g.origin_x) * g.inverse_size;
+      const double tj = (py - g.origin_y) * g.inverse_size;
+      const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
+      cell[p] = in ? static_cast<int>(tj) * g.n_x + static_cast<int>(ti) : -1;
+    }
+  }
+  double largest_squared = 1.0, smallest_det = 1.0;
+  if (f != nullptr) {
+    // sigma_max^2, the larger eigenvalue of F^T F = [a b; b c]: (a + c + sqrt((a - c)^2 + 4 b^2))
+    // / 2.
+    largest_squared = 0.0;
+    smallest_det = std::numeric_limits<double>::infinity();
+#pragma omp simd reduction(max : largest_squared) reduction(min : smallest_det) \
+    reduction(+ : finite) reduction(& : positive)
+    for (std::size_t p = 0; p < n; ++p) {
+      const double f00 = f[4 * p], f10 = f[4 * p + 1], f01 = f[4 * p + 2], f11 = f[4 * p + 3];
+      const double a = f00 * f00 + f10 * f10, c = f01 * f01 + f11 * f11;
+      const double b = f00 * f01 + f10 * f11, d = f00 * f11 - f01 * f10;
+      finite += (a + c) * 0.0;
+      positive &= d > 0.0 ? 1 : 0;
+      smallest_det = std::min(smallest_det, d);
+      largest_squared =
+          std::max(largest_squared, 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
+    }
+  }
+  return {lo_x,           lo_y,
+          hi_x,           hi_y,
+          largest_volume, largest_squared,
+          smallest_det,   finite == 0.0 && positive != 0};
+}
+
+template <int E>
+std::uint64_t sum_plain(const KernelColumns& c, const int* begin, const int* end, int n_ranges,
+                        double px, double py) {
+  return sum_ranges<E>(c, begin, end, n_ranges, px, py);
+}
+
+template <bool Cells>
+CloudTotals sweep_plain(const double* x, const double* v, const double* f, std::size_t n,
+                        const CellLattice& g, int* cell) {
+  return sweep<Cells>(x, v, f, n, g, cell);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define PFM_VECTOR_LOOPS_AVX2 1
+// No "fma" in the target: a fused multiply-add would round differently from the plain version.
+template <int E>
+[[gnu::target("avx2")]] std::uint64_t sum_avx2(const KernelColumns& c, const int* begin,
+                                               const int* end, int n_ranges, double px, double py) {
+  return sum_ranges<E>(c, begin, end, n_ranges, px, py);
+}
+
+template <bool Cells>
+[[gnu::target("avx2")]] CloudTotals sweep_avx2(const double* x, const double* v, const double* f,
+                                               std::size_t n, const CellLattice& g, int* cell) {
+  return sweep<Cells>(x, v, f, n, g, cell);
+}
+#endif
+
+using SumFunction = std::uint64_t (*)(const KernelColumns&, const int*, const int*, int, double,
+                                      double);
+
+bool detect_avx2() {
+#ifdef PFM_VECTOR_LOOPS_AVX2
+  return __builtin_cpu_supports("avx2") != 0;
+#else
+  return false;
+#endif
+}
+
+bool avx2_on = detect_avx2();
+
+}  // namespace
+
+std::uint64_t kernel_sum(int exponent, const KernelColumns& columns, const int* begin,
+                         const int* end, int n_ranges, double px, double py) {
+#ifdef PFM_VECTOR_LOOPS_AVX2
+  static constexpr SumFunction kAvx2[3] = {sum_avx2<1>, sum_avx2<2>, sum_avx2<3>};
+  if (avx2_on) return kAvx2[exponent - 1](columns, begin, end, n_ranges, px, py);
+#endif
+  static constexpr SumFunction kPlain[3] = {sum_plain<1>, sum_plain<2>, sum_plain<3>};
+  return kPlain[exponent - 1](columns, begin, end, n_ranges, px, py);
+}
+
+CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
+                        std::size_t n, const CellLattice& lattice, int* cell) {
+#ifdef PFM_VECTOR_LOOPS_AVX2
+  if (avx2_on) {
+    return cell != nullptr ? sweep_avx2<true>(position, volume, deformation, n, lattice, cell)
+                           : sweep_avx2<false>(position, volume, deformation, n, lattice, cell);
+  }
+#endif
+  return cell != nullptr ? sweep_plain<true>(position, volume, deformation, n, lattice, cell)
+                         : sweep_plain<false>(position, volume, deformation, n, lattice, cell);
+}
+
+bool vector_loops_use_avx2() {
+  return avx2_on;
+}
+
+void set_vector_loops_avx2(bool on) {
+  avx2_on = on && detect_avx2();
+}
+
+}  // namespace pfm::detail

@@ -1,0 +1,61 @@
+// The improved detector's loops that run in vector registers: the kernel sums and the one sweep
+// over every particle of the cloud. Each is compiled for plain x86-64 and for AVX2, chosen at run
+// time; both give the same bits (plain IEEE operations, no fused multiply-add).
+//
+// Kernel sums, phi(x) = sum_k w_k (1 - q_k(x))_+^E, four slots at a time: each term is rounded to
+// an integer multiple of 2^-s (s fixed per detection by the largest kernel weight,
+// ImprovedField::fixed_point_bits()) and the integers are added. An integer sum does not depend
+// on the order of its terms, so the sums may be split into vector lanes, and a field built on
+// part of the particles (the narrow band), an evaluation over a few slots (the edge roots) and
+// one over the bins give bitwise the same value wherever they hold the same nonzero terms. A term
+// of the largest weight is below 2^45 units, so a sum of up to 2^18 such terms stays exact in 64
+// bits. The resolution, 2^-s, is below 1e-12 of the largest weight.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace pfm::detail {
+
+/// Slots past the end of every kernel array that the sums may read (filled with zeros).
+inline constexpr int kKernelPadding = 4;
+
+/// Kernel data by slot (one array per quantity): centre x, y (m), the inverse shape matrix
+/// S^-1 = [k00 k01; k10 k11] (1/m) and the weight V_p C_p scaled by 2^s.
+struct KernelColumns {
+  const double *x, *y, *k00, *k01, *k10, *k11, *weight;
+};
+
+/// The integer sum of round(weight_k (1 - q_k)_+^exponent), q_k = |S_k^-1 (p - x_k)|^2, over
+/// the slots of the ranges [begin[r], end[r]), r < n_ranges (exponent 1, 2 or 3).
+std::uint64_t kernel_sum(int exponent, const KernelColumns& columns, const int* begin,
+                         const int* end, int n_ranges, double px, double py);
+
+/// The grid whose cell each particle is found in: cell (i, j) = j n_x + i holds
+/// origin + ([i, i + 1), [j, j + 1)) / inverse_size.
+struct CellLattice {
+  double origin_x, origin_y, inverse_size;
+  int n_x, n_y;
+};
+
+/// What one sweep over every particle gathers.
+struct CloudTotals {
+  double lo_x, lo_y, hi_x, hi_y;  ///< bounding box of the positions, m
+  double largest_volume;          ///< m^2
+  double largest_squared;         ///< largest sigma_max(F)^2 (1 without F)
+  double smallest_det;            ///< smallest det F (1 without F)
+  bool valid;                     ///< every value finite, every volume and det F > 0
+};
+
+/// One sweep over n >= 1 particles: positions x0 y0 x1 y1 ..., volumes, deformation gradients
+/// column-major (f00 f10 f01 f11 ...; nullptr: none). With `cell`, the cell of `lattice` holding
+/// each particle, or -1 outside it.
+CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
+                        std::size_t n, const CellLattice& lattice, int* cell);
+
+/// Whether these loops use AVX2; tests switch it off to compare (false: plain x86-64, two lanes
+/// of SSE2 where four are written).
+bool vector_loops_use_avx2();
+void set_vector_loops_avx2(bool on);
+
+}  // namespace pfm::detail
