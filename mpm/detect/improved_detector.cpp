@@ -894,7 +894,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
   ImprovedField::KernelArrays edge_slots;
-  int edge_slots_cell = -1;  // the grid cell whose slots edge_slots holds
+  int edge_slots_cell = -1;  // the square whose slots edge_slots holds (-1: none)
   DetectedBoundary boundary;
   for (int pass = 0;; ++pass) {
     part_start = Clock::now();
@@ -1122,20 +1122,24 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     const auto contour_start = Clock::now();
     const double edge_seconds_before = edge_seconds;
     const double tolerance_t = tolerance_fraction * r;  // fraction of the fine edge
+    const int square = std::max(1, r / 2);
+    edge_slots_cell = -1;  // a new fine grid
     const EdgeRefiner refine = [&](const Vec2& a, double value_a, const Vec2& b, double value_b) {
       const auto start = Clock::now();
       const Vec2 d = b - a;
-      // Every evaluation of the root lies on the edge, in the grid cell that holds its middle
-      // (a closed box): the slots reaching that cell are gathered once for all its edges (the
-      // contours are followed cell by cell).
-      const Vec2 middle = 0.5 * (a + b);
-      const int ci = std::clamp(grid.cell_i(middle.x()), 0, ncx - 1);
-      const int cj = std::clamp(grid.cell_j(middle.y()), 0, ncy - 1);
-      if (cj * ncx + ci != edge_slots_cell) {
-        edge_slots_cell = cj * ncx + ci;
-        const Vec2 corner = grid.node_position(ci, cj);
-        field.slots_reaching(corner.cwiseMin(a.cwiseMin(b)),
-                             (corner + Vec2::Constant(h)).cwiseMax(a.cwiseMax(b)), edge_slots);
+      // Every evaluation of the root lies on the edge, in the square of `square` x `square` fine
+      // cells (about h/2) that holds its middle (a closed box): the slots reaching that square
+      // are gathered once for all its edges (the contours are followed cell by cell). A whole
+      // grid cell would gather twice the slots at 5 points per cell.
+      int fi = 0, fj = 0;
+      fine_cell(0.5 * (a + b), fi, fj);
+      const int si = fi / square, sj = fj / square;
+      if (sj * (n_fine_x / square + 1) + si != edge_slots_cell) {
+        edge_slots_cell = sj * (n_fine_x / square + 1) + si;
+        const Vec2 corner = geometry.origin + Vec2(si, sj) * (square * geometry.spacing);
+        const Vec2 upper = corner + Vec2::Constant(square * geometry.spacing);
+        field.slots_reaching(corner.cwiseMin(a.cwiseMin(b)), upper.cwiseMax(a.cwiseMax(b)),
+                             edge_slots);
       }
       const double t = brent_root([&](double s) { return field(a + s * d, edge_slots) - level; },
                                   value_a, value_b, tolerance_t, &root_evaluations);
@@ -1224,7 +1228,6 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     timings.particles_outside_first_contours = static_cast<long>(left_out.size());
     const std::size_t guarded_before = field.n_guarded();
     field.add_guards(left_out);
-    edge_slots_cell = -1;  // guards changed
     timings.particles_guarded_after_contouring =
         static_cast<long>(field.n_guarded() - guarded_before);
   }
