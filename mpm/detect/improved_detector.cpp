@@ -570,6 +570,11 @@ struct CloudSurvey {
   double smallest_det = 1.0;                  ///< smallest det F (1 without F)
   std::vector<double> cell_volume;            ///< particle volume per grid cell, m^2 (narrow band)
   std::vector<int> cell;                      ///< grid cell of each particle, -1 outside
+  /// Runs of consecutive particles in one cell (the usual order: particles are made cell by
+  /// cell and move slowly): run r holds particles run_start[r] .. run_start[r + 1] - 1, in cell
+  /// run_cell[r]; run_start ends with the number of particles (narrow band).
+  std::vector<std::uint32_t> run_start;
+  std::vector<int> run_cell;
 };
 
 // The one pass over every particle the improved detector makes: checks each particle (with the
@@ -599,17 +604,22 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
     survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
     // Runs of particles in one cell (the usual order) add up in a register.
     double* cell_volume = survey.cell_volume.data();
-    int run_cell = -1;
+    int run_cell = cell[0];
     double run_volume = 0.0;
+    survey.run_start.push_back(0);
+    survey.run_cell.push_back(run_cell);
     for (std::size_t p = 0; p < n; ++p) {
       if (cell[p] != run_cell) {
         if (run_cell >= 0) cell_volume[run_cell] += run_volume;
         run_cell = cell[p];
         run_volume = 0.0;
+        survey.run_start.push_back(static_cast<std::uint32_t>(p));
+        survey.run_cell.push_back(run_cell);
       }
       run_volume += volume[p];
     }
     if (run_cell >= 0) cell_volume[run_cell] += run_volume;
+    survey.run_start.push_back(static_cast<std::uint32_t>(n));
   }
   return survey;
 }
@@ -776,12 +786,15 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     std::vector<std::uint32_t> selected(n);
     std::vector<Vec2> touching;
     std::size_t m = 0;
-    const int* cell = survey.cell.data();
-    for (std::size_t p = 0; p < n; ++p) {
-      const char k = code[static_cast<std::size_t>(cell[p] + 1)];
-      selected[m] = static_cast<std::uint32_t>(p);
-      m += static_cast<std::size_t>(k & 1);
-      if (k & 2) touching.push_back(cloud.position[p]);
+    for (std::size_t r = 0; r + 1 < survey.run_start.size(); ++r) {
+      const char k = code[static_cast<std::size_t>(survey.run_cell[r] + 1)];
+      const std::uint32_t first = survey.run_start[r], end = survey.run_start[r + 1];
+      if (k & 1) {
+        for (std::uint32_t p = first; p < end; ++p) selected[m++] = p;
+      }
+      if (k & 2) {
+        for (std::uint32_t p = first; p < end; ++p) touching.push_back(cloud.position[p]);
+      }
     }
     if (config.mirror_grid_edges) {
       contacts = ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid,
