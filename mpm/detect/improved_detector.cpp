@@ -243,9 +243,9 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   std::frexp(bound > 0.0 ? bound : 1.0, &exponent_of_bound);  // bound < 2^exponent_of_bound
   fixed_point_bits_ = 44 - exponent_of_bound;
   fixed_point_unit_ = std::ldexp(1.0, -fixed_point_bits_);
-  for (std::size_t k = 0; k < slot_.size(); ++k) {
-    slot_.weight[k] = std::ldexp(slot_.weight[k], fixed_point_bits_);
-  }
+  // A power of two: each product is std::ldexp(weight, bits), correctly rounded alike.
+  const double scale = std::ldexp(1.0, fixed_point_bits_);
+  for (std::size_t k = 0; k < slot_.size(); ++k) slot_.weight[k] *= scale;
 }
 
 double ImprovedField::weight_bound(const ImprovedConfig& config, double initial_spacing,
