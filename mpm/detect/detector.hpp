@@ -392,8 +392,6 @@ class ImprovedField {
   std::size_t n_mirrored() const { return slot_.size() - position_.size(); }
 
  private:
-  // The sums behind volume_fraction() (guard = false) and operator() (guard = true) for the
-  // kernel exponent E.
   void switch_guard_on(std::size_t p);
   // The sum over the slot ranges [begin[r], end[r]) of `kernels` at x: phi (fixed point
   // converted back) and, with `guard`, max(phi, guard).

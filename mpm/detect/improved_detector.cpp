@@ -154,7 +154,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
       }
     }
   }
-  // Bins of the largest reach / kBinRings, searched kBinRings rings out (bin_rings()).
+  // Bins of at least the largest reach / kBinRings, searched kBinRings rings out.
   rings_ = kBinRings;
   if (lattice != nullptr && lattice->bin_size * rings_ < reach_) {
     char message[160];
