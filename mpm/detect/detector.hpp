@@ -298,6 +298,9 @@ class ImprovedField {
     /// Bound of the largest kernel weight V_p C_p of the whole cloud (weight_bound()): fixes the
     /// fixed-point unit of the sums (vector_loops.hpp), the same for any part of the cloud.
     double weight_bound;
+    /// Bound of the number of slots of the whole cloud (4 per particle: itself and up to three
+    /// mirror images): the fixed-point unit keeps the sum of all weights below 2^63.
+    std::size_t slot_bound;
   };
   /// Kernel data by slot, one array per quantity, each padded with detail::kKernelPadding zeros
   /// (the sums read four slots at a time).

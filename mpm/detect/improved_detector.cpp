@@ -225,23 +225,29 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     slot_.half_y[k] = m.half_y;
     largest_weight = std::max(largest_weight, m.weight);
   }
-  // The fixed-point unit: a term of the largest weight stays below 2^45 units (vector_loops.hpp).
-  // The narrow band takes the bound of the whole cloud, so that its unit is the full field's.
+  // The fixed-point unit (vector_loops.hpp): a term of the largest weight stays below 2^45 units,
+  // and the weights of every slot together below 2^63, so that no sum overflows. The narrow band
+  // takes the bounds of the whole cloud, so that its unit is the full field's.
   double bound = largest_weight;
+  double slots = static_cast<double>(slot_.size());
   if (lattice != nullptr) {
-    if (!(largest_weight <= 2.0 * lattice->weight_bound)) {
-      char message[160];
+    if (!(largest_weight <= 2.0 * lattice->weight_bound) ||
+        !(slot_.size() <= lattice->slot_bound)) {
+      char message[200];
       std::snprintf(message, sizeof message,
                     "ImprovedField: a kernel weight (%.17g) exceeds twice the lattice's bound "
-                    "(%.17g)",
-                    largest_weight, lattice->weight_bound);
+                    "(%.17g), or its %zu slots the lattice's %zu",
+                    largest_weight, lattice->weight_bound, slot_.size(), lattice->slot_bound);
       throw std::logic_error(message);
     }
     bound = lattice->weight_bound;
+    slots = static_cast<double>(lattice->slot_bound);
   }
-  int exponent_of_bound = 0;
-  std::frexp(bound > 0.0 ? bound : 1.0, &exponent_of_bound);  // bound < 2^exponent_of_bound
-  fixed_point_bits_ = 44 - exponent_of_bound;
+  bound = bound > 0.0 ? bound : 1.0;
+  int exponent_of_bound = 0, exponent_of_total = 0;
+  std::frexp(bound, &exponent_of_bound);  // bound < 2^exponent_of_bound
+  std::frexp(bound * std::max(slots, 1.0), &exponent_of_total);
+  fixed_point_bits_ = std::min(44 - exponent_of_bound, 62 - exponent_of_total);
   fixed_point_unit_ = std::ldexp(1.0, -fixed_point_bits_);
   // A power of two: each product is std::ldexp(weight, bits), correctly rounded alike.
   const double scale = std::ldexp(1.0, fixed_point_bits_);
@@ -691,7 +697,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       Vec2::Zero(),
       particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / ImprovedField::kBinRings : 1.0,
       ImprovedField::weight_bound(config, cloud.initial_spacing, survey.largest_volume,
-                                  survey.smallest_det)};
+                                  survey.smallest_det),
+      4 * cloud.position.size()};
   lattice.origin =
       survey.lo.cwiseMin(grid.origin) - Vec2::Constant(particle_reach + lattice.bin_size);
 

@@ -8,8 +8,10 @@
 // on the order of its terms, so the sums may be split into vector lanes, and a field built on
 // part of the particles (the narrow band), an evaluation over a few slots (the edge roots) and
 // one over the bins give bitwise the same value wherever they hold the same nonzero terms. A term
-// of the largest weight is below 2^45 units, so a sum of up to 2^18 such terms stays exact in 64
-// bits. The resolution, 2^-s, is below 1e-12 of the largest weight.
+// of the largest weight is below 2^45 units, and the weights of all slots of the cloud together
+// below 2^63 units, so no sum can overflow. The resolution, 2^-s, is below 1e-12 of the largest
+// weight up to about 2^16 particles and about 2^-61 of the bound of all weights together beyond
+// (6e-14 in volume fraction at 338k points).
 #pragma once
 
 #include <cstddef>

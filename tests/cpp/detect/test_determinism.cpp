@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <numbers>
 #include <random>
 
 #include "mpm/detect/vector_loops.hpp"
@@ -244,6 +245,27 @@ TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
   const auto b = detect(cloud.view(), g, full, s2, &t2);
   EXPECT_TRUE(same_contours(a, b));
   EXPECT_EQ(t1.field_particles, static_cast<long>(cloud.position.size()));
+}
+
+// The fixed-point unit keeps the weights of all slots together below 2^63 units: 2^21 points
+// stacked at one place (a sum that a unit set by the largest weight alone would wrap around
+// 2^64) give phi = N V C at that place, C = (k + 1) / (pi a^2) of the unit-mass kernel.
+TEST(KernelSums, TwoMillionStackedPointsSumWithoutOverflow) {
+  const std::size_t n = std::size_t{1} << 21;
+  const double spacing = 0.25, volume = spacing * spacing;
+  OwnedCloud cloud;
+  cloud.position.assign(n, Vec2(1.0, 2.0));
+  cloud.volume.assign(n, volume);
+  cloud.initial_spacing = spacing;
+  const ImprovedConfig config;
+  const ImprovedField field(cloud.view(), config, ImprovedField::DeferGuards{});
+  const double a = config.radius_factor * spacing;
+  const double expected = static_cast<double>(n) * volume *
+                          (static_cast<int>(config.profile) + 1.0) / (std::numbers::pi * a * a);
+  EXPECT_NEAR(field.volume_fraction(Vec2(1.0, 2.0)) / expected, 1.0, 1e-12);
+  // Weight 0.1415 < 2^-2 alone would give 44 + 2 = 46 bits (terms of 2^43.2 units, 2^64.2 in
+  // all); 2^21 of them, 296,750 < 2^19, give 62 - 19.
+  EXPECT_EQ(field.fixed_point_bits(), 43);
 }
 
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
