@@ -465,6 +465,11 @@ double brent_root(const std::function<double(double)>& g, double value_a, double
       bisected = true;
     } else {
       bisected = false;
+      // An interpolation step shorter than half the tolerance would land on b's side again
+      // when the root lies closer to b than that (a field flat at its resolution there keeps
+      // it so), and the bracket would then close by bisection alone: step half the tolerance
+      // towards a instead (Brent's minimum step), which crosses such a root.
+      if (std::abs(s - b) < 0.5 * tolerance_t) s = b + (a > b ? 0.5 : -0.5) * tolerance_t;
     }
     const double fs = g(s);
     if (evaluations != nullptr) ++*evaluations;
