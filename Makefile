@@ -6,14 +6,15 @@ JOBS ?= 2
 CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
-# Debian packages the build, the tests and the studies need (python3-* are package names: Python
-# itself always runs as $(PYTHON)).
+# Debian packages the build, the tests and the studies need. The Python modules come as Debian
+# packages named after them (the prefix below is a package name, not a command: Python itself
+# always runs as $(PYTHON)).
+DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypothesis jinja2 h5py \
+  meshio gmsh dolfinx distributed
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
-  python3-numpy python3-scipy python3-matplotlib python3-pandas python3-shapely \
-  python3-skimage python3-pytest python3-hypothesis python3-jinja2 python3-h5py \
-  python3-meshio python3-gmsh python3-dolfinx python3-distributed
+  $(addprefix python3-,$(DEB_PYTHON_MODULES))
 
 .PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
   study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks
