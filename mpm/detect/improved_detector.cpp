@@ -39,7 +39,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
 }
 
 ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
-                             const Grid* walls, const BinLattice* lattice,
+                             const Grid* walls, const CloudBounds* bounds,
                              const WallContacts* contacts)
     : exponent_(static_cast<int>(config.profile)),
       guard_(config.guard_factor > 0.0),
@@ -154,18 +154,9 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
       }
     }
   }
-  // Bins of at least the largest reach / kBinRings, searched kBinRings rings out.
+  // Bins of the largest reach / kBinRings, searched kBinRings rings out.
   rings_ = kBinRings;
-  if (lattice != nullptr && lattice->bin_size * rings_ < reach_) {
-    char message[160];
-    std::snprintf(message, sizeof message,
-                  "ImprovedField: the bin lattice (%.17g m) is finer than 1/%d of the largest "
-                  "reach (%.17g m)",
-                  lattice->bin_size, rings_, reach_);
-    throw std::logic_error(message);
-  }
-  bins_ = lattice != nullptr ? ParticleBins(all_positions, lattice->bin_size, lattice->origin)
-                             : ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
+  bins_ = ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
   // Pass 2, in bin order (the cloud's arrays are read in a few streams): the slots.
   struct Slot {
     double x, y, k00, k01, k10, k11, weight, half_x, half_y;
@@ -230,18 +221,17 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   // takes the bounds of the whole cloud, so that its unit is the full field's.
   double bound = largest_weight;
   double slots = static_cast<double>(slot_.size());
-  if (lattice != nullptr) {
-    if (!(largest_weight <= 2.0 * lattice->weight_bound) ||
-        !(slot_.size() <= lattice->slot_bound)) {
+  if (bounds != nullptr) {
+    if (!(largest_weight <= 2.0 * bounds->weight_bound) || !(slot_.size() <= bounds->slot_bound)) {
       char message[200];
       std::snprintf(message, sizeof message,
-                    "ImprovedField: a kernel weight (%.17g) exceeds twice the lattice's bound "
-                    "(%.17g), or its %zu slots the lattice's %zu",
-                    largest_weight, lattice->weight_bound, slot_.size(), lattice->slot_bound);
+                    "ImprovedField: a kernel weight (%.17g) exceeds twice the cloud's bound "
+                    "(%.17g), or its %zu slots the cloud's %zu",
+                    largest_weight, bounds->weight_bound, slot_.size(), bounds->slot_bound);
       throw std::logic_error(message);
     }
-    bound = lattice->weight_bound;
-    slots = static_cast<double>(lattice->slot_bound);
+    bound = bounds->weight_bound;
+    slots = static_cast<double>(bounds->slot_bound);
   }
   bound = bound > 0.0 ? bound : 1.0;
   int exponent_of_bound = 0, exponent_of_total = 0;
@@ -270,7 +260,9 @@ void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<con
   n_ = slots.size();
   const auto to = columns();
   const auto source = from.columns();
-  for (std::size_t c = 0; c < to.size(); ++c) {
+  half_x.clear();
+  half_y.clear();
+  for (std::size_t c = 0; c < kSummedColumns; ++c) {
     std::vector<double>& column = *to[c];
     const double* values = source[c]->data();
     column.resize(n_ + detail::kKernelPadding);
@@ -416,20 +408,6 @@ void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, KernelArrays&
     }
   });
   out.gather(slot_, found);
-}
-
-void ImprovedField::evaluate_block(const Vec2& origin, double spacing, int first_i, int first_j,
-                                   int n_x, int n_y, std::vector<double>& out) const {
-  // Node (a, b) sits at origin + (first_i + a, first_j + b) spacing, computed exactly as the
-  // caller of operator() computes it.
-  out.resize(static_cast<std::size_t>(n_x) * n_y);
-  for (int b = 0; b < n_y; ++b) {
-    const double y = origin.y() + static_cast<double>(first_j + b) * spacing;
-    for (int a = 0; a < n_x; ++a) {
-      const double x = origin.x() + static_cast<double>(first_i + a) * spacing;
-      out[static_cast<std::size_t>(b) * n_x + a] = (*this)(Vec2(x, y));
-    }
-  }
 }
 
 double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
@@ -697,15 +675,10 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const double kernel_reach = a0 * survey.largest_stretch;
   const double particle_reach =
       ImprovedField::reference_reach(config, cloud.initial_spacing) * survey.largest_stretch;
-  // (The largest stretch comes from another formula than the field's: 1e-9 of slack.)
-  ImprovedField::BinLattice lattice{
-      Vec2::Zero(),
-      particle_reach > 0.0 ? (1.0 + 1e-9) * particle_reach / ImprovedField::kBinRings : 1.0,
+  const ImprovedField::CloudBounds bounds{
       ImprovedField::weight_bound(config, cloud.initial_spacing, survey.largest_volume,
                                   survey.smallest_det),
       4 * cloud.position.size()};
-  lattice.origin =
-      survey.lo.cwiseMin(grid.origin) - Vec2::Constant(particle_reach + lattice.bin_size);
 
   //    Narrow band: a cell whose volume fraction is at least solid_fraction, with every cell
   //    within a kernel reach of it too, is interior without any field evaluation. The field
@@ -828,7 +801,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   lap(parts.band);
   // The wall contacts found above are those of the whole cloud, which the band holds a part of.
   ImprovedField field(band_cloud, config, ImprovedField::DeferGuards{},
-                      config.mirror_grid_edges ? &grid : nullptr, &lattice,
+                      config.mirror_grid_edges ? &grid : nullptr, &bounds,
                       screened && config.mirror_grid_edges ? &contacts : nullptr);
   timings.field_particles = static_cast<long>(band_cloud.position.size());
   lap(parts.setup);
@@ -978,19 +951,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     //    edge with a sign change; (b) for each guarded particle, and each other particle of an
     //    island that may hold no lattice node, the first cell with a sign change from it.
     std::vector<int> cells;
-    std::vector<double> block;
-    // The fine nodes of the coarse cells i0 .. i1 - 1 of row j, as one block: a particle visits
-    // the run once, and the nodes on the edges between its cells once.
-    const auto evaluate_run = [&](int i0, int i1, int j) {
-      const int n_x = (i1 - i0) * r + 1;
-      field.evaluate_block(geometry.origin, geometry.spacing, i0 * r, j * r, n_x, r + 1, block);
-      field_evaluations += static_cast<long>(block.size());
-      for (int b = 0; b <= r; ++b) {
-        for (int a = 0; a < n_x; ++a) node_cache.at(i0 * r + a, j * r + b) = block[b * n_x + a];
-      }
-    };
     if (!config.narrow_band) {
-      for (int j = 0; j < ncy; ++j) evaluate_run(0, ncx, j);
       cells.resize(static_cast<std::size_t>(n_fine_x) * n_fine_y);
       for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
     } else {
@@ -1058,10 +1019,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
             ++end;
           }
           const int stride = fine ? 1 : coarse_stride;
-          // Every fine node by blocks; the lattice point by point (as needed below): a particle
-          // would visit few lattice nodes of a block, in which it would cost more.
-          if (fine) evaluate_run(i, end, j);
-          // The lattice segments of the run: along its rows and up its columns.
+          // The lattice segments of the run (every fine node near guards): along its rows and up
+          // its columns.
           const int last_i = end * r, last_j = (j + 1) * r;
           for (int fj = j * r; fj <= last_j; fj += stride) {
             for (int fi = i * r; fi <= last_i; fi += stride) {
@@ -1159,8 +1118,9 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
       int fi = 0, fj = 0;
       fine_cell(0.5 * (a + b), fi, fj);
       const int si = fi / square, sj = fj / square;
-      if (sj * (n_fine_x / square + 1) + si != edge_slots_cell) {
-        edge_slots_cell = sj * (n_fine_x / square + 1) + si;
+      const int key = sj * (n_fine_x / square + 1) + si;
+      if (key != edge_slots_cell) {
+        edge_slots_cell = key;
         const Vec2 corner = geometry.origin + Vec2(si, sj) * (square * geometry.spacing);
         const Vec2 upper = corner + Vec2::Constant(square * geometry.spacing);
         field.slots_reaching(corner.cwiseMin(a.cwiseMin(b)), upper.cwiseMax(a.cwiseMax(b)),

@@ -17,31 +17,6 @@ ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size) : b
     hi = hi.cwiseMax(p);
   }
   origin_ = lo;
-  fill(positions, lo, hi);
-}
-
-ParticleBins::ParticleBins(std::span<const Vec2> positions, double bin_size, const Vec2& origin)
-    : origin_(origin), bin_size_(bin_size) {
-  if (!(bin_size > 0.0) || !std::isfinite(bin_size) || !origin.allFinite()) {
-    throw std::invalid_argument("ParticleBins: bin size must be finite and > 0, origin finite");
-  }
-  if (positions.empty()) return;
-  Vec2 lo = positions[0], hi = positions[0];
-  for (const auto& p : positions) {
-    if (p.x() < origin.x() || p.y() < origin.y()) {
-      throw std::invalid_argument("ParticleBins: a position lies below the lattice origin");
-    }
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  fill(positions, lo, hi);
-}
-
-void ParticleBins::fill(std::span<const Vec2> positions, const Vec2& lo, const Vec2& hi) {
-  first_i_ = 0;
-  first_j_ = 0;
-  first_i_ = bin_i(lo.x());
-  first_j_ = bin_j(lo.y());
   n_x_ = bin_i(hi.x()) + 1;
   n_y_ = bin_j(hi.y()) + 1;
   start_.assign(static_cast<std::size_t>(n_x_) * n_y_ + 1, 0);

@@ -18,11 +18,6 @@ class ParticleBins {
   /// Bins of side `bin_size` (m, > 0) covering the bounding box of `positions`. A kernel whose
   /// reach is <= bin_size is fully found by for_each_near().
   ParticleBins(std::span<const Vec2> positions, double bin_size);
-  /// Bins of side `bin_size` on the lattice anchored at `origin` (<= every position, else
-  /// std::invalid_argument): the bin of a point does not depend on the other positions, so two
-  /// clouds of which one holds a subset of the other's points (in the same relative order) are
-  /// visited in the same order.
-  ParticleBins(std::span<const Vec2> positions, double bin_size, const Vec2& origin);
 
   /// Calls visit(p) for every particle in the 3 x 3 bins around x, in a fixed order (bins row by
   /// row, particles by increasing index), so sums over the visits are bitwise reproducible.
@@ -122,11 +117,9 @@ class ParticleBins {
   double bin_size() const { return bin_size_; }
 
  private:
-  void fill(std::span<const Vec2> positions, const Vec2& lo, const Vec2& hi);
-  // Bin column and row of a coordinate: counted on the lattice from origin_, then shifted to the
-  // first stored bin (the lattice constructor stores only the bins around the positions).
-  int bin_i(double x) const { return bin_coordinate(x - origin_.x()) - first_i_; }
-  int bin_j(double y) const { return bin_coordinate(y - origin_.y()) - first_j_; }
+  // Bin column and row of a coordinate, counted from origin_ (the lower corner of the positions).
+  int bin_i(double x) const { return bin_coordinate(x - origin_.x()); }
+  int bin_j(double y) const { return bin_coordinate(y - origin_.y()); }
   int bin_coordinate(double offset) const {
     const double c = std::floor(offset / bin_size_);
     return c < -1e9 ? -1000000000 : (c > 1e9 ? 1000000000 : static_cast<int>(c));
@@ -134,10 +127,9 @@ class ParticleBins {
   Vec2 origin_ = Vec2::Zero();
   double bin_size_ = 1.0;
   int n_x_ = 0, n_y_ = 0;
-  int first_i_ = 0, first_j_ = 0;  ///< lattice indices of the first stored bin
-  std::vector<int> start_;         ///< CSR offsets, size n_x * n_y + 1
-  std::vector<int> particle_;      ///< particle indices, bin by bin, increasing within a bin
-  std::vector<int> slot_;          ///< inverse of particle_
+  std::vector<int> start_;     ///< CSR offsets, size n_x * n_y + 1
+  std::vector<int> particle_;  ///< particle indices, bin by bin, increasing within a bin
+  std::vector<int> slot_;      ///< inverse of particle_
 };
 
 }  // namespace pfm
