@@ -659,9 +659,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
 
   // 0. One sweep over the cloud. The fixed-point unit of the kernel sums follows from the whole
   //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
-  //    sums of one built on all of them (the sums are of integers: any order gives the same);
-  //    the bins sit on a lattice anchored one reach and a bin below the grid origin and every
-  //    particle, so that the mirror images fit too.
+  //    sums of one built on all of them (the sums are of integers: any order gives the same).
   auto& parts = timings.field_parts;
   auto part_start = Clock::now();
   // Adds the time since the last call (or the start) to `part`.
