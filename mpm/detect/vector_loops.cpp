@@ -72,8 +72,12 @@ template <bool Cells>
   double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1], largest_volume = 0.0;
   double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
   int positive = 1;
-  // Truncation is the floor for the offsets in [0, n); the others are outside.
+  // Truncation is the floor for the offsets in [0, n); the others are outside (converted as 0,
+  // then replaced by -1: no branch, so the loop runs in vector lanes). The lattice in locals: the
+  // stores to `cell` could otherwise alias it.
   const double upper_i = g.n_x, upper_j = g.n_y;
+  const double origin_x = g.origin_x, origin_y = g.origin_y, inverse_size = g.inverse_size;
+  const int n_x = g.n_x;
 #pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y, largest_volume) \
     reduction(+ : finite) reduction(& : positive)
   for (std::size_t p = 0; p < n; ++p) {
@@ -86,10 +90,11 @@ template <bool Cells>
     finite += (px + py + v) * 0.0;
     positive &= v > 0.0 ? 1 : 0;
     if constexpr (Cells) {
-      const double ti = (px - g.origin_x) * g.inverse_size;
-      const double tj = (py - g.origin_y) * g.inverse_size;
-      const bool in = ti >= 0.0 && tj >= 0.0 && ti < upper_i && tj < upper_j;
-      cell[p] = in ? static_cast<int>(tj) * g.n_x + static_cast<int>(ti) : -1;
+      const double ti = (px - origin_x) * inverse_size;
+      const double tj = (py - origin_y) * inverse_size;
+      const bool in = (ti >= 0.0) & (tj >= 0.0) & (ti < upper_i) & (tj < upper_j);
+      const int c = static_cast<int>(in ? tj : 0.0) * n_x + static_cast<int>(in ? ti : 0.0);
+      cell[p] = in ? c : -1;
     }
   }
   double largest_squared = 1.0, smallest_det = 1.0;
