@@ -1,0 +1,473 @@
+// The improved detector's exact field (see detector.hpp): max(phi, guard), the volume-normalised
+// kernel sums with the particle guards, their slots and bins, and the root finder of the edges.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <type_traits>
+#include <utility>
+
+#include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/vector_loops.hpp"
+
+namespace pfm {
+
+namespace {
+
+// Grid edge w (0 left, 1 right, 2 bottom, 3 top of the box g0 .. g1): the distance of x from
+// it (> 0 inside the box) and the position of x along it from the box's lower corner, m.
+double wall_distance(int w, const Vec2& x, const Vec2& g0, const Vec2& g1) {
+  return w == 0   ? x.x() - g0.x()
+         : w == 1 ? g1.x() - x.x()
+         : w == 2 ? x.y() - g0.y()
+                  : g1.y() - x.y();
+}
+
+double wall_along(int w, const Vec2& x, const Vec2& g0) {
+  return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
+}
+
+}  // namespace
+
+ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
+                             const Grid* walls)
+    : ImprovedField((detail::check_cloud(cloud), cloud), config, DeferGuards{}, walls) {
+  decide_guards({});
+}
+
+ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
+                             const Grid* walls, const CloudBounds* bounds,
+                             const WallContacts* contacts)
+    : exponent_(static_cast<int>(config.profile)),
+      guard_(config.guard_factor > 0.0),
+      level_(config.level),
+      guard_margin_(config.guard_margin) {
+  const std::size_t n = cloud.position.size();
+  const double a0 = config.radius_factor * cloud.initial_spacing;
+  guard_radius_ = config.guard_factor * 0.5 * cloud.initial_spacing;
+  guard_scale_ = guard_ ? a0 / guard_radius_ : 0.0;
+  position_.assign(cloud.position.begin(), cloud.position.end());
+  guarded_.assign(n, 0);
+  particle_reach_.resize(n);
+  kernel_reach_.resize(n);
+  reach_box_.resize(n);
+  smallest_stretch_.resize(n);
+  smallest_guard_axis_ = std::numeric_limits<double>::infinity();
+  curvature_moment_ = a0 * a0 / (2.0 * exponent_ + 3.0);
+  const double mass_constant = (exponent_ + 1.0) / std::numbers::pi;  // C det S, unit mass
+  const bool deformed = !cloud.deformation_gradient.empty();
+  const double guard_reach = std::sqrt(2.0) * guard_radius_;  // guard defined for q_g < 2
+  const double unit_reach = reference_reach(config, cloud.initial_spacing);
+  // Pass 1, by particle: reaches (for the bins, the mirror images and the narrow band).
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!deformed) {
+      smallest_stretch_[p] = 1.0;
+      kernel_reach_[p] = a0;
+      particle_reach_[p] = unit_reach;
+      reach_box_[p] = Vec2::Constant(particle_reach_[p]);
+      reach_ = std::max(reach_, particle_reach_[p]);
+      continue;
+    }
+    const Mat2& f = cloud.deformation_gradient[p];
+    double largest = 0.0, smallest = 0.0;
+    detail::singular_values(f, largest, smallest);
+    smallest_stretch_[p] = smallest;
+    // Axis-aligned half widths of the kernel ellipse {F a0 u : |u| < 1} and of the guard's
+    // support {F rho0 u : |u|^2 < 2} (counted whether the guard becomes active or not).
+    const Vec2 widths(std::sqrt(f(0, 0) * f(0, 0) + f(0, 1) * f(0, 1)),
+                      std::sqrt(f(1, 0) * f(1, 0) + f(1, 1) * f(1, 1)));
+    kernel_reach_[p] = a0 * largest;
+    double reach = kernel_reach_[p];
+    reach_box_[p] = a0 * widths;
+    if (guard_) {
+      reach = std::max(reach, guard_reach * largest);
+      reach_box_[p] = reach_box_[p].cwiseMax(guard_reach * widths);
+    }
+    particle_reach_[p] = reach;
+    reach_ = std::max(reach_, reach);
+  }
+  // Mirror images across the grid edges that no particle lies beyond (walls): the reflection
+  // R (x - e) + e of the position and R F R of the deformation, R = diag(-1, 1) or diag(1, -1);
+  // near a corner across both edges too. Images are never guarded.
+  struct Image {
+    std::size_t particle;
+    bool in_x, in_y;
+    double ex, ey;  ///< the mirror lines x = ex, y = ey, m
+  };
+  std::vector<Image> images;
+  std::vector<Vec2> all_positions = position_;
+  if (walls != nullptr && n > 0) {
+    const Vec2 g0 = walls->origin, g1 = walls->upper_corner();
+    const double spacing = cloud.initial_spacing;
+    WallContacts own;
+    if (contacts == nullptr) {
+      Vec2 lo = position_[0], hi = position_[0];
+      for (const Vec2& x : position_) {
+        lo = lo.cwiseMin(x);
+        hi = hi.cwiseMax(x);
+      }
+      own = find_wall_contacts(position_, lo, hi, *walls, spacing);
+      contacts = &own;
+    }
+    const bool* wall = contacts->wall;
+    const std::vector<char>* touched = contacts->touched;
+    const auto distance_to = [&](int w, const Vec2& x) { return wall_distance(w, x, g0, g1); };
+    const auto along = [&](int w, const Vec2& x) { return wall_along(w, x, g0); };
+    const auto mirrored = [&](int w, const Vec2& x, double half_across, double half_along) {
+      if (!wall[w] || distance_to(w, x) >= half_across) return false;
+      const auto& bins = touched[w];
+      const double a = along(w, x);
+      const long b0 = std::max(0L, static_cast<long>(std::floor((a - half_along) / spacing)));
+      const long b1 = std::min(static_cast<long>(bins.size()) - 1,
+                               static_cast<long>(std::floor((a + half_along) / spacing)));
+      for (long b = b0; b <= b1; ++b) {
+        if (bins[static_cast<std::size_t>(b)]) return true;
+      }
+      return false;
+    };
+    for (std::size_t p = 0; p < n; ++p) {
+      const Vec2& x = position_[p];
+      const double half_x = std::max(reach_box_[p].x(), particle_reach_[p]);
+      const double half_y = std::max(reach_box_[p].y(), particle_reach_[p]);
+      int side_x = -1, side_y = -1;  // which wall (0 low, 1 high) the particle is mirrored across
+      if (mirrored(0, x, half_x, half_y)) {
+        side_x = 0;
+      } else if (mirrored(1, x, half_x, half_y)) {
+        side_x = 1;
+      }
+      if (mirrored(2, x, half_y, half_x)) {
+        side_y = 0;
+      } else if (mirrored(3, x, half_y, half_x)) {
+        side_y = 1;
+      }
+      if (side_x < 0 && side_y < 0) continue;
+      const double ex = side_x == 1 ? g1.x() : g0.x(), ey = side_y == 1 ? g1.y() : g0.y();
+      const std::pair<bool, bool> kinds[3] = {{true, false}, {false, true}, {true, true}};
+      for (const auto& [in_x, in_y] : kinds) {
+        if ((in_x && side_x < 0) || (in_y && side_y < 0)) continue;
+        images.push_back({p, in_x, in_y, ex, ey});
+        all_positions.emplace_back(in_x ? 2.0 * ex - x.x() : x.x(),
+                                   in_y ? 2.0 * ey - x.y() : x.y());
+      }
+    }
+  }
+  // Bins of the largest reach / kBinRings, searched kBinRings rings out.
+  rings_ = kBinRings;
+  bins_ = ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
+  // Pass 2, in bin order (the cloud's arrays are read in a few streams): the slots.
+  struct Slot {
+    double x, y, k00, k01, k10, k11, weight, half_x, half_y;
+  };
+  const auto kernel_of = [&](std::size_t p) {
+    Slot slot{position_[p].x(),
+              position_[p].y(),
+              1.0 / a0,
+              0.0,
+              0.0,
+              1.0 / a0,
+              cloud.volume[p] * mass_constant / (a0 * a0),
+              a0,
+              a0};
+    if (deformed) {
+      const Mat2& f = cloud.deformation_gradient[p];
+      const double det_f = f.determinant();
+      // S = F S0 with S0 = a0 I: the kernel follows the material (no clamping); S^-1 = F^-1 / a0.
+      const double inverse_scale = 1.0 / (det_f * a0);
+      slot.k00 = f(1, 1) * inverse_scale;
+      slot.k01 = -f(0, 1) * inverse_scale;
+      slot.k10 = -f(1, 0) * inverse_scale;
+      slot.k11 = f(0, 0) * inverse_scale;
+      slot.weight /= det_f;
+      // Half widths of the box around the ellipse {a0 F u : |u| < 1}: a0 |row of F|.
+      slot.half_x = a0 * std::sqrt(f(0, 0) * f(0, 0) + f(0, 1) * f(0, 1));
+      slot.half_y = a0 * std::sqrt(f(1, 0) * f(1, 0) + f(1, 1) * f(1, 1));
+    }
+    return slot;
+  };
+  slot_.assign_zeros(all_positions.size());
+  double largest_weight = 0.0;
+  for (std::size_t k = 0; k < slot_.size(); ++k) {
+    const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
+    Slot m = kernel_of(q < n ? q : images[q - n].particle);
+    if (q >= n) {
+      const Image& image = images[q - n];
+      if (image.in_x) {
+        m.x = 2.0 * image.ex - m.x;
+        m.k01 = -m.k01;
+        m.k10 = -m.k10;
+      }
+      if (image.in_y) {
+        m.y = 2.0 * image.ey - m.y;
+        m.k01 = -m.k01;
+        m.k10 = -m.k10;
+      }
+    }
+    slot_.x[k] = m.x;
+    slot_.y[k] = m.y;
+    slot_.k00[k] = m.k00;
+    slot_.k01[k] = m.k01;
+    slot_.k10[k] = m.k10;
+    slot_.k11[k] = m.k11;
+    slot_.weight[k] = m.weight;
+    slot_.half_x[k] = m.half_x;
+    slot_.half_y[k] = m.half_y;
+    largest_weight = std::max(largest_weight, m.weight);
+  }
+  // The fixed-point unit (vector_loops.hpp): a term of the largest weight stays below 2^45 units,
+  // and the weights of every slot together below 2^63, so that no sum overflows. The narrow band
+  // takes the bounds of the whole cloud, so that its unit is the full field's.
+  double bound = largest_weight;
+  double slots = static_cast<double>(slot_.size());
+  if (bounds != nullptr) {
+    if (!(largest_weight <= 2.0 * bounds->weight_bound) || !(slot_.size() <= bounds->slot_bound)) {
+      char message[200];
+      std::snprintf(message, sizeof message,
+                    "ImprovedField: a kernel weight (%.17g) exceeds twice the cloud's bound "
+                    "(%.17g), or its %zu slots the cloud's %zu",
+                    largest_weight, bounds->weight_bound, slot_.size(), bounds->slot_bound);
+      throw std::logic_error(message);
+    }
+    bound = bounds->weight_bound;
+    slots = static_cast<double>(bounds->slot_bound);
+  }
+  bound = bound > 0.0 ? bound : 1.0;
+  int exponent_of_bound = 0, exponent_of_total = 0;
+  std::frexp(bound, &exponent_of_bound);  // bound < 2^exponent_of_bound
+  std::frexp(bound * std::max(slots, 1.0), &exponent_of_total);
+  fixed_point_bits_ = std::min(44 - exponent_of_bound, 62 - exponent_of_total);
+  fixed_point_unit_ = std::ldexp(1.0, -fixed_point_bits_);
+  // A power of two: each product is std::ldexp(weight, bits), correctly rounded alike.
+  const double scale = std::ldexp(1.0, fixed_point_bits_);
+  for (std::size_t k = 0; k < slot_.size(); ++k) slot_.weight[k] *= scale;
+}
+
+double ImprovedField::weight_bound(const ImprovedConfig& config, double initial_spacing,
+                                   double largest_volume, double smallest_det) {
+  const double a0 = config.radius_factor * initial_spacing;
+  const double mass_constant = (static_cast<int>(config.profile) + 1.0) / std::numbers::pi;
+  return largest_volume * mass_constant / (a0 * a0) / smallest_det;
+}
+
+void ImprovedField::KernelArrays::assign_zeros(std::size_t n) {
+  n_ = n;
+  for (std::vector<double>* v : columns()) v->assign(n + detail::kKernelPadding, 0.0);
+}
+
+void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<const int> slots) {
+  n_ = slots.size();
+  const auto to = columns();
+  const auto source = from.columns();
+  half_x.clear();
+  half_y.clear();
+  for (std::size_t c = 0; c < kSummedColumns; ++c) {
+    std::vector<double>& column = *to[c];
+    const double* values = source[c]->data();
+    column.resize(n_ + detail::kKernelPadding);
+    for (std::size_t k = 0; k < n_; ++k) column[k] = values[slots[k]];
+    std::fill(column.begin() + static_cast<long>(n_), column.end(), 0.0);
+  }
+}
+
+double ImprovedField::reference_reach(const ImprovedConfig& config, double initial_spacing) {
+  const double a0 = config.radius_factor * initial_spacing;
+  if (!(config.guard_factor > 0.0)) return a0;
+  // The guard is defined where q_g < 2: out to sqrt 2 times its radius.
+  return std::max(a0, std::sqrt(2.0) * (config.guard_factor * 0.5 * initial_spacing));
+}
+
+ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,
+                                                              const Vec2& lo, const Vec2& hi,
+                                                              const Grid& walls, double spacing) {
+  // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle closer
+  // to it than one initial spacing "touches" it; the touched stretches of the wall are kept in
+  // bins of one spacing along it, and a particle is mirrored across the wall only if the wall is
+  // touched within its reach along the wall (a body near a wall but clear of it keeps its own
+  // boundary there).
+  WallContacts c;
+  const Vec2 g0 = walls.origin, g1 = walls.upper_corner();
+  c.wall[0] = lo.x() >= g0.x();
+  c.wall[1] = hi.x() <= g1.x();
+  c.wall[2] = lo.y() >= g0.y();
+  c.wall[3] = hi.y() <= g1.y();
+  const double wall_length[2] = {g1.y() - g0.y(), g1.x() - g0.x()};
+  for (int w = 0; w < 4; ++w) {
+    if (!c.wall[w]) continue;
+    auto& bins = c.touched[w];
+    bins.assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
+    for (const Vec2& x : positions) {
+      if (wall_distance(w, x, g0, g1) >= spacing) continue;
+      const double t = std::clamp(wall_along(w, x, g0) / spacing, 0.0, bins.size() - 1.0);
+      bins[static_cast<std::size_t>(t)] = 1;
+    }
+  }
+  return c;
+}
+
+void ImprovedField::decide_guards(std::span<const char> candidate) {
+  if (!guard_) return;
+  const std::size_t n = position_.size();
+  // Guards only where the particle's own phi is not comfortably above the level; phi is
+  // evaluated before any guard is switched on.
+  std::vector<std::size_t> newly;
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!candidate.empty() && !candidate[p]) continue;
+    if (volume_fraction(position_[p]) <= level_ + guard_margin_) newly.push_back(p);
+  }
+  for (const std::size_t p : newly) switch_guard_on(p);
+  // Particles without a guard reach as far as their kernel.
+  for (std::size_t p = 0; p < n; ++p) {
+    if (!guarded_[p]) particle_reach_[p] = kernel_reach_[p];
+  }
+}
+
+void ImprovedField::add_guards(std::span<const std::size_t> particles) {
+  if (!guard_) return;
+  for (const std::size_t p : particles) {
+    if (guarded_[p]) continue;
+    switch_guard_on(p);
+    particle_reach_[p] = kernel_reach_[p] * std::max(1.0, std::sqrt(2.0) / guard_scale_);
+  }
+}
+
+void ImprovedField::switch_guard_on(std::size_t p) {
+  guarded_[p] = 1;
+  ++n_guarded_;
+  smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
+  const auto k = static_cast<std::size_t>(bins_.slot_of(static_cast<int>(p)));
+  slot_.guarded[k] = 1.0;
+  // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
+  const double guard_box = std::sqrt(2.0) / guard_scale_;
+  if (guard_box > 1.0) {
+    slot_.half_x[k] *= guard_box;
+    slot_.half_y[k] *= guard_box;
+  }
+}
+
+double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, const int* end,
+                                 int n_ranges, const Vec2& x, bool guard) const {
+  const detail::KernelColumns columns{kernels.x.data(),     kernels.y.data(),   kernels.k00.data(),
+                                      kernels.k01.data(),   kernels.k10.data(), kernels.k11.data(),
+                                      kernels.weight.data()};
+  const double px = x.x(), py = x.y();
+  const std::uint64_t units = detail::kernel_sum(exponent_, columns, begin, end, n_ranges, px, py);
+  const double phi = static_cast<double>(units) * fixed_point_unit_;
+  if (!guard || n_guarded_ == 0) return phi;
+  // The guards (few): 0.5 + 0.5 (1 - |G^-1 d|^2), > 0.5 inside the guard ellipse, continuous,
+  // 0 at q = 2; G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q. A maximum, so in any
+  // order.
+  const double scale_squared = guard_scale_ * guard_scale_;
+  double best = 0.0;
+  for (int r = 0; r < n_ranges; ++r) {
+    for (int k = begin[r]; k < end[r]; ++k) {
+      const auto s = static_cast<std::size_t>(k);
+      if (kernels.guarded[s] == 0.0) continue;
+      const double dx = px - kernels.x[s], dy = py - kernels.y[s];
+      const double ux = kernels.k00[s] * dx + kernels.k01[s] * dy;
+      const double uy = kernels.k10[s] * dx + kernels.k11[s] * dy;
+      const double qg = scale_squared * (ux * ux + uy * uy);
+      if (qg < 2.0) best = std::max(best, 1.0 - 0.5 * qg);
+    }
+  }
+  return std::max(phi, best);
+}
+
+double ImprovedField::sum_at(const Vec2& x, bool guard) const {
+  int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
+  const int rows = bins_.slot_rows_near(x, rings_, begin, end);
+  return sum_ranges(slot_, begin, end, rows, x, guard);
+}
+
+double ImprovedField::volume_fraction(const Vec2& x) const {
+  return sum_at(x, false);
+}
+
+double ImprovedField::operator()(const Vec2& x) const {
+  return sum_at(x, true);
+}
+
+double ImprovedField::operator()(const Vec2& x, const KernelArrays& slots) const {
+  const int begin = 0, end = static_cast<int>(slots.size());
+  return sum_ranges(slots, &begin, &end, 1, x, true);
+}
+
+void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, KernelArrays& out) const {
+  // The bins within reach of the box (a superset), then each slot's own support box, widened by
+  // a hair so that rounding at a kernel's rim never drops a nonzero term.
+  const double hair = 1e-9 * reach_;
+  thread_local std::vector<int> found;
+  found.clear();
+  bins_.for_each_slot_in_box(lo - Vec2::Constant(reach_), hi + Vec2::Constant(reach_), [&](int k) {
+    const auto s = static_cast<std::size_t>(k);
+    const double half_x = slot_.half_x[s] + hair, half_y = slot_.half_y[s] + hair;
+    if (slot_.x[s] + half_x >= lo.x() && slot_.x[s] - half_x <= hi.x() &&
+        slot_.y[s] + half_y >= lo.y() && slot_.y[s] - half_y <= hi.y()) {
+      found.push_back(k);
+    }
+  });
+  out.gather(slot_, found);
+}
+
+double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
+                  double tolerance_t, long* evaluations) {
+  if (value_a == 0.0) return 0.0;
+  if (value_b == 0.0) return 1.0;
+  double a = 0.0, b = 1.0, fa = value_a, fb = value_b;
+  if (std::abs(fa) < std::abs(fb)) {
+    std::swap(a, b);
+    std::swap(fa, fb);
+  }
+  // b: best estimate; a: the other end of the bracket; c: previous b; d: the one before.
+  double c = a, fc = fa, d = a;
+  bool bisected = true;
+  for (int iteration = 0; iteration < 200; ++iteration) {
+    if (fb == 0.0 || std::abs(b - a) <= tolerance_t) break;
+    double s;
+    if (fa != fc && fb != fc) {  // inverse quadratic interpolation through a, b, c
+      s = a * fb * fc / ((fa - fb) * (fa - fc)) + b * fa * fc / ((fb - fa) * (fb - fc)) +
+          c * fa * fb / ((fc - fa) * (fc - fb));
+    } else {  // secant
+      s = b - fb * (b - a) / (fb - fa);
+    }
+    // Safeguards: fall back to bisection unless s is well inside the bracket and the steps
+    // shrink fast enough.
+    const double quarter = 0.25 * (3.0 * a + b);
+    const bool outside = !((s > std::min(quarter, b)) && (s < std::max(quarter, b)));
+    const bool slow = bisected ? std::abs(s - b) >= 0.5 * std::abs(b - c)
+                               : std::abs(s - b) >= 0.5 * std::abs(c - d);
+    const bool tiny = bisected ? std::abs(b - c) < tolerance_t : std::abs(c - d) < tolerance_t;
+    if (outside || slow || tiny) {
+      s = 0.5 * (a + b);
+      bisected = true;
+    } else {
+      bisected = false;
+      // An interpolation step shorter than half the tolerance would land on b's side again
+      // when the root lies closer to b than that (a field flat at its resolution there keeps
+      // it so), and the bracket would then close by bisection alone: step half the tolerance
+      // towards a instead (Brent's minimum step), which crosses such a root.
+      if (std::abs(s - b) < 0.5 * tolerance_t) s = b + (a > b ? 0.5 : -0.5) * tolerance_t;
+    }
+    const double fs = g(s);
+    if (evaluations != nullptr) ++*evaluations;
+    d = c;
+    c = b;
+    fc = fb;
+    if ((fa > 0.0) != (fs > 0.0)) {
+      b = s;
+      fb = fs;
+    } else {
+      a = s;
+      fa = fs;
+    }
+    if (std::abs(fa) < std::abs(fb)) {
+      std::swap(a, b);
+      std::swap(fa, fb);
+    }
+  }
+  // Return the end of the bracket on the material side's boundary estimate (b).
+  return std::clamp(b, 0.0, 1.0);
+}
+
+}  // namespace pfm
