@@ -302,22 +302,24 @@ class ImprovedField {
     std::vector<double> x, y;                ///< centre, m
     std::vector<double> k00, k01, k10, k11;  ///< S^-1, 1/m
     std::vector<double> weight;              ///< V_p C_p x 2^fixed_point_bits()
-    std::vector<double> guarded;             ///< 1 where the guard is active, else 0
     std::vector<double> half_x, half_y;      ///< half widths of the box around kernel and guard, m
+    /// The slots whose guard is active, increasing: the guards are few, and a field evaluation
+    /// visits only those among its slots instead of testing every slot.
+    std::vector<int> guarded_slots;
     std::size_t size() const { return n_; }
-    /// n slots (zeros), padding included.
+    /// n slots (zeros, no guard), padding included.
     void assign_zeros(std::size_t n);
-    /// The slots `slots` of `from`, in that order: the columns the sums read (x to guarded),
-    /// not the half widths, which are left empty.
+    /// The slots `slots` of `from`, in that order: the columns the sums read (x to weight) and
+    /// the guarded ones among them, not the half widths, which are left empty.
     void gather(const KernelArrays& from, std::span<const int> slots);
 
    private:
-    static constexpr std::size_t kSummedColumns = 8;  ///< x .. guarded, first in columns()
-    std::array<std::vector<double>*, 10> columns() {
-      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &guarded, &half_x, &half_y};
+    static constexpr std::size_t kSummedColumns = 7;  ///< x .. weight, first in columns()
+    std::array<std::vector<double>*, 9> columns() {
+      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &half_x, &half_y};
     }
-    std::array<const std::vector<double>*, 10> columns() const {
-      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &guarded, &half_x, &half_y};
+    std::array<const std::vector<double>*, 9> columns() const {
+      return {&x, &y, &k00, &k01, &k10, &k11, &weight, &half_x, &half_y};
     }
     std::size_t n_ = 0;
   };
@@ -388,6 +390,8 @@ class ImprovedField {
 
  private:
   void switch_guard_on(std::size_t p);
+  // Rebuilds slot_.guarded_slots from guarded_ (after guards were switched on).
+  void list_guarded_slots();
   // The sum over the slot ranges [begin[r], end[r]) of `kernels` at x: phi (fixed point
   // converted back) and, with `guard`, max(phi, guard).
   double sum_ranges(const KernelArrays& kernels, const int* begin, const int* end, int n_ranges,

@@ -254,6 +254,7 @@ double ImprovedField::weight_bound(const ImprovedConfig& config, double initial_
 void ImprovedField::KernelArrays::assign_zeros(std::size_t n) {
   n_ = n;
   for (std::vector<double>* v : columns()) v->assign(n + detail::kKernelPadding, 0.0);
+  guarded_slots.clear();
 }
 
 void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<const int> slots) {
@@ -268,6 +269,13 @@ void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<con
     column.resize(n_ + detail::kKernelPadding);
     for (std::size_t k = 0; k < n_; ++k) column[k] = values[slots[k]];
     std::fill(column.begin() + static_cast<long>(n_), column.end(), 0.0);
+  }
+  guarded_slots.clear();
+  if (from.guarded_slots.empty()) return;
+  for (std::size_t k = 0; k < n_; ++k) {
+    if (std::binary_search(from.guarded_slots.begin(), from.guarded_slots.end(), slots[k])) {
+      guarded_slots.push_back(static_cast<int>(k));
+    }
   }
 }
 
@@ -317,6 +325,7 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
     if (volume_fraction(position_[p]) <= level_ + guard_margin_) newly.push_back(p);
   }
   for (const std::size_t p : newly) switch_guard_on(p);
+  list_guarded_slots();
   // Particles without a guard reach as far as their kernel.
   for (std::size_t p = 0; p < n; ++p) {
     if (!guarded_[p]) particle_reach_[p] = kernel_reach_[p];
@@ -330,6 +339,15 @@ void ImprovedField::add_guards(std::span<const std::size_t> particles) {
     switch_guard_on(p);
     particle_reach_[p] = kernel_reach_[p] * std::max(1.0, std::sqrt(2.0) / guard_scale_);
   }
+  list_guarded_slots();
+}
+
+void ImprovedField::list_guarded_slots() {
+  slot_.guarded_slots.clear();
+  for (std::size_t p = 0; p < guarded_.size(); ++p) {
+    if (guarded_[p]) slot_.guarded_slots.push_back(bins_.slot_of(static_cast<int>(p)));
+  }
+  std::sort(slot_.guarded_slots.begin(), slot_.guarded_slots.end());
 }
 
 void ImprovedField::switch_guard_on(std::size_t p) {
@@ -337,7 +355,6 @@ void ImprovedField::switch_guard_on(std::size_t p) {
   ++n_guarded_;
   smallest_guard_axis_ = std::min(smallest_guard_axis_, guard_radius_ * smallest_stretch_[p]);
   const auto k = static_cast<std::size_t>(bins_.slot_of(static_cast<int>(p)));
-  slot_.guarded[k] = 1.0;
   // The guard's support |K d|^2 < 2 / scale^2 is the kernel ellipse scaled by sqrt(2) / scale.
   const double guard_box = std::sqrt(2.0) / guard_scale_;
   if (guard_box > 1.0) {
@@ -359,11 +376,12 @@ double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, 
   // 0 at q = 2; G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q. A maximum, so in any
   // order.
   const double scale_squared = guard_scale_ * guard_scale_;
+  const std::vector<int>& guarded = kernels.guarded_slots;
   double best = 0.0;
   for (int r = 0; r < n_ranges; ++r) {
-    for (int k = begin[r]; k < end[r]; ++k) {
-      const auto s = static_cast<std::size_t>(k);
-      if (kernels.guarded[s] == 0.0) continue;
+    for (auto it = std::lower_bound(guarded.begin(), guarded.end(), begin[r]);
+         it != guarded.end() && *it < end[r]; ++it) {
+      const auto s = static_cast<std::size_t>(*it);
       const double dx = px - kernels.x[s], dy = py - kernels.y[s];
       const double ux = kernels.k00[s] * dx + kernels.k01[s] * dy;
       const double uy = kernels.k10[s] * dx + kernels.k11[s] * dy;
