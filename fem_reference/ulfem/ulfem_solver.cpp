@@ -132,8 +132,8 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   } else {
     base_dt_ = case_.time.cfl * critical_dt_;
   }
-  dt_ = base_dt_;
-  damping_ = case_.solver.damping;
+  counters_.dt = base_dt_;
+  counters_.damping = case_.solver.damping;
   internal_work_increment_.assign(particles_.size(), 0.0);
 }
 
@@ -142,7 +142,7 @@ void UlFemSolver::set_dt(double dt) {
     throw SimulationError("time step " + std::to_string(dt) + " s outside (0, " +
                           std::to_string(critical_dt_) + "]");
   }
-  base_dt_ = dt_ = dt;
+  base_dt_ = counters_.dt = dt;
 }
 
 void UlFemSolver::build_particles() {
@@ -246,8 +246,8 @@ void UlFemSolver::compute_geometry() {
       centre += 0.25 * node_position_[static_cast<std::size_t>(n)];
     throw SimulationError("element inverted: " + describe_element(e, centre) +
                           ", det J = " + fmt(det_jacobian_[p]) + " m^2 <= 0 at its Gauss point " +
-                          std::to_string(p % 4) + " at t = " + std::to_string(time_) + " s (step " +
-                          std::to_string(step_) + ")");
+                          std::to_string(p % 4) + " at t = " + std::to_string(counters_.time) +
+                          " s (step " + std::to_string(counters_.step) + ")");
   }
   min_element_length_ = min_length;
   // Current volumes of the material points: det J x weight (1).
@@ -263,7 +263,7 @@ std::string UlFemSolver::describe_element(std::size_t element, const Vec2& x) co
 }
 
 double UlFemSolver::gravity_factor(double t) const {
-  if (gravity_full_ || case_.gravity.ramp_time <= 0.0) return 1.0;
+  if (counters_.gravity_full || case_.gravity.ramp_time <= 0.0) return 1.0;
   return std::min(1.0, t / case_.gravity.ramp_time);
 }
 
@@ -271,8 +271,8 @@ void UlFemSolver::step() {
   // The mesh is never reset, so crushed elements lower the stable time step: the step is the
   // base step, reduced to cfl x (smallest current element length) / (c_p + |v|max) when that
   // is smaller (explicit FE practice; the MPM keeps its cells and needs no such reduction).
-  dt_ = std::min(base_dt_,
-                 case_.time.cfl * min_element_length_ / (max_wave_speed_ + max_particle_speed_));
+  counters_.dt = std::min(
+      base_dt_, case_.time.cfl * min_element_length_ / (max_wave_speed_ + max_particle_speed_));
   auto t0 = Clock::now();
   particles_to_nodes(false);
   times_.particles_to_grid += seconds_since(t0);
@@ -310,8 +310,8 @@ void UlFemSolver::step() {
   }
   times_.stress += seconds_since(t0);
 
-  time_ += dt_;
-  ++step_;
+  counters_.time += counters_.dt;
+  ++counters_.step;
   t0 = Clock::now();
   move_mesh();
   times_.locate += seconds_since(t0);
@@ -360,13 +360,13 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
 }
 
 void UlFemSolver::external_forces() {
-  const double gy = -case_.gravity.g * gravity_factor(time_);
+  const double gy = -case_.gravity.g * gravity_factor(counters_.time);
   const std::size_t n_nodes = nodes_.mass.size();
   for (std::size_t n = 0; n < n_nodes; ++n)
     nodes_.external_force[n] = Vec2(0.0, nodes_.mass[n] * gy);
-  if (!loads_active_) return;  // gravity loading of the initial stress: no loads, no hook
+  if (!counters_.loads_active) return;  // gravity loading of the initial stress: no loads, no hook
   apply_loads();
-  if (hook_) hook_(time_, nodes_, nodes_.external_force);
+  if (hook_) hook_(counters_.time, nodes_, nodes_.external_force);
 }
 
 bool UlFemSolver::shadowed(double x, double y) const {
@@ -386,7 +386,7 @@ void UlFemSolver::apply_loads() {
   bool any = false;
   bool have_boundary_x = false;
   for (const EdgeLoad& load : loads_) {
-    const double factor = load.time_function.factor(time_);
+    const double factor = load.time_function.factor(counters_.time);
     if (factor == 0.0) continue;
     any = true;
     const Vec2 normal_scale = factor * load.normal_scale;
@@ -486,8 +486,8 @@ void UlFemSolver::update_nodes() {
   // The arithmetic of MpmSolver::update_grid, node by node.
   const std::size_t n_nodes = nodes_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
-  const double alpha = damping_;
-  const double dt = dt_;
+  const double alpha = counters_.damping;
+  const double dt = counters_.dt;
   for (std::size_t n = 0; n < n_nodes; ++n) {
     const double m = nodes_.mass[n];
     if (m <= tiny) {
@@ -521,13 +521,13 @@ void UlFemSolver::update_nodes() {
     const Vec2 f = nodes_.internal_force[n] + nodes_.external_force[n];
     damping += (nodes_.acceleration[n] * nodes_.mass[n] - f).dot(mid) * dt;
   }
-  external_work_ += external;
-  damping_work_ += damping;
+  counters_.external_work += external;
+  counters_.damping_work += damping;
 }
 
 void UlFemSolver::nodes_to_particles() {
   const std::size_t n_elements = mesh_.n_elements();
-  const double dt = dt_;
+  const double dt = counters_.dt;
 #pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
   for (std::size_t e = 0; e < n_elements; ++e) {
     for (std::size_t k = 0; k < 4; ++k) {
@@ -543,7 +543,7 @@ void UlFemSolver::nodes_to_particles() {
 
 void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
   const std::size_t n_elements = mesh_.n_elements();
-  const double dt = dt_;
+  const double dt = counters_.dt;
   const std::vector<MaterialRecord>& materials = case_.materials;
 #pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
   for (std::size_t e = 0; e < n_elements; ++e) {
@@ -578,11 +578,11 @@ void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
   }
   double work = 0.0;
   for (double w : internal_work_increment_) work += w;
-  internal_work_ += work;
+  counters_.internal_work += work;
 }
 
 void UlFemSolver::move_mesh() {
-  const double dt = dt_;
+  const double dt = counters_.dt;
   for (std::size_t n = 0; n < node_position_.size(); ++n)
     node_position_[n] += dt * nodes_.velocity[n];
   // Material points stay at their natural coordinates.
@@ -639,15 +639,16 @@ void UlFemSolver::check_particles() {
   if (bad >= 0) {
     const auto p = static_cast<std::size_t>(bad);
     throw SimulationError("non-finite value (NaN or inf) at material point " + std::to_string(p) +
-                          " of " + describe_element(p / 4, particles_.position[p]) + " at t = " +
-                          std::to_string(time_) + " s (step " + std::to_string(step_) + ")");
+                          " of " + describe_element(p / 4, particles_.position[p]) +
+                          " at t = " + std::to_string(counters_.time) + " s (step " +
+                          std::to_string(counters_.step) + ")");
   }
   // Courant condition on the current mesh, material speed added to the wave speed.
-  if ((max_wave_speed_ + max_speed) * dt_ > min_element_length_) {
+  if ((max_wave_speed_ + max_speed) * counters_.dt > min_element_length_) {
     throw SimulationError(
-        "CFL condition violated at t = " + std::to_string(time_) + " s (step " +
-        std::to_string(step_) +
-        "): (c_p + |v|max) dt = " + std::to_string((max_wave_speed_ + max_speed) * dt_) +
+        "CFL condition violated at t = " + std::to_string(counters_.time) + " s (step " +
+        std::to_string(counters_.step) +
+        "): (c_p + |v|max) dt = " + std::to_string((max_wave_speed_ + max_speed) * counters_.dt) +
         " m > smallest element length " + std::to_string(min_element_length_) + " m");
   }
 }
@@ -658,9 +659,9 @@ EnergyBalance UlFemSolver::energy() const {
     e.kinetic_energy += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
     e.momentum += particles_.mass[p] * particles_.velocity[p];
   }
-  e.external_work = external_work_;
-  e.internal_work = internal_work_;
-  e.damping_work = damping_work_;
+  e.external_work = counters_.external_work;
+  e.internal_work = counters_.internal_work;
+  e.damping_work = counters_.damping_work;
   return e;
 }
 
@@ -670,41 +671,12 @@ std::vector<Vec2> UlFemSolver::node_displacement() const {
   return u;
 }
 
-void UlFemSolver::apply_k0_stress() {
-  pfm::apply_k0_stress(case_, particles_);
-}
-
 void UlFemSolver::initialise_stress() {
-  switch (case_.initial_stress.method) {
-    case InitialStressMethod::kZero:
-      return;
-    case InitialStressMethod::kK0:
-      apply_k0_stress();
-      gravity_full_ = true;
-      return;
-    case InitialStressMethod::kGravity:
-      break;
-  }
-  // Gravity loading as MpmSolver::initialise_stress: full gravity, heavy damping, no surface
-  // loads, until the kinetic energy has decayed; then velocities and displacements reset.
-  const double saved_damping = damping_;
-  damping_ = case_.initial_stress.damping;
-  gravity_full_ = true;
-  loads_active_ = false;
-  damp_to_rest(
-      case_.initial_stress, [this] { step(); }, [this] { return energy().kinetic_energy; },
-      [this] { return time_; }, [this] { return step_; });
-  damping_ = saved_damping;
-  loads_active_ = true;
-  for (std::size_t p = 0; p < particles_.size(); ++p) {
-    particles_.velocity[p].setZero();
-    particles_.reference_position[p] = particles_.position[p];
-  }
-  node_reference_ = node_position_;
-  initial_stress_steps_ = step_;
-  time_ = 0.0;
-  step_ = 0;
-  external_work_ = internal_work_ = damping_work_ = 0.0;
+  // As MpmSolver::initialise_stress; after gravity loading the nodes' reference positions are
+  // reset with the particles'.
+  const bool gravity_loaded = pfm::initialise_stress(
+      case_, particles_, counters_, [this] { step(); }, [this] { return energy().kinetic_energy; });
+  if (gravity_loaded) node_reference_ = node_position_;
 }
 
 }  // namespace pfm::ulfem

@@ -120,15 +120,15 @@ class UlFemSolver {
   /// MpmSolver::update_stress_from_grid_velocity. The mesh does not move.
   void update_stress_from_node_velocity(const std::vector<Vec2>& node_velocity);
 
-  double time() const { return time_; }
-  long step_count() const { return step_; }
+  double time() const { return counters_.time; }
+  long step_count() const { return counters_.step; }
   /// Time step of the last step taken (of the next one before the first): the base step
   /// (time.dt, or cfl x critical_dt()), reduced to cfl x (smallest current element length) /
   /// (c_p + |v|max) when elements have been crushed below that.
-  double dt() const { return dt_; }
+  double dt() const { return counters_.dt; }
   /// Critical time step: smallest (element area / longest edge) of the initial mesh / c_p.
   double critical_dt() const { return critical_dt_; }
-  long initial_stress_steps() const { return initial_stress_steps_; }
+  long initial_stress_steps() const { return counters_.initial_stress_steps; }
   const QuadMesh& mesh() const { return mesh_; }
   /// Current node positions, m (mesh().node_position is the initial mesh).
   const std::vector<Vec2>& node_position() const { return node_position_; }
@@ -147,7 +147,7 @@ class UlFemSolver {
   const EdgeLoadDiagnostics& load_diagnostics() const { return load_diagnostics_; }
   EnergyBalance energy() const;
 
-  void set_damping(double coefficient) { damping_ = coefficient; }
+  void set_damping(double coefficient) { counters_.damping = coefficient; }
   /// Replace the base time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
@@ -166,7 +166,6 @@ class UlFemSolver {
   void update_stress(const std::vector<Vec2>& node_velocity);
   void move_mesh();
   void check_particles();
-  void apply_k0_stress();
   double gravity_factor(double t) const;
   std::string describe_element(std::size_t element, const Vec2& x) const;
 
@@ -187,23 +186,14 @@ class UlFemSolver {
   std::vector<double> boundary_x_;  ///< sorted x of the boundary nodes, scratch (faces "top")
   std::vector<double> cut_scratch_;
 
-  double time_ = 0.0;
-  long step_ = 0;
-  double dt_ = 0.0;
+  SolverCounters counters_;  ///< time, step, dt, damping, load switches, works
   double base_dt_ = 0.0;
   double max_particle_speed_ = 0.0;
   double critical_dt_ = 0.0;
   double max_wave_speed_ = 0.0;
   double min_element_length_ = 0.0;  ///< current smallest area / longest edge, m
-  double damping_ = 0.0;
   StageTimes times_;  ///< locate = geometry, particles_to_grid = particles_to_nodes, ...
   ExternalForceHook hook_;
-  bool loads_active_ = true;
-  bool gravity_full_ = false;
-  long initial_stress_steps_ = 0;
-  double external_work_ = 0.0;
-  double internal_work_ = 0.0;
-  double damping_work_ = 0.0;
   std::vector<double> internal_work_increment_;
   std::vector<Vec2> velocity_before_update_;
   std::vector<Vec2> remapped_velocity_;

@@ -81,11 +81,11 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
           case_.file + ": /time/dt: " + std::to_string(*case_.time.dt) +
           " s exceeds the critical time step h / c_p = " + std::to_string(critical_dt_) + " s");
     }
-    dt_ = *case_.time.dt;
+    counters_.dt = *case_.time.dt;
   } else {
-    dt_ = case_.time.cfl * critical_dt_;
+    counters_.dt = case_.time.cfl * critical_dt_;
   }
-  damping_ = case_.solver.damping;
+  counters_.damping = case_.solver.damping;
   build_top_node_loads();
   internal_work_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, 0.0);
   for (const MaterialRecord& m : case_.materials) {
@@ -120,7 +120,7 @@ void MpmSolver::set_dt(double dt) {
     throw SimulationError("time step " + std::to_string(dt) + " s outside (0, " +
                           std::to_string(critical_dt_) + "]");
   }
-  dt_ = dt;
+  counters_.dt = dt;
 }
 
 void MpmSolver::build_constraints() {
@@ -198,7 +198,7 @@ void MpmSolver::build_top_node_loads() {
 }
 
 double MpmSolver::gravity_factor(double t) const {
-  if (gravity_full_ || case_.gravity.ramp_time <= 0.0) return 1.0;
+  if (counters_.gravity_full || case_.gravity.ramp_time <= 0.0) return 1.0;
   return std::min(1.0, t / case_.gravity.ramp_time);
 }
 
@@ -227,7 +227,7 @@ void MpmSolver::run_step() {
   t0 = Clock::now();
   update_grid();
   times_.update_grid += seconds_since(t0);
-  if (velocity_hook_) velocity_hook_(time_, dt_, grid_);
+  if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
 
   if (case_.solver.scheme == Scheme::kMUSL) {
     t0 = Clock::now();
@@ -246,8 +246,8 @@ void MpmSolver::run_step() {
     times_.stress += seconds_since(t0);
   }
 
-  time_ += dt_;
-  ++step_;
+  counters_.time += counters_.dt;
+  ++counters_.step;
   check_particles();
 }
 
@@ -389,8 +389,9 @@ void MpmSolver::locate_particles(bool clear_grid) {
   }
   if (outside >= 0) {
     const auto p = static_cast<std::size_t>(outside);
-    throw SimulationError(describe_particle(particles_, p) + " at t = " + std::to_string(time_) +
-                          " s (step " + std::to_string(step_) +
+    throw SimulationError(describe_particle(particles_, p) +
+                          " at t = " + std::to_string(counters_.time) + " s (step " +
+                          std::to_string(counters_.step) +
                           ") has left the grid or its GIMP domain reaches past the grid edge");
   }
 
@@ -430,7 +431,7 @@ void MpmSolver::particles_to_grid() {
   Vec2* force = grid_.internal_force.data();
   Vec2* remapped_momentum = remapped_momentum_.data();
   Vec2* external = grid_.external_force.data();
-  const double gravity = -case_.gravity.g * gravity_factor(time_);  // along y
+  const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // along y
   const bool musl = case_.solver.scheme == Scheme::kMUSL;
   const double* particle_mass = particles_.mass.data();
   const Vec2* particle_velocity = particles_.velocity.data();
@@ -484,25 +485,25 @@ void MpmSolver::particles_to_grid() {
 
 void MpmSolver::external_forces() {
   // The body force is in place (particles_to_grid); the surface loads are added to it.
-  if (!loads_active_) return;
+  if (!counters_.loads_active) return;
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     const LoadSpec& load = case_.loads[k];
     if (load.apply_on != LoadTarget::kGridTopNodes) continue;
-    const double q = load.pressure * load.time_function.factor(time_);
+    const double q = load.pressure * load.time_function.factor(counters_.time);
     const TopNodeLoad& top = top_loads_[k];
     for (std::size_t i = 0; i < top.node.size(); ++i) {
       grid_.external_force[static_cast<std::size_t>(top.node[i])].y() -=
           q * top.vertical_force_per_kpa[i];
     }
   }
-  if (hook_) hook_(time_, grid_, grid_.external_force);
+  if (hook_) hook_(counters_.time, grid_, grid_.external_force);
 }
 
 void MpmSolver::update_grid() {
   const std::size_t n_nodes = grid_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
-  const double alpha = damping_;
-  const double dt = dt_;
+  const double alpha = counters_.damping;
+  const double dt = counters_.dt;
   const double* mass = grid_.mass.data();
   const Vec2* momentum = grid_.momentum.data();
   const Vec2* internal = grid_.internal_force.data();
@@ -543,8 +544,8 @@ void MpmSolver::update_grid() {
     node_work[k] = Vec2(external_work, damping_work);
   }
   for (std::size_t k = 0; k < n_blocks; ++k) {
-    external_work_ += node_work[k].x();
-    damping_work_ += node_work[k].y();
+    counters_.external_work += node_work[k].x();
+    counters_.damping_work += node_work[k].y();
   }
 }
 
@@ -552,7 +553,7 @@ template <int W, bool kScatterMomentum>
 void MpmSolver::grid_to_particles() {
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
-  const double dt = dt_;
+  const double dt = counters_.dt;
   const int n_bands = n_bands_;
   const StencilReader<W> stencil = stencil_reader<W>();
   const Vec2* acceleration = grid_.acceleration.data();
@@ -638,7 +639,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   Vec2* remapped = remapped_velocity_.data();
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
-  const double dt = dt_;
+  const double dt = counters_.dt;
   const StencilReader<W> stencil = stencil_reader<W>();
   const MaterialRecord* materials = case_.materials.data();
   const MaterialConstants* constants = material_constants_.data();
@@ -716,7 +717,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
     }
   }
   bad_particle_ = std::max(bad_particle_, bad);
-  for (std::size_t k = 0; k < n_blocks; ++k) internal_work_ += work_blocks[k];
+  for (std::size_t k = 0; k < n_blocks; ++k) counters_.internal_work += work_blocks[k];
 }
 
 void MpmSolver::check_particles() {
@@ -724,14 +725,14 @@ void MpmSolver::check_particles() {
   if (bad_particle_ >= 0) {
     throw SimulationError("non-finite value (NaN or inf) at " +
                           describe_particle(particles_, static_cast<std::size_t>(bad_particle_)) +
-                          " at t = " + std::to_string(time_) + " s (step " + std::to_string(step_) +
-                          ")");
+                          " at t = " + std::to_string(counters_.time) + " s (step " +
+                          std::to_string(counters_.step) + ")");
   }
   // Courant condition with the material speed added to the wave speed.
-  if ((max_wave_speed_ + max_speed_) * dt_ > case_.grid.cell_size) {
-    throw SimulationError("CFL condition violated at t = " + std::to_string(time_) + " s (step " +
-                          std::to_string(step_) + "): (c_p + |v|max) dt = " +
-                          std::to_string((max_wave_speed_ + max_speed_) * dt_) +
+  if ((max_wave_speed_ + max_speed_) * counters_.dt > case_.grid.cell_size) {
+    throw SimulationError("CFL condition violated at t = " + std::to_string(counters_.time) +
+                          " s (step " + std::to_string(counters_.step) + "): (c_p + |v|max) dt = " +
+                          std::to_string((max_wave_speed_ + max_speed_) * counters_.dt) +
                           " m > h = " + std::to_string(case_.grid.cell_size) + " m");
   }
 }
@@ -742,46 +743,15 @@ EnergyBalance MpmSolver::energy() const {
     e.kinetic_energy += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
     e.momentum += particles_.mass[p] * particles_.velocity[p];
   }
-  e.external_work = external_work_;
-  e.internal_work = internal_work_;
-  e.damping_work = damping_work_;
+  e.external_work = counters_.external_work;
+  e.internal_work = counters_.internal_work;
+  e.damping_work = counters_.damping_work;
   return e;
 }
 
-void MpmSolver::apply_k0_stress() {
-  pfm::apply_k0_stress(case_, particles_);
-}
-
 void MpmSolver::initialise_stress() {
-  switch (case_.initial_stress.method) {
-    case InitialStressMethod::kZero:
-      return;
-    case InitialStressMethod::kK0:
-      apply_k0_stress();
-      gravity_full_ = true;
-      return;
-    case InitialStressMethod::kGravity:
-      break;
-  }
-  // Gravity loading: full gravity on the unstressed body, heavily damped, no surface loads,
-  // until the kinetic energy has decayed; then the velocities and displacements are reset.
-  const double saved_damping = damping_;
-  damping_ = case_.initial_stress.damping;
-  gravity_full_ = true;
-  loads_active_ = false;
-  damp_to_rest(
-      case_.initial_stress, [this] { step(); }, [this] { return energy().kinetic_energy; },
-      [this] { return time_; }, [this] { return step_; });
-  damping_ = saved_damping;
-  loads_active_ = true;
-  for (std::size_t p = 0; p < particles_.size(); ++p) {
-    particles_.velocity[p].setZero();
-    particles_.reference_position[p] = particles_.position[p];
-  }
-  initial_stress_steps_ = step_;
-  time_ = 0.0;
-  step_ = 0;
-  external_work_ = internal_work_ = damping_work_ = 0.0;
+  pfm::initialise_stress(
+      case_, particles_, counters_, [this] { step(); }, [this] { return energy().kinetic_energy; });
 }
 
 void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_velocity) {

@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/solver/body_fill.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/particles.hpp"
 
@@ -102,10 +103,10 @@ class MpmSolver {
   void initialise_stress();
 
   /// Steps taken by the gravity-loading procedure (0 for zero and K0).
-  long initial_stress_steps() const { return initial_stress_steps_; }
-  double time() const { return time_; }
-  long step_count() const { return step_; }
-  double dt() const { return dt_; }
+  long initial_stress_steps() const { return counters_.initial_stress_steps; }
+  double time() const { return counters_.time; }
+  long step_count() const { return counters_.step; }
+  double dt() const { return counters_.dt; }
   /// Critical time step h / c_p of the stiffest material at its initial density, s.
   double critical_dt() const { return critical_dt_; }
   const Particles& particles() const { return particles_; }
@@ -119,47 +120,16 @@ class MpmSolver {
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
   void set_grid_velocity_hook(GridVelocityHook hook) { velocity_hook_ = std::move(hook); }
   /// Override the local damping coefficient (used by gravity loading).
-  void set_damping(double coefficient) { damping_ = coefficient; }
+  void set_damping(double coefficient) { counters_.damping = coefficient; }
   /// Replace the time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
 
   /// The scalars that carry from step to step besides the particles (checkpoints: with the
   /// particles they are the complete state; the grid is rebuilt every step).
-  struct Counters {
-    double time = 0.0;
-    long step = 0;
-    double dt = 0.0;
-    double damping = 0.0;
-    bool loads_active = true;
-    bool gravity_full = false;
-    long initial_stress_steps = 0;
-    double external_work = 0.0, internal_work = 0.0, damping_work = 0.0;
-  };
-  Counters counters() const {
-    return {time_,
-            step_,
-            dt_,
-            damping_,
-            loads_active_,
-            gravity_full_,
-            initial_stress_steps_,
-            external_work_,
-            internal_work_,
-            damping_work_};
-  }
+  using Counters = SolverCounters;
+  const Counters& counters() const { return counters_; }
   /// Restores counters() of a checkpoint (after the particles have been restored).
-  void restore(const Counters& n) {
-    time_ = n.time;
-    step_ = n.step;
-    dt_ = n.dt;
-    damping_ = n.damping;
-    loads_active_ = n.loads_active;
-    gravity_full_ = n.gravity_full;
-    initial_stress_steps_ = n.initial_stress_steps;
-    external_work_ = n.external_work;
-    internal_work_ = n.internal_work;
-    damping_work_ = n.damping_work;
-  }
+  void restore(const Counters& n) { counters_ = n; }
 
   /// Nodes on the initial top surface and their consistent nodal force per unit pressure for
   /// a grid_top_nodes load (exposed for tests).
@@ -191,18 +161,14 @@ class MpmSolver {
   void check_particles();
   void build_constraints();
   void build_top_node_loads();
-  void apply_k0_stress();
   double gravity_factor(double t) const;
 
   Case case_;
   Particles particles_;
   GridState grid_;
-  double time_ = 0.0;
-  long step_ = 0;
-  double dt_ = 0.0;
+  SolverCounters counters_;  ///< time, step, dt, damping, load switches, works
   double critical_dt_ = 0.0;
   double max_wave_speed_ = 0.0;
-  double damping_ = 0.0;
   StageTimes times_;
   ExternalForceHook hook_;
   GridVelocityHook velocity_hook_;
@@ -233,15 +199,9 @@ class MpmSolver {
   std::vector<Vec2> remapped_momentum_;       ///< MUSL: nodal momentum of updated particles
   double remap_seconds_ = 0.0;                ///< MUSL: time of the remap in update_stress
   bool parallel_ = true;  ///< run the stages on all threads (false for tiny problems)
-  bool loads_active_ = true;
-  bool gravity_full_ = false;
 
-  long initial_stress_steps_ = 0;
   long bad_particle_ = -1;  ///< a particle with a non-finite value in this step, or -1
   double max_speed_ = 0.0;  ///< largest particle speed after this step, m/s
-  double external_work_ = 0.0;
-  double internal_work_ = 0.0;
-  double damping_work_ = 0.0;
 };
 
 }  // namespace pfm
