@@ -103,8 +103,9 @@ struct ImprovedConfig {
   int max_refinement = 32;
   SaddleRule saddle_rule = SaddleRule::kAsymptoticDecider;
   bool narrow_band = true;
-  /// Narrow band: cells full of particle volume (>= 1 - 0.15 a0 / h of their area, and every
-  /// cell within a kernel reach too) are interior without evaluating the field, and only the
+  /// Narrow band: cells full of particle volume (>= 1 - 0.15 a0 / h of their area, or each
+  /// 2 x 2 window of cells around their corners that full, and every cell within a kernel reach
+  /// too) are interior without evaluating the field, and only the
   /// particles within reach of the other cells enter it (README of mpm/detect). Of those, cells
   /// no kernel reaches are skipped (exact); cells whose corners and centre all have
   /// phi > level + band_margin (interior) or < level - band_margin with no guarded particle

@@ -218,13 +218,17 @@ struct Band {
   std::vector<Mat2> deformation;         ///< empty without F
 };
 
-// A cell whose volume fraction is at least solid_fraction, with every cell within a kernel reach
-// of it too, is interior without any field evaluation. The field opens a gap where the material
-// leaves one of about half a kernel radius (tested: 0.3 h at 5 points per cell, a0 = 0.6 h); such
-// a gap empties one of the two cells it may straddle by a quarter of a0 / h or more, so the cells
-// must be fuller than 1 - 0.15 a0 / h. Where the volume alone cannot tell, the field screening
-// decides (screen_cells()). Only the particles within reach (particle_reach, m) of the cells that
-// are not interior enter the field; kernel_reach (m) is the largest kernel semi-axis.
+// A solid cell, with every cell within a kernel reach of it solid too, is interior without any
+// field evaluation. The field opens a gap where the material leaves one of about half a kernel
+// radius (tested: 0.3 h at 5 points per cell, a0 = 0.6 h); such a gap empties one of the two
+// cells it may straddle by a quarter of a0 / h or more, so a solid cell must be fuller than
+// solid_fraction = 1 - 0.15 a0 / h. A cell that lost a point to its neighbour in a deforming body
+// (a quarter of its volume at 2 x 2 points per cell) is solid too when each of the four windows
+// of 2 x 2 cells around its corners is fuller than solid_fraction: a straight gap through the
+// cell crosses one of those windows along at least sqrt(2) h and so empties it by 0.18 a0 / h or
+// more. Where the volume alone cannot tell, the field screening decides (screen_cells()). Only
+// the particles within reach (particle_reach, m) of the cells that are not interior enter the
+// field; kernel_reach (m) is the largest kernel semi-axis.
 Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedConfig& config,
                  const CloudSurvey& survey, double kernel_reach, double particle_reach) {
   const double h = grid.cell_size;
@@ -263,12 +267,35 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     }
     return j * ncx + i;
   };
-  std::vector<char> padded_solid(static_cast<std::size_t>(px) * py, 0);
+  std::vector<double> padded_volume(static_cast<std::size_t>(px) * py, 0.0);
   for (int b = 0; b < py; ++b) {
     for (int a = 0; a < px; ++a) {
       const int c = source(a, b);
+      if (c >= 0) {
+        padded_volume[static_cast<std::size_t>(b) * px + a] =
+            survey.cell_volume[static_cast<std::size_t>(c)];
+      }
+    }
+  }
+  // The volume of padded cell (a, b), 0 beyond the padding.
+  const auto volume_at = [&](int a, int b) {
+    return a < 0 || b < 0 || a >= px || b >= py
+               ? 0.0
+               : padded_volume[static_cast<std::size_t>(b) * px + a];
+  };
+  const double solid_cell = solid_fraction * h * h, solid_window = 4.0 * solid_cell;
+  // Whether the 2 x 2 cells around padded node (a, b) are fuller than solid_fraction.
+  const auto full_window = [&](int a, int b) {
+    return volume_at(a - 1, b - 1) + volume_at(a, b - 1) + volume_at(a - 1, b) + volume_at(a, b) >=
+           solid_window;
+  };
+  std::vector<char> padded_solid(static_cast<std::size_t>(px) * py, 0);
+  for (int b = 0; b < py; ++b) {
+    for (int a = 0; a < px; ++a) {
+      const double v = padded_volume[static_cast<std::size_t>(b) * px + a];
       padded_solid[static_cast<std::size_t>(b) * px + a] =
-          c >= 0 && survey.cell_volume[static_cast<std::size_t>(c)] >= solid_fraction * h * h;
+          v >= solid_cell || (v > 0.0 && full_window(a, b) && full_window(a + 1, b) &&
+                              full_window(a, b + 1) && full_window(a + 1, b + 1));
     }
   }
   const std::vector<char> padded_interior = erode(padded_solid, px, py, kernel_rings);
