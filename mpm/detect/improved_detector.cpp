@@ -362,6 +362,9 @@ struct Screening {
   std::vector<char> reached;  ///< some kernel reaches the cell
   std::vector<char> deep;     ///< interior: by volume, or corners and centre above the band
   std::vector<char> far;      ///< exterior: corners and centre below the band
+  /// phi at grid node (i, j) = coarse[j (n_cells_x + 1) + i] where the screening evaluated it,
+  /// else NaN.
+  std::vector<double> coarse;
 };
 
 // With phi alone (the guards are not decided yet; max(phi, guard) >= phi): cells no kernel
@@ -388,10 +391,10 @@ Screening screen_cells(const ImprovedField& field, const Grid& grid, const Impro
   }
   // phi at the grid nodes and cell centres, gathered point by point (the coarse nodes are sparse:
   // a particle would visit few of them, a block evaluation would cost more).
-  std::vector<double> coarse(static_cast<std::size_t>(ncx + 1) * (ncy + 1),
-                             std::numeric_limits<double>::quiet_NaN());
+  screen.coarse.assign(static_cast<std::size_t>(ncx + 1) * (ncy + 1),
+                       std::numeric_limits<double>::quiet_NaN());
   const auto coarse_phi = [&](int i, int j) {
-    double& slot = coarse[static_cast<std::size_t>(j) * (ncx + 1) + i];
+    double& slot = screen.coarse[static_cast<std::size_t>(j) * (ncx + 1) + i];
     if (std::isnan(slot)) {
       slot = field.volume_fraction(grid.node_position(i, j));
       ++field_evaluations;
@@ -487,12 +490,27 @@ class FineNodes {
     j = static_cast<int>(std::clamp(v, 0.0, n_cells_y() - 1.0));
     return u >= 0.0 && v >= 0.0 && u < n_cells_x() && v < n_cells_y();
   }
+  /// Takes phi at the grid nodes from the screening (`coarse`, NaN where it has none) where the
+  /// field is phi alone (no guard) and the fine node lies bitwise where the grid node does.
+  void reuse_grid_nodes(const Grid& grid, std::span<const double> coarse) {
+    grid_ = &grid;
+    coarse_ = coarse;
+  }
   /// The field at fine node (i, j).
   double value(int i, int j) {
     double& slot = cache_.at(i, j);
     if (std::isnan(slot)) {
-      slot = field_(Vec2(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
-                         geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing));
+      const Vec2 x(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
+                   geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
+      if (!coarse_.empty() && i % r_ == 0 && j % r_ == 0) {
+        const int gi = i / r_, gj = j / r_;
+        const double known = coarse_[static_cast<std::size_t>(gj) * (grid_->n_cells_x + 1) + gi];
+        if (!std::isnan(known) && grid_->node_position(gi, gj) == x) {
+          slot = known;
+          return slot;
+        }
+      }
+      slot = field_(x);
       ++evaluations_;
     }
     return slot;
@@ -508,6 +526,8 @@ class FineNodes {
   int r_;
   NodalField geometry_;
   BlockStore<double> cache_;
+  const Grid* grid_ = nullptr;
+  std::span<const double> coarse_;
 };
 
 // Step 3 (narrow band): the fine cells to contour, traced from seeds, fine cell by fine cell: a
@@ -865,6 +885,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     const int r = pass_refinement(config, pass, field, h);
     timings.refinement = r;
     FineNodes nodes(grid, r, field, config.level, field_evaluations);
+    // Without guards the field is phi, which the screening evaluated at the grid nodes.
+    if (field.n_guarded() == 0) nodes.reuse_grid_nodes(grid, screen.coarse);
     // 3. The fine cells to contour: all of them for the full field.
     std::vector<int> cells;
     if (config.narrow_band) {
