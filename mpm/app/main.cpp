@@ -12,12 +12,14 @@
 #include <iostream>
 
 #include "fem_reference/ulfem/ulfem_run.hpp"
+#include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/run.hpp"
 
 int main(int argc, char** argv) {
+  pfm::keep_freed_memory();  // scratch freed by a step or a detection is reused, not refaulted
   CLI::App app{"pfm-mpm: MPM with moving-boundary detection and loads (units kN, m, s, t, kPa)"};
   app.require_subcommand(1);
   std::string command_line;

@@ -1,0 +1,19 @@
+#include "mpm/core/heap_policy.hpp"
+
+#include <cstdlib>  // with glibc, defines __GLIBC__ (features.h)
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
+namespace pfm {
+
+void keep_freed_memory() {
+#if defined(__GLIBC__)
+  // Setting either limit also stops glibc from adjusting them by itself.
+  mallopt(M_TRIM_THRESHOLD, 512 * 1024 * 1024);
+  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);  // the largest glibc accepts on 64-bit systems
+#endif
+}
+
+}  // namespace pfm
