@@ -21,7 +21,6 @@
 #include <string>
 #include <vector>
 
-#include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
@@ -177,14 +176,3 @@ void BM_Step(benchmark::State& state) {
 BENCHMARK(BM_Step)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->UseManualTime()->MinTime(0.5);
 
 }  // namespace
-
-// BENCHMARK_MAIN() with the heap policy of pfm-mpm (mpm/core/heap_policy.hpp): the timings do
-// not depend on what the process allocated and freed before.
-int main(int argc, char** argv) {
-  pfm::keep_freed_memory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}

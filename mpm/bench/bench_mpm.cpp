@@ -20,7 +20,6 @@
 #include <ctime>
 #include <string>
 
-#include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 
@@ -101,14 +100,3 @@ BENCHMARK(BM_Step)
     ->MinTime(1.0);
 
 }  // namespace
-
-// BENCHMARK_MAIN() with the heap policy of pfm-mpm (mpm/core/heap_policy.hpp): the timings do
-// not depend on what the process allocated and freed before.
-int main(int argc, char** argv) {
-  pfm::keep_freed_memory();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
-}
