@@ -7,10 +7,12 @@
 #include <string>
 
 #include "fem_reference/ulfem/ulfem_run.hpp"
+#include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 
 int main(int argc, char** argv) {
+  pfm::keep_freed_memory();  // as pfm-mpm: its runs and this one on the same heap policy
   if (argc < 3) {
     std::cerr << "usage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
     return pfm::kExitInputError;
