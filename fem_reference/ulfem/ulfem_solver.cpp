@@ -110,17 +110,7 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
 
   // Critical time step h_min / c_p, h_min = smallest (area / longest edge) of the mesh (h for a
   // square cell, as the MPM's h / c_p).
-  const double g = case_.gravity.g > 0.0 ? case_.gravity.g : 9.81;
-  for (const MaterialRecord& m : case_.materials) {
-    const double density = m.unit_weight / g;
-    if (density <= 0.0) continue;
-    max_wave_speed_ = std::max(
-        max_wave_speed_, std::sqrt(elastic_parameters(m.model).constrained_modulus() / density));
-  }
-  if (max_wave_speed_ <= 0.0) {
-    throw InputError(case_.file + ": /materials: every material has zero unit weight, so the " +
-                     "critical time step is undefined");
-  }
+  max_wave_speed_ = largest_wave_speed(case_);
   critical_dt_ = min_element_length_ / max_wave_speed_;
   if (case_.time.dt) {
     if (*case_.time.dt > critical_dt_) {

@@ -1,5 +1,6 @@
 #include "mpm/solver/case.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -180,6 +181,21 @@ TimeFunction parse_time_function(const JsonView& v) {
 }
 
 }  // namespace
+
+double largest_wave_speed(const Case& c) {
+  const double g = c.gravity.g > 0.0 ? c.gravity.g : 9.81;
+  double speed = 0.0;
+  for (const MaterialRecord& m : c.materials) {
+    const double density = m.unit_weight / g;
+    if (density <= 0.0) continue;
+    speed = std::max(speed, std::sqrt(elastic_parameters(m.model).constrained_modulus() / density));
+  }
+  if (speed <= 0.0) {
+    throw InputError(c.file + ": /materials: every material has zero unit weight, so the " +
+                     "critical time step is undefined");
+  }
+  return speed;
+}
 
 double polygon_signed_area(const std::vector<Vec2>& polygon) {
   double twice = 0.0;

@@ -138,6 +138,12 @@ Case read_case(const std::string& path);
 /// Validate an already-parsed document (file is used in messages only).
 Case parse_case(const nlohmann::json& document, const std::string& file);
 
+/// The largest P-wave speed sqrt(M / rho) of the case's materials at their initial density
+/// rho = unit weight / g (g = 9.81 m/s^2 when gravity is off), m/s: with the cell or element size
+/// it gives the critical time step of both solvers. Throws InputError when every material is
+/// weightless (no critical time step).
+double largest_wave_speed(const Case& c);
+
 /// Signed area of a closed polygon (positive when counter-clockwise), m^2.
 double polygon_signed_area(const std::vector<Vec2>& polygon);
 /// True if two non-adjacent edges of the closed polygon intersect or touch.
