@@ -71,26 +71,47 @@ class BlockStore {
       : n_x_(n_coarse_x + 1),
         r_(r),
         fill_(fill),
-        offset_(static_cast<std::size_t>(n_coarse_x + 1) * (n_coarse_y + 1), -1) {}
+        offset_(static_cast<std::size_t>(n_coarse_x + 1) * (n_coarse_y + 1), -1) {
+    // The block and the place in it of every fine index 0 .. max(n_coarse) r + r - 1, looked up:
+    // a division by the run-time r costs more than the rest of a read, and the contouring reads
+    // each fine node several times.
+    const int n = (std::max(n_coarse_x, n_coarse_y) + 1) * r;
+    block_.resize(static_cast<std::size_t>(n));
+    within_.resize(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) {
+      block_[static_cast<std::size_t>(k)] = k / r;
+      within_[static_cast<std::size_t>(k)] = k % r;
+    }
+  }
   T& at(int i, int j) {
-    const std::size_t block = static_cast<std::size_t>(j / r_) * n_x_ + i / r_;
-    long& offset = offset_[block];
+    long& offset = offset_[block_index(i, j)];
     if (offset < 0) {
       offset = static_cast<long>(pool_.size());
       pool_.resize(pool_.size() + static_cast<std::size_t>(r_) * r_, fill_);
     }
-    return pool_[offset + static_cast<long>(j % r_) * r_ + i % r_];
+    return pool_[static_cast<std::size_t>(offset) + place(i, j)];
   }
   /// The value at (i, j), or nullptr where its block is not allocated yet.
   const T* find(int i, int j) const {
-    const long offset = offset_[static_cast<std::size_t>(j / r_) * n_x_ + i / r_];
-    return offset < 0 ? nullptr : &pool_[offset + static_cast<long>(j % r_) * r_ + i % r_];
+    const long offset = offset_[block_index(i, j)];
+    return offset < 0 ? nullptr : &pool_[static_cast<std::size_t>(offset) + place(i, j)];
   }
+  /// Whether fine index k lies on a coarse grid line (a multiple of r).
+  bool on_grid_line(int k) const { return within_[static_cast<std::size_t>(k)] == 0; }
 
  private:
+  std::size_t block_index(int i, int j) const {
+    return static_cast<std::size_t>(block_[static_cast<std::size_t>(j)]) * n_x_ +
+           block_[static_cast<std::size_t>(i)];
+  }
+  std::size_t place(int i, int j) const {
+    return static_cast<std::size_t>(within_[static_cast<std::size_t>(j)]) * r_ +
+           within_[static_cast<std::size_t>(i)];
+  }
   int n_x_, r_;
   T fill_;
   std::vector<long> offset_;
+  std::vector<int> block_, within_;
   std::vector<T> pool_;
 };
 
@@ -502,7 +523,7 @@ class FineNodes {
     if (std::isnan(slot)) {
       const Vec2 x(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
                    geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
-      if (!coarse_.empty() && i % r_ == 0 && j % r_ == 0) {
+      if (!coarse_.empty() && cache_.on_grid_line(i) && cache_.on_grid_line(j)) {
         const int gi = i / r_, gj = j / r_;
         const double known = coarse_[static_cast<std::size_t>(gj) * (grid_->n_cells_x + 1) + gi];
         if (!std::isnan(known) && grid_->node_position(gi, gj) == x) {
