@@ -1,5 +1,8 @@
 # pfm-mpm: the two commands a newcomer needs are `make run` and `make test` (see README.md).
-PYTHON ?= /usr/bin/python3
+# The Debian interpreter (the first python on PATH may be another that cannot see the Debian
+# packages); its Python modules come as Debian packages named after it.
+DEBIAN_PYTHON := /usr/bin/python3
+PYTHON ?= $(DEBIAN_PYTHON)
 BUILD_DIR ?= build
 SANITIZE_DIR ?= build-sanitize
 JOBS ?= 2
@@ -7,14 +10,13 @@ CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
 # Debian packages the build, the tests and the studies need. The Python modules come as Debian
-# packages named after them (the prefix below is a package name, not a command: Python itself
-# always runs as $(PYTHON)).
+# packages named after the interpreter and the module (Python itself always runs as $(PYTHON)).
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypothesis jinja2 h5py \
   meshio gmsh dolfinx distributed
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
-  $(addprefix python3-,$(DEB_PYTHON_MODULES))
+  $(addprefix $(notdir $(DEBIAN_PYTHON))-,$(DEB_PYTHON_MODULES))
 
 .PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
   study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks
