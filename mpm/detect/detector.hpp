@@ -339,6 +339,8 @@ class ImprovedField {
   /// support (sqrt 2 guard radius), whichever is larger; a particle with largest stretch s
   /// reaches s times as far.
   static double reference_reach(const ImprovedConfig& config, double initial_spacing);
+  /// Reach of an undeformed particle's guard, m: sqrt 2 guard radius (0 without guards).
+  static double reference_guard_reach(const ImprovedConfig& config, double initial_spacing);
   /// The contacts of the particles at `positions` (bounding box lo, hi) with the edges of `walls`.
   static WallContacts find_wall_contacts(std::span<const Vec2> positions, const Vec2& lo,
                                          const Vec2& hi, const Grid& walls, double spacing);

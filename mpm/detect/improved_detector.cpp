@@ -124,7 +124,6 @@ struct CloudSurvey {
   double largest_volume = 0.0;                ///< m^2
   double smallest_det = 1.0;                  ///< smallest det F (1 without F)
   std::vector<double> cell_volume;            ///< particle volume per grid cell, m^2 (narrow band)
-  std::vector<int> cell;                      ///< grid cell of each particle, -1 outside
   /// Runs of consecutive particles in one cell (the usual order: particles are made cell by
   /// cell and move slowly): run r holds particles run_start[r] .. run_start[r + 1] - 1, in cell
   /// run_cell[r]; run_start ends with the number of particles (narrow band).
@@ -141,8 +140,8 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   if (n == 0) return survey;
   const double* volume = cloud.volume.data();
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
-  if (cells) survey.cell.resize(n);
-  int* cell = cells ? survey.cell.data() : nullptr;
+  std::vector<int> cell_of(cells ? n : 0);  // grid cell of each particle, -1 outside
+  int* cell = cells ? cell_of.data() : nullptr;
   const CloudTotals totals = sweep_cloud(
       cloud.position.data()->data(), volume,
       cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data(), n,
@@ -488,7 +487,8 @@ int pass_refinement(const ImprovedConfig& config, int pass, const ImprovedField&
 class FineNodes {
  public:
   FineNodes(const Grid& grid, int r, const ImprovedField& field, double level, long& evaluations)
-      : field_(field),
+      : grid_(grid),
+        field_(field),
         level_(level),
         evaluations_(evaluations),
         r_(r),
@@ -513,10 +513,7 @@ class FineNodes {
   }
   /// Takes phi at the grid nodes from the screening (`coarse`, NaN where it has none) where the
   /// field is phi alone (no guard) and the fine node lies bitwise where the grid node does.
-  void reuse_grid_nodes(const Grid& grid, std::span<const double> coarse) {
-    grid_ = &grid;
-    coarse_ = coarse;
-  }
+  void reuse_grid_nodes(std::span<const double> coarse) { coarse_ = coarse; }
   /// The field at fine node (i, j).
   double value(int i, int j) {
     double& slot = cache_.at(i, j);
@@ -525,8 +522,8 @@ class FineNodes {
                    geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
       if (!coarse_.empty() && cache_.on_grid_line(i) && cache_.on_grid_line(j)) {
         const int gi = i / r_, gj = j / r_;
-        const double known = coarse_[static_cast<std::size_t>(gj) * (grid_->n_cells_x + 1) + gi];
-        if (!std::isnan(known) && grid_->node_position(gi, gj) == x) {
+        const double known = coarse_[static_cast<std::size_t>(gj) * (grid_.n_cells_x + 1) + gi];
+        if (!std::isnan(known) && grid_.node_position(gi, gj) == x) {
           slot = known;
           return slot;
         }
@@ -541,13 +538,13 @@ class FineNodes {
   const double* known(int i, int j) const { return cache_.find(i, j); }
 
  private:
+  const Grid& grid_;
   const ImprovedField& field_;
   double level_;
   long& evaluations_;
   int r_;
   NodalField geometry_;
   BlockStore<double> cache_;
-  const Grid* grid_ = nullptr;
   std::span<const double> coarse_;
 };
 
@@ -897,7 +894,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   // Steps 3-5 run twice when the contours of the first pass leave a particle outside (step 5):
   // those particles are then guarded.
   const double guard_reach =
-      std::sqrt(2.0) * config.guard_factor * 0.5 * cloud.initial_spacing * survey.largest_stretch;
+      ImprovedField::reference_guard_reach(config, cloud.initial_spacing) * survey.largest_stretch;
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
   DetectedBoundary boundary;
@@ -907,7 +904,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
     timings.refinement = r;
     FineNodes nodes(grid, r, field, config.level, field_evaluations);
     // Without guards the field is phi, which the screening evaluated at the grid nodes.
-    if (field.n_guarded() == 0) nodes.reuse_grid_nodes(grid, screen.coarse);
+    if (field.n_guarded() == 0) nodes.reuse_grid_nodes(screen.coarse);
     // 3. The fine cells to contour: all of them for the full field.
     std::vector<int> cells;
     if (config.narrow_band) {

@@ -59,7 +59,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   curvature_moment_ = a0 * a0 / (2.0 * exponent_ + 3.0);
   const double mass_constant = (exponent_ + 1.0) / std::numbers::pi;  // C det S, unit mass
   const bool deformed = !cloud.deformation_gradient.empty();
-  const double guard_reach = std::sqrt(2.0) * guard_radius_;  // guard defined for q_g < 2
+  const double guard_reach = reference_guard_reach(config, cloud.initial_spacing);
   const double unit_reach = reference_reach(config, cloud.initial_spacing);
   // Pass 1, by particle: reaches (for the bins, the mirror images and the narrow band).
   for (std::size_t p = 0; p < n; ++p) {
@@ -279,11 +279,15 @@ void ImprovedField::KernelArrays::gather(const KernelArrays& from, std::span<con
   }
 }
 
-double ImprovedField::reference_reach(const ImprovedConfig& config, double initial_spacing) {
-  const double a0 = config.radius_factor * initial_spacing;
-  if (!(config.guard_factor > 0.0)) return a0;
+double ImprovedField::reference_guard_reach(const ImprovedConfig& config, double initial_spacing) {
+  if (!(config.guard_factor > 0.0)) return 0.0;
   // The guard is defined where q_g < 2: out to sqrt 2 times its radius.
-  return std::max(a0, std::sqrt(2.0) * (config.guard_factor * 0.5 * initial_spacing));
+  return std::sqrt(2.0) * (config.guard_factor * 0.5 * initial_spacing);
+}
+
+double ImprovedField::reference_reach(const ImprovedConfig& config, double initial_spacing) {
+  return std::max(config.radius_factor * initial_spacing,
+                  reference_guard_reach(config, initial_spacing));
 }
 
 ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,

@@ -225,9 +225,6 @@ TEST(Determinism, NarrowBandEqualsFullFieldAcrossCracks) {
   EXPECT_LT(smallest_share, 0.7);
 }
 
-// One particle stretched 1e5 times reaches across the whole grid: the volume screening is
-// skipped (it would size its cell arrays by that reach) and the narrow band still equals the
-// full field.
 // In a deforming body points cross cell lines: a cell keeps 3 of its 4 points (2 x 2 per cell)
 // and its neighbour holds 5. That is no gap in the material, so it must not widen the narrow
 // band: the band's field holds the particles of the unmoved block, and its boundary is the full
@@ -270,6 +267,9 @@ TEST(Determinism, PointsThatCrossedACellLineLeaveTheBandAsItWas) {
   EXPECT_TRUE(same_contours(a, b));
 }
 
+// One particle stretched 1e5 times reaches across the whole grid: the volume screening is
+// skipped (it would size its cell arrays by that reach) and the narrow band still equals the
+// full field.
 TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
   auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(1, 1), Vec2(3, 3),
                              [](const Vec2&) { return true; });
