@@ -1,7 +1,10 @@
 // The improved detector's pipeline (see detector.hpp): one survey of the cloud, the narrow band of
 // cells near the boundary, the coarse screening, the guards, and the contours of the exact field
 // (improved_field.cpp) on the refined grid with their containment check.
+#include <omp.h>
+
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -18,6 +21,11 @@
 namespace pfm::detail {
 
 namespace {
+
+// Particles per chunk of the loops over the whole cloud that run on the OpenMP threads (a cloud
+// of one chunk stays on the calling thread). Chunks, not threads, decide what is added in which
+// order, so the results do not depend on the thread count.
+constexpr std::size_t kParticleChunk = 16384;
 
 // Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
 // moment), kappa from the circle through the neighbours one kernel radius away along the contour.
@@ -83,14 +91,18 @@ class BlockStore {
       within_[static_cast<std::size_t>(k)] = k % r;
     }
   }
-  T& at(int i, int j) {
+  T& at(int i, int j) { return pool_[index(i, j)]; }
+  /// Where (i, j) is kept (its block allocated now if it was not): stays valid while more blocks
+  /// are allocated, unlike a reference.
+  std::size_t index(int i, int j) {
     long& offset = offset_[block_index(i, j)];
     if (offset < 0) {
       offset = static_cast<long>(pool_.size());
       pool_.resize(pool_.size() + static_cast<std::size_t>(r_) * r_, fill_);
     }
-    return pool_[static_cast<std::size_t>(offset) + place(i, j)];
+    return static_cast<std::size_t>(offset) + place(i, j);
   }
+  T& operator[](std::size_t index) { return pool_[index]; }
   /// The value at (i, j), or nullptr where its block is not allocated yet.
   const T* find(int i, int j) const {
     const long offset = offset_[block_index(i, j)];
@@ -117,6 +129,15 @@ class BlockStore {
 
 namespace {
 
+// Runs of consecutive particles in one cell (the usual order: particles are made cell by cell and
+// move slowly): run r holds particles start[r] .. start[r + 1] - 1 (start has one entry more), in
+// cell[r] (-1: outside the grid), of volume[r] (m^2, added in particle order).
+struct Runs {
+  std::vector<std::uint32_t> start;
+  std::vector<int> cell;
+  std::vector<double> volume;
+};
+
 // What one sweep over every particle of the cloud tells (survey_cloud()).
 struct CloudSurvey {
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< bounding box of the positions, m
@@ -124,28 +145,94 @@ struct CloudSurvey {
   double largest_volume = 0.0;                ///< m^2
   double smallest_det = 1.0;                  ///< smallest det F (1 without F)
   std::vector<double> cell_volume;            ///< particle volume per grid cell, m^2 (narrow band)
-  /// Runs of consecutive particles in one cell (the usual order: particles are made cell by
-  /// cell and move slowly): run r holds particles run_start[r] .. run_start[r + 1] - 1, in cell
-  /// run_cell[r]; run_start ends with the number of particles (narrow band).
-  std::vector<std::uint32_t> run_start;
-  std::vector<int> run_cell;
+  std::vector<Runs> runs;  ///< every particle's run, by chunk of the cloud (narrow band)
 };
+
+// The runs that start in [begin, end) of the n particles (the last may end beyond).
+Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, std::size_t end,
+                      std::size_t n) {
+  Runs runs;
+  std::size_t p = begin;
+  if (p > 0) {
+    while (p < end && cell[p] == cell[p - 1]) ++p;
+  }
+  if (p == end) return runs;
+  std::size_t count = 1;  // p and every change of cell after it
+  for (std::size_t q = p + 1; q < end; ++q) count += cell[q] != cell[q - 1] ? 1 : 0;
+  runs.start.resize(count + 1);
+  runs.cell.resize(count);
+  runs.volume.resize(count);
+  // Each index is written at the next free place, which only a run start keeps (no branch).
+  std::uint32_t* start = runs.start.data();
+  start[0] = static_cast<std::uint32_t>(p);
+  std::size_t k = 1;
+  for (std::size_t q = p + 1; q < end; ++q) {
+    start[k] = static_cast<std::uint32_t>(q);
+    k += cell[q] != cell[q - 1] ? 1 : 0;
+  }
+  std::size_t last = end;  // the last run goes on while its cell does
+  while (last < n && cell[last] == cell[end - 1]) ++last;
+  start[count] = static_cast<std::uint32_t>(last);
+  for (std::size_t r = 0; r < count; ++r) {
+    double sum = 0.0;
+    for (std::size_t q = start[r]; q < start[r + 1]; ++q) sum += volume[q];
+    runs.volume[r] = sum;
+    runs.cell[r] = cell[start[r]];
+  }
+  return runs;
+}
 
 // The one pass over every particle the improved detector makes: checks each particle (with the
 // messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
-// band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised).
+// band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised). Large
+// clouds are swept by chunks on the OpenMP threads; the chunks' minima and maxima, the volumes of
+// the runs (each added in particle order) and the cells' volumes (the runs added in run order)
+// are those of one sweep, whatever the thread count.
 CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
   if (n == 0) return survey;
+  const double* position = cloud.position.data()->data();
   const double* volume = cloud.volume.data();
+  const double* deformation =
+      cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
+  const CellLattice lattice{grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, n_x, n_y};
   std::vector<int> cell_of(cells ? n : 0);  // grid cell of each particle, -1 outside
   int* cell = cells ? cell_of.data() : nullptr;
-  const CloudTotals totals = sweep_cloud(
-      cloud.position.data()->data(), volume,
-      cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data(), n,
-      {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, n_x, n_y}, cell);
+  const std::size_t n_chunks = (n + kParticleChunk - 1) / kParticleChunk;
+  std::vector<CloudTotals> chunk_totals(n_chunks);
+  std::vector<Runs> chunk_runs(cells ? n_chunks : 0);
+  const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
+  const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
+#pragma omp parallel if (n_chunks > 1)
+  {
+#pragma omp for schedule(dynamic, 1)
+    for (std::size_t k = 0; k < n_chunks; ++k) {
+      const std::size_t b = chunk_begin(k);
+      chunk_totals[k] =
+          sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
+                      chunk_end(k) - b, lattice, cell ? cell + b : nullptr);
+    }
+    if (cells) {
+#pragma omp for schedule(dynamic, 1)
+      for (std::size_t k = 0; k < n_chunks; ++k) {
+        chunk_runs[k] = runs_starting_in(cell, volume, chunk_begin(k), chunk_end(k), n);
+      }
+    }
+  }
+  CloudTotals totals = chunk_totals[0];
+  for (std::size_t k = 1; k < n_chunks; ++k) {
+    const CloudTotals& t = chunk_totals[k];
+    totals.lo_x = std::min(totals.lo_x, t.lo_x);
+    totals.lo_y = std::min(totals.lo_y, t.lo_y);
+    totals.hi_x = std::max(totals.hi_x, t.hi_x);
+    totals.hi_y = std::max(totals.hi_y, t.hi_y);
+    totals.largest_volume = std::max(totals.largest_volume, t.largest_volume);
+    totals.largest_squared = std::max(totals.largest_squared, t.largest_squared);
+    totals.smallest_det = std::min(totals.smallest_det, t.smallest_det);
+    totals.valid = totals.valid && t.valid;
+  }
   if (!totals.valid) {
     for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
@@ -156,24 +243,12 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   survey.smallest_det = totals.smallest_det;
   if (cells) {
     survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
-    // Runs of particles in one cell (the usual order) add up in a register.
-    double* cell_volume = survey.cell_volume.data();
-    int run_cell = cell[0];
-    double run_volume = 0.0;
-    survey.run_start.push_back(0);
-    survey.run_cell.push_back(run_cell);
-    for (std::size_t p = 0; p < n; ++p) {
-      if (cell[p] != run_cell) {
-        if (run_cell >= 0) cell_volume[run_cell] += run_volume;
-        run_cell = cell[p];
-        run_volume = 0.0;
-        survey.run_start.push_back(static_cast<std::uint32_t>(p));
-        survey.run_cell.push_back(run_cell);
+    for (const Runs& r : chunk_runs) {
+      for (std::size_t k = 0; k < r.cell.size(); ++k) {
+        if (r.cell[k] >= 0) survey.cell_volume[static_cast<std::size_t>(r.cell[k])] += r.volume[k];
       }
-      run_volume += volume[p];
     }
-    if (run_cell >= 0) cell_volume[run_cell] += run_volume;
-    survey.run_start.push_back(static_cast<std::uint32_t>(n));
+    survey.runs = std::move(chunk_runs);
   }
   return survey;
 }
@@ -351,14 +426,16 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   std::vector<std::uint32_t> selected(n);
   std::vector<Vec2> touching;
   std::size_t m = 0;
-  for (std::size_t r = 0; r + 1 < survey.run_start.size(); ++r) {
-    const char k = code[static_cast<std::size_t>(survey.run_cell[r] + 1)];
-    const std::uint32_t first = survey.run_start[r], end = survey.run_start[r + 1];
-    if (k & 1) {
-      for (std::uint32_t p = first; p < end; ++p) selected[m++] = p;
-    }
-    if (k & 2) {
-      for (std::uint32_t p = first; p < end; ++p) touching.push_back(cloud.position[p]);
+  for (const Runs& runs : survey.runs) {
+    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
+      const char k = code[static_cast<std::size_t>(runs.cell[r] + 1)];
+      const std::uint32_t first = runs.start[r], end = runs.start[r + 1];
+      if (k & 1) {
+        for (std::uint32_t p = first; p < end; ++p) selected[m++] = p;
+      }
+      if (k & 2) {
+        for (std::uint32_t p = first; p < end; ++p) touching.push_back(cloud.position[p]);
+      }
     }
   }
   if (config.mirror_grid_edges) {
@@ -517,27 +594,63 @@ class FineNodes {
   /// The field at fine node (i, j).
   double value(int i, int j) {
     double& slot = cache_.at(i, j);
-    if (std::isnan(slot)) {
-      const Vec2 x(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
-                   geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
-      if (!coarse_.empty() && cache_.on_grid_line(i) && cache_.on_grid_line(j)) {
-        const int gi = i / r_, gj = j / r_;
-        const double known = coarse_[static_cast<std::size_t>(gj) * (grid_.n_cells_x + 1) + gi];
-        if (!std::isnan(known) && grid_.node_position(gi, gj) == x) {
-          slot = known;
-          return slot;
-        }
-      }
-      slot = field_(x);
+    if (std::isnan(slot) && !from_grid_node(i, j, slot)) {
+      slot = field_(position(i, j));
       ++evaluations_;
     }
     return slot;
   }
-  bool inside(int i, int j) { return value(i, j) > level_; }
+  /// Evaluates the fine nodes `wanted` (fine index pairs, repeats allowed) that are not known
+  /// yet, on the OpenMP threads by chunks.
+  void evaluate(std::span<const std::array<int, 2>> wanted) {
+    // Unknown nodes are marked, so each is listed once; the marks are overwritten below.
+    constexpr double kListed = std::numeric_limits<double>::infinity();
+    std::vector<std::size_t> listed;
+    std::vector<Vec2> x;
+    for (const auto& [i, j] : wanted) {
+      const std::size_t k = cache_.index(i, j);
+      double& slot = cache_[k];
+      if (std::isnan(slot) && !from_grid_node(i, j, slot)) {
+        slot = kListed;
+        listed.push_back(k);
+        x.push_back(position(i, j));
+      }
+    }
+    const std::size_t n = listed.size(), n_chunks = (n + kNodeChunk - 1) / kNodeChunk;
+#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
+    for (std::size_t c = 0; c < n_chunks; ++c) {
+      for (std::size_t k = c * kNodeChunk; k < std::min(n, (c + 1) * kNodeChunk); ++k) {
+        cache_[listed[k]] = field_(x[k]);
+      }
+    }
+    evaluations_ += static_cast<long>(n);
+  }
+  bool inside(int i, int j) {
+    return value(i, j) > level_;
+  }
   /// The value at (i, j) if its block holds it already (maybe NaN: not evaluated), else nullptr.
-  const double* known(int i, int j) const { return cache_.find(i, j); }
+  const double* known(int i, int j) const {
+    return cache_.find(i, j);
+  }
 
  private:
+  static constexpr std::size_t kNodeChunk = 256;  ///< nodes per chunk of evaluate()
+
+  Vec2 position(int i, int j) const {
+    return Vec2(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
+                geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
+  }
+  // Whether phi at (i, j) comes from the screening (the node lies bitwise on a grid node it
+  // evaluated; only without guards): then it is written to `slot`.
+  bool from_grid_node(int i, int j, double& slot) const {
+    if (coarse_.empty() || !cache_.on_grid_line(i) || !cache_.on_grid_line(j)) return false;
+    const int gi = i / r_, gj = j / r_;
+    const double known = coarse_[static_cast<std::size_t>(gj) * (grid_.n_cells_x + 1) + gi];
+    if (std::isnan(known) || grid_.node_position(gi, gj) != position(i, j)) return false;
+    slot = known;
+    return true;
+  }
+
   const Grid& grid_;
   const ImprovedField& field_;
   double level_;
@@ -616,38 +729,55 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
       previous = next;
     }
   };
-  for (int j = 0; j < ncy; ++j) {
-    for (int i = 0; i < ncx;) {
-      if (!active(i, j)) {
-        ++i;
-        continue;
-      }
-      const bool fine = near_guard[static_cast<std::size_t>(j) * ncx + i] != 0;
-      int end = i + 1;
-      while (end < ncx && active(end, j) &&
-             (near_guard[static_cast<std::size_t>(j) * ncx + end] != 0) == fine) {
-        ++end;
-      }
-      const int stride = fine ? 1 : coarse_stride;
-      // The lattice segments of the run (every fine node near guards): along its rows and up its
-      // columns.
-      const int last_i = end * r, last_j = (j + 1) * r;
-      for (int fj = j * r; fj <= last_j; fj += stride) {
-        for (int fi = i * r; fi <= last_i; fi += stride) {
-          const bool here = inside(fi, fj);
-          if (fi < last_i && inside(fi + stride, fj) != here) seed_segment(fi, fj, 1, 0, stride);
-          if (fj < last_j && inside(fi, fj + stride) != here) seed_segment(fi, fj, 0, 1, stride);
+  // The runs of active cells along each row with or without guards near: run(i, end, j, stride)
+  // for cells i .. end - 1 of row j, with the lattice stride in fine cells.
+  const auto for_each_run = [&](const auto& run) {
+    for (int j = 0; j < ncy; ++j) {
+      for (int i = 0; i < ncx;) {
+        if (!active(i, j)) {
+          ++i;
+          continue;
         }
+        const bool fine = near_guard[static_cast<std::size_t>(j) * ncx + i] != 0;
+        int end = i + 1;
+        while (end < ncx && active(end, j) &&
+               (near_guard[static_cast<std::size_t>(j) * ncx + end] != 0) == fine) {
+          ++end;
+        }
+        run(i, end, j, fine ? 1 : coarse_stride);
+        i = end;
       }
-      // Along the grid edge every fine edge: a region cut by the edge has a contour for each
-      // stretch of the edge it leaves, which may start and end between two lattice nodes.
-      if (j == 0) seed_segment(i * r, 0, 1, 0, last_i - i * r);
-      if (j == ncy - 1) seed_segment(i * r, n_fine_y, 1, 0, last_i - i * r);
-      if (i == 0) seed_segment(0, j * r, 0, 1, r);
-      if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
-      i = end;
     }
+  };
+  // With threads to share them, their lattice nodes first, all at once (on one thread the list
+  // would cost more than the scan's own first reads).
+  if (omp_get_max_threads() > 1) {
+    std::vector<std::array<int, 2>> lattice;
+    for_each_run([&](int i, int end, int j, int stride) {
+      for (int fj = j * r; fj <= (j + 1) * r; fj += stride) {
+        for (int fi = i * r; fi <= end * r; fi += stride) lattice.push_back({fi, fj});
+      }
+    });
+    nodes.evaluate(lattice);
   }
+  for_each_run([&](int i, int end, int j, int stride) {
+    // The lattice segments of the run (every fine node near guards): along its rows and up its
+    // columns.
+    const int last_i = end * r, last_j = (j + 1) * r;
+    for (int fj = j * r; fj <= last_j; fj += stride) {
+      for (int fi = i * r; fi <= last_i; fi += stride) {
+        const bool here = inside(fi, fj);
+        if (fi < last_i && inside(fi + stride, fj) != here) seed_segment(fi, fj, 1, 0, stride);
+        if (fj < last_j && inside(fi, fj + stride) != here) seed_segment(fi, fj, 0, 1, stride);
+      }
+    }
+    // Along the grid edge every fine edge: a region cut by the edge has a contour for each
+    // stretch of the edge it leaves, which may start and end between two lattice nodes.
+    if (j == 0) seed_segment(i * r, 0, 1, 0, last_i - i * r);
+    if (j == ncy - 1) seed_segment(i * r, n_fine_y, 1, 0, last_i - i * r);
+    if (i == 0) seed_segment(0, j * r, 0, 1, r);
+    if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
+  });
   const auto sign_change = [&](int i, int j) {
     const bool a = inside(i, j);
     return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
@@ -710,9 +840,11 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
 
 // Edge points (step 4): Brent's root of the exact field along a fine edge. Every evaluation of a
 // root lies on its edge, in the square of `square` x `square` fine cells (about h/2) that holds
-// the edge's middle (a closed box): the slots reaching that square are gathered once for all its
-// edges (the contours are followed cell by cell). A whole grid cell would gather twice the slots
-// at 5 points per cell.
+// the edge's middle (a closed box): the slots reaching that square are gathered once for the
+// consecutive edges in it (the contours are followed cell by cell). A whole grid cell would
+// gather twice the slots at 5 points per cell. The crossings are shared among the OpenMP threads
+// by chunks, each with its own slots; the sums do not depend on which slots hold their nonzero
+// terms, so neither do the points.
 class EdgeRoots {
  public:
   EdgeRoots(const ImprovedField& field, const FineNodes& nodes, double level, double root_tolerance)
@@ -721,37 +853,59 @@ class EdgeRoots {
         level_(level),
         tolerance_t_(root_tolerance * nodes.refinement()),  // fraction of the fine edge
         square_(std::max(1, nodes.refinement() / 2)) {}
-  Vec2 operator()(const Vec2& a, double value_a, const Vec2& b, double value_b) {
+  void operator()(std::span<const EdgeCrossing> crossing, std::span<Vec2> point) {
     const auto start = std::chrono::steady_clock::now();
-    const Vec2 d = b - a;
+    const std::size_t n = crossing.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
+    long evaluations = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : evaluations) if (n_chunks > 1)
+    for (std::size_t k = 0; k < n_chunks; ++k) {
+      ImprovedField::KernelArrays slots;
+      int slots_square = -1;  // the square whose slots `slots` holds (-1: none)
+      for (std::size_t c = k * kCrossingChunk; c < std::min(n, (k + 1) * kCrossingChunk); ++c) {
+        point[c] = root(crossing[c], slots, slots_square, evaluations);
+      }
+    }
+    count_ += static_cast<long>(n);
+    evaluations_ += evaluations;
+    seconds_ += seconds_since(start);
+  }
+  long count() const {
+    return count_;
+  }  ///< edge points found
+  long evaluations() const {
+    return evaluations_;
+  }  ///< field evaluations spent on them
+  double seconds() const {
+    return seconds_;
+  }
+
+ private:
+  static constexpr std::size_t kCrossingChunk = 64;
+
+  Vec2 root(const EdgeCrossing& c, ImprovedField::KernelArrays& slots, int& slots_square,
+            long& evaluations) const {
+    const Vec2 d = c.b - c.a;
     int fi = 0, fj = 0;
-    nodes_.cell_of(0.5 * (a + b), fi, fj);
+    nodes_.cell_of(0.5 * (c.a + c.b), fi, fj);
     const int si = fi / square_, sj = fj / square_;
     const int key = sj * (nodes_.n_cells_x() / square_ + 1) + si;
-    if (key != slots_square_) {
-      slots_square_ = key;
+    if (key != slots_square) {
+      slots_square = key;
       const NodalField& geometry = nodes_.geometry();
       const Vec2 corner = geometry.origin + Vec2(si, sj) * (square_ * geometry.spacing);
       const Vec2 upper = corner + Vec2::Constant(square_ * geometry.spacing);
-      field_.slots_reaching(corner.cwiseMin(a.cwiseMin(b)), upper.cwiseMax(a.cwiseMax(b)), slots_);
+      field_.slots_reaching(corner.cwiseMin(c.a.cwiseMin(c.b)), upper.cwiseMax(c.a.cwiseMax(c.b)),
+                            slots);
     }
-    const double t = brent_root([&](double s) { return field_(a + s * d, slots_) - level_; },
-                                value_a, value_b, tolerance_t_, &evaluations_);
-    ++count_;
-    seconds_ += seconds_since(start);
-    return Vec2(a + t * d);
+    const double t = brent_root([&](double s) { return field_(c.a + s * d, slots) - level_; },
+                                c.value_a, c.value_b, tolerance_t_, &evaluations);
+    return Vec2(c.a + t * d);
   }
-  long count() const { return count_; }              ///< edge points found
-  long evaluations() const { return evaluations_; }  ///< field evaluations spent on them
-  double seconds() const { return seconds_; }
 
- private:
   const ImprovedField& field_;
   const FineNodes& nodes_;
   double level_, tolerance_t_;
   int square_;
-  ImprovedField::KernelArrays slots_;
-  int slots_square_ = -1;  // the square whose slots slots_ holds (-1: none)
   long count_ = 0, evaluations_ = 0;
   double seconds_ = 0.0;
 };

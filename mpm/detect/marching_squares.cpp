@@ -52,13 +52,22 @@ DetectedBoundary marching_squares(const NodalField& field, double level, SaddleR
   std::vector<int> cells((field.n_x - 1) * (field.n_y - 1));
   std::iota(cells.begin(), cells.end(), 0);
   const auto node_value = [&field](int i, int j) { return field.values[j * field.n_x + i]; };
-  return marching_squares_cells(field, node_value, cells, level, rule, refine, exact_sample);
+  BatchEdgeRefiner each;  // the crossings one after the other, in the order they were found
+  if (refine) {
+    each = [&refine](std::span<const EdgeCrossing> crossing, std::span<Vec2> point) {
+      for (std::size_t k = 0; k < crossing.size(); ++k) {
+        const EdgeCrossing& c = crossing[k];
+        point[k] = refine(c.a, c.value_a, c.b, c.value_b);
+      }
+    };
+  }
+  return marching_squares_cells(field, node_value, cells, level, rule, each, exact_sample);
 }
 
 DetectedBoundary marching_squares_cells(const NodalField& geom,
                                         const std::function<double(int, int)>& node_value,
                                         std::span<const int> cells, double level, SaddleRule rule,
-                                        const EdgeRefiner& refine,
+                                        const BatchEdgeRefiner& refine,
                                         const std::function<double(const Vec2&)>& exact_sample) {
   check_geometry(geom);
   const EdgeNumbering edges{geom.n_x, geom.n_y};
@@ -69,27 +78,19 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
   std::vector<int> point_of_edge(dense ? edges.count() : 0, -1);
   std::unordered_map<long, int> sparse_point_of_edge;
   if (!dense) sparse_point_of_edge.reserve(2 * cells.size());
-  std::vector<Vec2> points;
+  std::vector<EdgeCrossing> crossings;  // by point
   std::vector<DirectedSegment> segments;
   const auto node_pos = [&geom](int i, int j) {
     return Vec2(geom.origin.x() + i * geom.spacing, geom.origin.y() + j * geom.spacing);
   };
-  // Crossing on the edge from node (ia, ja) to node (ib, jb), computed once per edge so the two
-  // cells sharing it use the identical point.
+  // Crossing on the edge from node (ia, ja) to node (ib, jb), one point per edge so the two cells
+  // sharing it use the identical point (found after the walk).
   const auto crossing = [&](long edge, int ia, int ja, double va, int ib, int jb, double vb) {
     int& slot =
         dense ? point_of_edge[edge] : sparse_point_of_edge.try_emplace(edge, -1).first->second;
     if (slot >= 0) return slot;
-    const Vec2 a = node_pos(ia, ja), b = node_pos(ib, jb);
-    Vec2 p;
-    if (refine) {
-      p = refine(a, va, b, vb);
-    } else {
-      const double t = va / (va - vb);  // va and vb have opposite signs (or vb == 0)
-      p = a + t * (b - a);
-    }
-    slot = static_cast<int>(points.size());
-    points.push_back(p);
+    slot = static_cast<int>(crossings.size());
+    crossings.push_back({node_pos(ia, ja), va, node_pos(ib, jb), vb});
     return slot;
   };
 
@@ -148,6 +149,16 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
       if (!leaving[k]) continue;
       const int partner = centre_in ? (k + 1) % 4 : (k + 3) % 4;
       segments.push_back({point[k], point[partner]});
+    }
+  }
+  std::vector<Vec2> points(crossings.size());
+  if (refine) {
+    refine(crossings, points);
+  } else {
+    for (std::size_t k = 0; k < crossings.size(); ++k) {
+      const EdgeCrossing& c = crossings[k];
+      const double t = c.value_a / (c.value_a - c.value_b);  // opposite signs (or value_b == 0)
+      points[k] = c.a + t * (c.b - c.a);
     }
   }
   return assemble_contours(points, segments);

@@ -41,6 +41,20 @@ enum class SaddleRule {
 using EdgeRefiner =
     std::function<Vec2(const Vec2& a, double value_a, const Vec2& b, double value_b)>;
 
+/// A cell edge where field - level changes sign: its two end points and field - level there (the
+/// arguments of EdgeRefiner).
+struct EdgeCrossing {
+  Vec2 a;
+  double value_a;
+  Vec2 b;
+  double value_b;
+};
+
+/// Exact refinement of every crossing at once, after the cells are walked: point[k] for
+/// crossing[k] (the refiner may share them among threads; spans of equal size).
+using BatchEdgeRefiner =
+    std::function<void(std::span<const EdgeCrossing> crossing, std::span<Vec2> point)>;
+
 /// Contours of value == level; material (value > level) on the left. Oriented, closed loops or
 /// open chains ending on the field edge, in the order of contour.hpp. Throws
 /// std::invalid_argument for a malformed field (sizes, spacing, non-finite values).
@@ -53,11 +67,13 @@ DetectedBoundary marching_squares(const NodalField& field, double level,
 /// (called only for the corners of processed cells, possibly more than once per node: it must be
 /// deterministic) and only `cells` (cell index j * (n_x - 1) + i, any order, no duplicates) are
 /// processed; every other cell is assumed to contain no crossing. `field.values` is ignored.
-/// Give every cell with a sign change, and the result equals marching_squares() on the full field.
+/// Give every cell with a sign change, and the result equals marching_squares() on the full field
+/// (with `refine` doing for all crossings what the EdgeRefiner does for one).
 DetectedBoundary marching_squares_cells(
     const NodalField& field_geometry, const std::function<double(int i, int j)>& node_value,
     std::span<const int> cells, double level, SaddleRule rule = SaddleRule::kAsymptoticDecider,
-    const EdgeRefiner& refine = {}, const std::function<double(const Vec2&)>& exact_sample = {});
+    const BatchEdgeRefiner& refine = {},
+    const std::function<double(const Vec2&)>& exact_sample = {});
 
 /// A directed segment between two points of a point table (material on its left).
 struct DirectedSegment {

@@ -1,6 +1,7 @@
-// Deterministic output order (every detector), identical full-field and narrow-band results,
-// root-finder cost, and configuration errors with JSON pointers.
+// Deterministic output order (every detector), identical full-field and narrow-band results and
+// for any thread count, root-finder cost, and configuration errors with JSON pointers.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -287,6 +288,66 @@ TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
   const auto b = detect(cloud.view(), g, full, s2, &t2);
   EXPECT_TRUE(same_contours(a, b));
   EXPECT_EQ(t1.field_particles, static_cast<long>(cloud.position.size()));
+}
+
+// Large clouds are surveyed by chunks of particles, and their fine nodes and edge points are
+// found by chunks, on the OpenMP threads. Blocks of 19k-32k points with holes, strained by a
+// field of deformation gradients (stretch up to 3, some particles so stretched that they get a
+// guard), partly shuffled (runs of one cell broken at random) and with a few points off the grid:
+// one thread and two must give bitwise the same boundary from the same work (evaluations, band).
+TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheThreadCount) {
+  for (std::uint64_t seed = 0; seed < 3; ++seed) {
+    std::mt19937_64 rng(seed + 7);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    const double width = 60.0 + 20.0 * static_cast<double>(seed), height = 20.0;
+    const Vec2 hole_a(0.3 * width, 8.0), hole_b(0.7 * width, 6.0);
+    OwnedCloud cloud =
+        lattice_cloud(0.5, seed == 1 ? Placement::kEqualSpacing : Placement::kGaussPoints,
+                      Vec2(2, 2), Vec2(2 + width, 2 + height), [&](const Vec2& x) {
+                        return (x - hole_a).norm() > 3.0 && (x - hole_b).norm() > 1.2 &&
+                               std::abs(x.x() - 0.5 * width) > 0.1;
+                      });
+    for (std::size_t p = 0; p < cloud.position.size(); ++p) {
+      const Vec2 x = cloud.position[p];
+      const double stretch = 1.0 + 0.5 * std::sin(0.3 * x.x()) * std::cos(0.4 * x.y());
+      Mat2 f;
+      f << stretch, 0.2 * std::sin(0.1 * x.y()), 0.0, 1.0 / stretch;
+      if (u01(rng) < 2e-4) f << 3.0, 0.0, 0.0, 0.6;
+      cloud.deformation_gradient.push_back(f);
+    }
+    for (std::size_t k = 0; k < cloud.position.size() / 50; ++k) {
+      const auto p = static_cast<std::size_t>(u01(rng) * cloud.position.size());
+      const auto q = static_cast<std::size_t>(u01(rng) * cloud.position.size());
+      std::swap(cloud.position[p], cloud.position[q]);
+      std::swap(cloud.volume[p], cloud.volume[q]);
+      std::swap(cloud.deformation_gradient[p], cloud.deformation_gradient[q]);
+    }
+    cloud.position[5] = Vec2(-1.0, 3.0);  // off the grid
+    cloud.position[70] = Vec2(2.2, -0.3);
+    Grid g;
+    g.cell_size = 0.5;
+    g.n_cells_x = static_cast<int>(2 * (width + 4));
+    g.n_cells_y = static_cast<int>(2 * (height + 4));
+    DetectorConfig config;
+    config.method = DetectorMethod::kImproved;
+    const int threads_before = omp_get_max_threads();
+    DetectedBoundary boundary[2];
+    DetectionTimings timings[2];
+    for (const int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      DetectorState state;
+      boundary[threads - 1] = detect(cloud.view(), g, config, state, &timings[threads - 1]);
+    }
+    omp_set_num_threads(threads_before);
+    std::printf("%zu points: %zu contours, %ld edge points, %ld field evaluations\n",
+                cloud.position.size(), boundary[0].contours.size(), timings[0].edge_point_count,
+                timings[0].field_evaluations);
+    EXPECT_TRUE(same_contours(boundary[0], boundary[1])) << "seed " << seed;
+    EXPECT_EQ(timings[0].field_evaluations, timings[1].field_evaluations);
+    EXPECT_EQ(timings[0].field_particles, timings[1].field_particles);
+    EXPECT_EQ(timings[0].edge_point_count, timings[1].edge_point_count);
+    EXPECT_GT(timings[0].edge_point_count, 1000);
+  }
 }
 
 // The fixed-point unit keeps the weights of all slots together below 2^63 units: 2^21 points
