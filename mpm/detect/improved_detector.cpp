@@ -26,6 +26,23 @@ namespace {
 // of one chunk stays on the calling thread). Chunks, not threads, decide what is added in which
 // order, so the results do not depend on the thread count.
 constexpr std::size_t kParticleChunk = 16384;
+// Particles of the narrow band per chunk of its loops on the threads.
+constexpr std::size_t kBandChunk = 2048;
+// Field evaluations per chunk of a batch on the threads.
+constexpr std::size_t kEvaluationChunk = 256;
+
+// evaluate(k) for k < n, by chunks on the OpenMP threads (one chunk: on the calling thread); each
+// k must write its own places only.
+template <class Evaluate>
+void evaluate_on_threads(std::size_t n, const Evaluate& evaluate) {
+  const std::size_t n_chunks = (n + kEvaluationChunk - 1) / kEvaluationChunk;
+#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
+  for (std::size_t c = 0; c < n_chunks; ++c) {
+    for (std::size_t k = c * kEvaluationChunk; k < std::min(n, (c + 1) * kEvaluationChunk); ++k) {
+      evaluate(k);
+    }
+  }
+}
 
 // Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
 // moment), kappa from the circle through the neighbours one kernel radius away along the contour.
@@ -472,58 +489,95 @@ struct Screening {
 Screening screen_cells(const ImprovedField& field, const Grid& grid, const ImprovedConfig& config,
                        std::span<const char> interior_by_volume, long& field_evaluations) {
   const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
+  const std::size_t n_cells = static_cast<std::size_t>(ncx) * ncy;
   const double h = grid.cell_size;
   const auto positions = field.positions();
   Screening screen;
-  screen.reached.assign(static_cast<std::size_t>(ncx) * ncy, 0);
+  screen.reached.assign(n_cells, 0);
+  // The cells each particle's box reaches, as the 2D prefix sums of +-1 at the corners of the
+  // boxes (four writes per particle instead of one per cell of its box).
+  const std::size_t stride = static_cast<std::size_t>(ncx) + 1;
+  std::vector<int> boxes(stride * (static_cast<std::size_t>(ncy) + 1), 0);
   for (std::size_t p = 0; p < positions.size(); ++p) {
     const Vec2 half = field.reach_box(p);
     const int i0 = std::max(grid.cell_i(positions[p].x() - half.x()), 0);
     const int i1 = std::min(grid.cell_i(positions[p].x() + half.x()), ncx - 1);
     const int j0 = std::max(grid.cell_j(positions[p].y() - half.y()), 0);
     const int j1 = std::min(grid.cell_j(positions[p].y() + half.y()), ncy - 1);
-    for (int j = j0; j <= j1; ++j) {
-      for (int i = i0; i <= i1; ++i) screen.reached[static_cast<std::size_t>(j) * ncx + i] = 1;
+    if (i0 > i1 || j0 > j1) continue;
+    const std::size_t low = static_cast<std::size_t>(j0) * stride;
+    const std::size_t high = static_cast<std::size_t>(j1 + 1) * stride;
+    ++boxes[low + static_cast<std::size_t>(i0)];
+    --boxes[low + static_cast<std::size_t>(i1) + 1];
+    --boxes[high + static_cast<std::size_t>(i0)];
+    ++boxes[high + static_cast<std::size_t>(i1) + 1];
+  }
+  for (int j = 0; j < ncy; ++j) {
+    int* row = boxes.data() + static_cast<std::size_t>(j) * stride;
+    if (j > 0) {
+      const int* below = row - stride;
+      for (int i = 0; i < ncx; ++i) row[i] += below[i];  // the column sums, up to this row
+    }
+    int along = 0;
+    char* reached = screen.reached.data() + static_cast<std::size_t>(j) * ncx;
+    for (int i = 0; i < ncx; ++i) {
+      along += row[i];
+      reached[i] = along > 0 ? 1 : 0;
     }
   }
-  // phi at the grid nodes and cell centres, gathered point by point (the coarse nodes are sparse:
-  // a particle would visit few of them, a block evaluation would cost more).
-  screen.coarse.assign(static_cast<std::size_t>(ncx + 1) * (ncy + 1),
-                       std::numeric_limits<double>::quiet_NaN());
-  const auto coarse_phi = [&](int i, int j) {
-    double& slot = screen.coarse[static_cast<std::size_t>(j) * (ncx + 1) + i];
-    if (std::isnan(slot)) {
-      slot = field.volume_fraction(grid.node_position(i, j));
-      ++field_evaluations;
-    }
-    return slot;
-  };
-  screen.deep.assign(screen.reached.size(), 0);
-  screen.far.assign(screen.reached.size(), 0);
-  const double interior = config.level + config.band_margin;
-  const double exterior = config.level - config.band_margin;
+  // phi at the corners of the reached cells that the volume does not call interior (the coarse
+  // nodes are sparse: a particle would visit few of them, a block evaluation would cost more).
+  const std::size_t n_nodes = static_cast<std::size_t>(ncx + 1) * (ncy + 1);
+  std::vector<char> listed_node(n_nodes, 0);
+  std::vector<int> screened, listed;  // cells, nodes
   for (int j = 0; j < ncy; ++j) {
     for (int i = 0; i < ncx; ++i) {
       const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
-      if (!interior_by_volume.empty() && interior_by_volume[c]) {
-        screen.deep[c] = 1;
-        continue;
+      if (!screen.reached[c] || (!interior_by_volume.empty() && interior_by_volume[c])) continue;
+      screened.push_back(static_cast<int>(c));
+      for (const int k : {j * (ncx + 1) + i, j * (ncx + 1) + i + 1, (j + 1) * (ncx + 1) + i,
+                          (j + 1) * (ncx + 1) + i + 1}) {
+        if (listed_node[static_cast<std::size_t>(k)]) continue;
+        listed_node[static_cast<std::size_t>(k)] = 1;
+        listed.push_back(k);
       }
-      if (!screen.reached[c]) continue;
-      const double v[4] = {coarse_phi(i, j), coarse_phi(i + 1, j), coarse_phi(i, j + 1),
-                           coarse_phi(i + 1, j + 1)};
-      bool is_deep = v[0] > interior && v[1] > interior && v[2] > interior && v[3] > interior;
-      bool is_far = v[0] < exterior && v[1] < exterior && v[2] < exterior && v[3] < exterior;
-      if (is_deep || is_far) {
-        const double vc = field.volume_fraction(grid.node_position(i, j) + Vec2(0.5 * h, 0.5 * h));
-        ++field_evaluations;
-        is_deep = is_deep && vc > interior;
-        is_far = is_far && vc < exterior;
-      }
-      screen.deep[c] = is_deep ? 1 : 0;
-      screen.far[c] = is_far ? 1 : 0;
     }
   }
+  screen.coarse.assign(n_nodes, std::numeric_limits<double>::quiet_NaN());
+  evaluate_on_threads(listed.size(), [&](std::size_t k) {
+    const int i = listed[k] % (ncx + 1), j = listed[k] / (ncx + 1);
+    screen.coarse[static_cast<std::size_t>(listed[k])] =
+        field.volume_fraction(grid.node_position(i, j));
+  });
+  field_evaluations += static_cast<long>(listed.size());
+  // A screened cell all of whose corners lie above (below) the band is deep (far) if its centre
+  // does too; cells interior by volume are deep.
+  if (interior_by_volume.empty()) {
+    screen.deep.assign(n_cells, 0);
+  } else {
+    screen.deep.assign(interior_by_volume.begin(), interior_by_volume.end());
+  }
+  screen.far.assign(n_cells, 0);
+  const double interior = config.level + config.band_margin;
+  const double exterior = config.level - config.band_margin;
+  std::vector<int> centred;
+  for (const int cell : screened) {
+    const auto c = static_cast<std::size_t>(cell);
+    const int i = cell % ncx, j = cell / ncx;
+    const double* corner = screen.coarse.data() + static_cast<std::size_t>(j) * (ncx + 1) + i;
+    const double v[4] = {corner[0], corner[1], corner[ncx + 1], corner[ncx + 2]};
+    screen.deep[c] = v[0] > interior && v[1] > interior && v[2] > interior && v[3] > interior;
+    screen.far[c] = v[0] < exterior && v[1] < exterior && v[2] < exterior && v[3] < exterior;
+    if (screen.deep[c] || screen.far[c]) centred.push_back(cell);
+  }
+  evaluate_on_threads(centred.size(), [&](std::size_t k) {
+    const auto c = static_cast<std::size_t>(centred[k]);
+    const int i = centred[k] % ncx, j = centred[k] / ncx;
+    const double vc = field.volume_fraction(grid.node_position(i, j) + Vec2(0.5 * h, 0.5 * h));
+    screen.deep[c] = screen.deep[c] && vc > interior;
+    screen.far[c] = screen.far[c] && vc < exterior;
+  });
+  field_evaluations += static_cast<long>(centred.size());
   return screen;
 }
 
@@ -616,26 +670,15 @@ class FineNodes {
         x.push_back(position(i, j));
       }
     }
-    const std::size_t n = listed.size(), n_chunks = (n + kNodeChunk - 1) / kNodeChunk;
-#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
-    for (std::size_t c = 0; c < n_chunks; ++c) {
-      for (std::size_t k = c * kNodeChunk; k < std::min(n, (c + 1) * kNodeChunk); ++k) {
-        cache_[listed[k]] = field_(x[k]);
-      }
-    }
+    const std::size_t n = listed.size();
+    evaluate_on_threads(n, [&](std::size_t k) { cache_[listed[k]] = field_(x[k]); });
     evaluations_ += static_cast<long>(n);
   }
-  bool inside(int i, int j) {
-    return value(i, j) > level_;
-  }
+  bool inside(int i, int j) { return value(i, j) > level_; }
   /// The value at (i, j) if its block holds it already (maybe NaN: not evaluated), else nullptr.
-  const double* known(int i, int j) const {
-    return cache_.find(i, j);
-  }
+  const double* known(int i, int j) const { return cache_.find(i, j); }
 
  private:
-  static constexpr std::size_t kNodeChunk = 256;  ///< nodes per chunk of evaluate()
-
   Vec2 position(int i, int j) const {
     return Vec2(geometry_.origin.x() + static_cast<double>(i) * geometry_.spacing,
                 geometry_.origin.y() + static_cast<double>(j) * geometry_.spacing);
