@@ -1,7 +1,9 @@
 // Internal interfaces between detector.cpp and the detector implementations.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
+#include <cstddef>
 
 #include "mpm/detect/detector.hpp"
 
@@ -22,6 +24,19 @@ DetectedBoundary detect_volume_of_fluid(const ParticleCloud& cloud, const Grid& 
                                         const VofConfig& config, DetectionTimings& timings);
 DetectedBoundary detect_cell_density(const ParticleCloud& cloud, const Grid& grid,
                                      const DensityConfig& config, DetectionTimings& timings);
+
+/// body(k) for every k < n, by chunks of `chunk` on the OpenMP threads (a single chunk runs on the
+/// calling thread). Each body(k) may write only its own places: then the result does not depend
+/// on the thread count.
+template <class Body>
+void for_each_on_threads(std::size_t n, std::size_t chunk, const Body& body) {
+  const std::size_t n_chunks = (n + chunk - 1) / chunk;
+#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
+  for (std::size_t c = 0; c < n_chunks; ++c) {
+    const std::size_t end = std::min(n, (c + 1) * chunk);
+    for (std::size_t k = c * chunk; k < end; ++k) body(k);
+  }
+}
 
 /// Seconds since `start`.
 inline double seconds_since(std::chrono::steady_clock::time_point start) {

@@ -31,19 +31,6 @@ constexpr std::size_t kBandChunk = 2048;
 // Field evaluations per chunk of a batch on the threads.
 constexpr std::size_t kEvaluationChunk = 256;
 
-// evaluate(k) for k < n, by chunks on the OpenMP threads (one chunk: on the calling thread); each
-// k must write its own places only.
-template <class Evaluate>
-void evaluate_on_threads(std::size_t n, const Evaluate& evaluate) {
-  const std::size_t n_chunks = (n + kEvaluationChunk - 1) / kEvaluationChunk;
-#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
-  for (std::size_t c = 0; c < n_chunks; ++c) {
-    for (std::size_t k = c * kEvaluationChunk; k < std::min(n, (c + 1) * kEvaluationChunk); ++k) {
-      evaluate(k);
-    }
-  }
-}
-
 // Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
 // moment), kappa from the circle through the neighbours one kernel radius away along the contour.
 void correct_curvature(DetectedBoundary& boundary, double moment, double arc) {
@@ -270,40 +257,56 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   return survey;
 }
 
-// `line(in, out, n, stride)` along every row of the n_x x n_y cells, then along every column.
-template <class Line>
-std::vector<char> rows_then_columns(const std::vector<char>& in, int n_x, int n_y, Line line) {
+// A filter of the n_x x n_y cells along every row, then along every column. Along a line of n
+// cells it reads cell k (unset for k >= n) into a state, state = next(state, set, k), and writes
+// cell k - rings as keep(state, k - rings), k = 0 .. n + rings - 1. The columns are swept row by
+// row with one state per column, so that both passes read and write contiguous rows (in vector
+// lanes) instead of striding down the columns.
+template <class Next, class Keep>
+std::vector<char> rows_then_columns(const std::vector<char>& in, int n_x, int n_y, int rings,
+                                    int start, Next next, Keep keep) {
   std::vector<char> rows(in.size(), 0), out(in.size(), 0);
   for (int j = 0; j < n_y; ++j) {
-    const std::size_t first = static_cast<std::size_t>(j) * n_x;
-    line(in.data() + first, rows.data() + first, n_x, 1);
+    const char* a = in.data() + static_cast<std::size_t>(j) * n_x;
+    char* b = rows.data() + static_cast<std::size_t>(j) * n_x;
+    int state = start;
+    for (int k = 0; k < n_x + rings; ++k) {
+      state = next(state, k < n_x && a[k] != 0, k);
+      if (k >= rings) b[k - rings] = keep(state, k - rings) ? 1 : 0;
+    }
   }
-  for (int i = 0; i < n_x; ++i) line(rows.data() + i, out.data() + i, n_y, n_x);
+  std::vector<int> state(static_cast<std::size_t>(n_x), start);
+  int* s = state.data();
+  for (int k = 0; k < n_y + rings; ++k) {
+    const char* a = rows.data() + static_cast<std::size_t>(k) * n_x;
+    if (k < n_y) {
+      for (int i = 0; i < n_x; ++i) s[i] = next(s[i], a[i] != 0, k);
+    } else {
+      for (int i = 0; i < n_x; ++i) s[i] = next(s[i], false, k);
+    }
+    if (k >= rings) {
+      char* b = out.data() + static_cast<std::size_t>(k - rings) * n_x;
+      for (int i = 0; i < n_x; ++i) b[i] = keep(s[i], k - rings) ? 1 : 0;
+    }
+  }
   return out;
 }
 
 // Cells whose every neighbour within `rings` (Chebyshev) is set in `in`; outside the grid counts
 // as unset.
 std::vector<char> erode(const std::vector<char>& in, int n_x, int n_y, int rings) {
-  return rows_then_columns(in, n_x, n_y, [rings](const char* a, char* b, int n, int stride) {
-    int run = 0;  // set cells ending at k: when >= 2 rings + 1, the cell k - rings is kept
-    for (int k = 0; k < n; ++k) {
-      run = a[static_cast<std::size_t>(k) * stride] ? run + 1 : 0;
-      if (k >= 2 * rings) b[static_cast<std::size_t>(k - rings) * stride] = run > 2 * rings;
-    }
-  });
+  // State: the set cells in a row ending at k; cell k - rings is kept when it is 2 rings + 1.
+  return rows_then_columns(
+      in, n_x, n_y, rings, 0, [](int run, bool set, int) { return set ? run + 1 : 0; },
+      [rings](int run, int) { return run > 2 * rings; });
 }
 
 // Cells with a set cell within `rings` (Chebyshev) in `in`.
 std::vector<char> dilate(const std::vector<char>& in, int n_x, int n_y, int rings) {
-  return rows_then_columns(in, n_x, n_y, [rings](const char* a, char* b, int n, int stride) {
-    int last = -1000000000;  // last set cell at or before k
-    for (int k = 0; k < n + rings; ++k) {
-      if (k < n && a[static_cast<std::size_t>(k) * stride]) last = k;
-      const int target = k - rings;  // covered when a set cell lies within rings of it
-      if (target >= 0 && last >= target - rings) b[static_cast<std::size_t>(target) * stride] = 1;
-    }
-  });
+  // State: the last set cell at or before k; cell k - rings is covered when it lies within rings.
+  return rows_then_columns(
+      in, n_x, n_y, rings, -1000000000, [](int last, bool set, int k) { return set ? k : last; },
+      [rings](int last, int target) { return last >= target - rings; });
 }
 
 // Wall-clock laps of the improved detector's parts (DetectionTimings::FieldParts).
@@ -544,7 +547,7 @@ Screening screen_cells(const ImprovedField& field, const Grid& grid, const Impro
     }
   }
   screen.coarse.assign(n_nodes, std::numeric_limits<double>::quiet_NaN());
-  evaluate_on_threads(listed.size(), [&](std::size_t k) {
+  for_each_on_threads(listed.size(), kEvaluationChunk, [&](std::size_t k) {
     const int i = listed[k] % (ncx + 1), j = listed[k] / (ncx + 1);
     screen.coarse[static_cast<std::size_t>(listed[k])] =
         field.volume_fraction(grid.node_position(i, j));
@@ -570,7 +573,7 @@ Screening screen_cells(const ImprovedField& field, const Grid& grid, const Impro
     screen.far[c] = v[0] < exterior && v[1] < exterior && v[2] < exterior && v[3] < exterior;
     if (screen.deep[c] || screen.far[c]) centred.push_back(cell);
   }
-  evaluate_on_threads(centred.size(), [&](std::size_t k) {
+  for_each_on_threads(centred.size(), kEvaluationChunk, [&](std::size_t k) {
     const auto c = static_cast<std::size_t>(centred[k]);
     const int i = centred[k] % ncx, j = centred[k] / ncx;
     const double vc = field.volume_fraction(grid.node_position(i, j) + Vec2(0.5 * h, 0.5 * h));
@@ -671,7 +674,8 @@ class FineNodes {
       }
     }
     const std::size_t n = listed.size();
-    evaluate_on_threads(n, [&](std::size_t k) { cache_[listed[k]] = field_(x[k]); });
+    for_each_on_threads(n, kEvaluationChunk,
+                        [&](std::size_t k) { cache_[listed[k]] = field_(x[k]); });
     evaluations_ += static_cast<long>(n);
   }
   bool inside(int i, int j) { return value(i, j) > level_; }

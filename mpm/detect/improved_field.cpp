@@ -17,6 +17,9 @@ namespace pfm {
 
 namespace {
 
+// Particles (slots) per chunk of the field's set-up loops on the OpenMP threads.
+constexpr std::size_t kParticleChunk = 2048;
+
 // Grid edge w (0 left, 1 right, 2 bottom, 3 top of the box g0 .. g1): the distance of x from
 // it (> 0 inside the box) and the position of x along it from the box's lower corner, m.
 double wall_distance(int w, const Vec2& x, const Vec2& g0, const Vec2& g1) {
@@ -61,15 +64,15 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   const bool deformed = !cloud.deformation_gradient.empty();
   const double guard_reach = reference_guard_reach(config, cloud.initial_spacing);
   const double unit_reach = reference_reach(config, cloud.initial_spacing);
-  // Pass 1, by particle: reaches (for the bins, the mirror images and the narrow band).
-  for (std::size_t p = 0; p < n; ++p) {
+  // Pass 1, by particle (on the threads): reaches (for the bins, the mirror images and the
+  // narrow band).
+  detail::for_each_on_threads(n, kParticleChunk, [&](std::size_t p) {
     if (!deformed) {
       smallest_stretch_[p] = 1.0;
       kernel_reach_[p] = a0;
       particle_reach_[p] = unit_reach;
       reach_box_[p] = Vec2::Constant(particle_reach_[p]);
-      reach_ = std::max(reach_, particle_reach_[p]);
-      continue;
+      return;
     }
     const Mat2& f = cloud.deformation_gradient[p];
     double largest = 0.0, smallest = 0.0;
@@ -87,8 +90,8 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
       reach_box_[p] = reach_box_[p].cwiseMax(guard_reach * widths);
     }
     particle_reach_[p] = reach;
-    reach_ = std::max(reach_, reach);
-  }
+  });
+  for (std::size_t p = 0; p < n; ++p) reach_ = std::max(reach_, particle_reach_[p]);
   // Mirror images across the grid edges that no particle lies beyond (walls): the reflection
   // R (x - e) + e of the position and R F R of the deformation, R = diag(-1, 1) or diag(1, -1);
   // near a corner across both edges too. Images are never guarded.
@@ -188,8 +191,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     return slot;
   };
   slot_.assign_zeros(all_positions.size());
-  double largest_weight = 0.0;
-  for (std::size_t k = 0; k < slot_.size(); ++k) {
+  detail::for_each_on_threads(slot_.size(), kParticleChunk, [&](std::size_t k) {
     const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
     Slot m = kernel_of(q < n ? q : images[q - n].particle);
     if (q >= n) {
@@ -214,7 +216,10 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     slot_.weight[k] = m.weight;
     slot_.half_x[k] = m.half_x;
     slot_.half_y[k] = m.half_y;
-    largest_weight = std::max(largest_weight, m.weight);
+  });
+  double largest_weight = 0.0;
+  for (std::size_t k = 0; k < slot_.size(); ++k) {
+    largest_weight = std::max(largest_weight, slot_.weight[k]);
   }
   // The fixed-point unit (vector_loops.hpp): a term of the largest weight stays below 2^45 units,
   // and the weights of every slot together below 2^63, so that no sum overflows. The narrow band
@@ -322,13 +327,16 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
   if (!guard_) return;
   const std::size_t n = position_.size();
   // Guards only where the particle's own phi is not comfortably above the level; phi is
-  // evaluated before any guard is switched on.
-  std::vector<std::size_t> newly;
+  // evaluated before any guard is switched on (on the threads, by chunks of particles).
+  std::vector<char> low(n, 0);
+  detail::for_each_on_threads(n, 256, [&](std::size_t p) {
+    if (candidate.empty() || candidate[p]) {
+      low[p] = volume_fraction(position_[p]) <= level_ + guard_margin_ ? 1 : 0;
+    }
+  });
   for (std::size_t p = 0; p < n; ++p) {
-    if (!candidate.empty() && !candidate[p]) continue;
-    if (volume_fraction(position_[p]) <= level_ + guard_margin_) newly.push_back(p);
+    if (low[p]) switch_guard_on(p);
   }
-  for (const std::size_t p : newly) switch_guard_on(p);
   list_guarded_slots();
   // Particles without a guard reach as far as their kernel.
   for (std::size_t p = 0; p < n; ++p) {
