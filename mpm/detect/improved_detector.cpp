@@ -22,14 +22,13 @@ namespace pfm::detail {
 
 namespace {
 
-// Particles per chunk of the loops over the whole cloud that run on the OpenMP threads (a cloud
-// of one chunk stays on the calling thread). Chunks, not threads, decide what is added in which
-// order, so the results do not depend on the thread count.
+// The loops on the OpenMP threads share their work by chunks of some 30-60 microseconds (more
+// than a thread takes to join; a loop of one chunk stays on the calling thread). Chunks, not
+// threads, decide what is added in which order, so the results do not depend on the thread
+// count. Particles per chunk of the survey's sweep (about 4 ns each):
 constexpr std::size_t kParticleChunk = 16384;
-// Particles of the narrow band per chunk of its loops on the threads.
-constexpr std::size_t kBandChunk = 2048;
-// Field evaluations per chunk of a batch on the threads.
-constexpr std::size_t kEvaluationChunk = 256;
+// Field evaluations per chunk of a batch (about 60 ns each):
+constexpr std::size_t kEvaluationChunk = 512;
 
 // Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
 // moment), kappa from the circle through the neighbours one kernel radius away along the contour.
@@ -927,7 +926,7 @@ class EdgeRoots {
   }
 
  private:
-  static constexpr std::size_t kCrossingChunk = 64;
+  static constexpr std::size_t kCrossingChunk = 128;  // about 3.5 evaluations each
 
   Vec2 root(const EdgeCrossing& c, ImprovedField::KernelArrays& slots, int& slots_square,
             long& evaluations) const {
