@@ -57,8 +57,26 @@ long thread_page_faults() {
   return usage.ru_minflt;
 }
 
+// The median time of one step of scale `scale` on `threads` threads after a warm-up, by `clock`
+// (seconds).
+double median_step_seconds(pfm::MpmSolver& solver, int scale, int threads, double (*clock)()) {
+  omp_set_num_threads(threads);
+  for (int k = 0; k < 2; ++k) solver.step();
+  std::vector<double> times;
+  for (int k = 0; k < (scale == 2 ? 5 : 21); ++k) {
+    const double start = clock();
+    solver.step();
+    times.push_back(clock() - start);
+  }
+  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
+  return times[times.size() / 2];
+}
+
 struct Fixture {
   std::unique_ptr<pfm::MpmSolver> solver;
+  /// The particles the detections are timed on, taken once: the steps timed later move the
+  /// solver's own, and every detection benchmark must see the same cloud.
+  pfm::Particles particles;
   double step_seconds = 0.0;
   double initial_spacing = 0.0;
 };
@@ -77,17 +95,8 @@ Fixture& fixture(int scale) {
   Fixture f;
   f.solver = std::make_unique<pfm::MpmSolver>(pfm::parse_case(j, "bench_detect"));
   f.initial_spacing = cell / s.points_per_cell;
-  // One step's time: the median of several single-thread steps after a warm-up.
-  omp_set_num_threads(1);
-  for (int k = 0; k < 2; ++k) f.solver->step();
-  std::vector<double> times;
-  for (int k = 0; k < (scale == 2 ? 5 : 21); ++k) {
-    const double start = thread_seconds();
-    f.solver->step();
-    times.push_back(thread_seconds() - start);
-  }
-  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
-  f.step_seconds = times[times.size() / 2];
+  f.step_seconds = median_step_seconds(*f.solver, scale, 1, thread_seconds);
+  f.particles = f.solver->particles();
   return cache.emplace(scale, std::move(f)).first->second;
 }
 
@@ -96,7 +105,7 @@ void BM_Detect(benchmark::State& state) {
   const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
   Fixture& f = fixture(scale);
   omp_set_num_threads(1);
-  const pfm::Particles& particles = f.solver->particles();
+  const pfm::Particles& particles = f.particles;
   const pfm::ParticleCloud cloud{particles.position, particles.volume,
                                  particles.deformation_gradient, f.initial_spacing};
   const pfm::Grid& grid = f.solver->grid();
@@ -176,17 +185,7 @@ double step_wall_seconds(int scale, int threads) {
   static std::map<std::pair<int, int>, double> cache;
   const auto key = std::make_pair(scale, threads);
   if (const auto it = cache.find(key); it != cache.end()) return it->second;
-  Fixture& f = fixture(scale);
-  omp_set_num_threads(threads);
-  for (int k = 0; k < 2; ++k) f.solver->step();
-  std::vector<double> times;
-  for (int k = 0; k < (scale == 2 ? 5 : 21); ++k) {
-    const double start = wall_seconds();
-    f.solver->step();
-    times.push_back(wall_seconds() - start);
-  }
-  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
-  return cache[key] = times[times.size() / 2];
+  return cache[key] = median_step_seconds(*fixture(scale).solver, scale, threads, wall_seconds);
 }
 
 // range(0): scale; range(1): OpenMP threads of both the detection and the step.
@@ -196,7 +195,7 @@ void BM_DetectThreads(benchmark::State& state) {
   const double step = step_wall_seconds(scale, threads);
   Fixture& f = fixture(scale);
   omp_set_num_threads(threads);
-  const pfm::Particles& particles = f.solver->particles();
+  const pfm::Particles& particles = f.particles;
   const pfm::ParticleCloud cloud{particles.position, particles.volume,
                                  particles.deformation_gradient, f.initial_spacing};
   pfm::DetectorConfig config;
