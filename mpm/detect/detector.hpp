@@ -373,6 +373,9 @@ class ImprovedField {
   int fixed_point_bits() const { return fixed_point_bits_; }
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;
+  /// Whether volume_fraction(x) > threshold: the same answer, found from the bin rows nearest x
+  /// first, stopping as soon as their partial sum exceeds the threshold (the terms are >= 0).
+  bool volume_fraction_above(const Vec2& x, double threshold) const;
   /// Largest kernel or guard reach, m.
   double reach() const { return reach_; }
   /// Smallest guard semi-axis over the particles, m (infinity without guard).

@@ -334,7 +334,7 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
   std::vector<char> low(n, 0);
   detail::for_each_on_threads(n, kGuardChunk, [&](std::size_t p) {
     if (candidate.empty() || candidate[p]) {
-      low[p] = volume_fraction(position_[p]) <= level_ + guard_margin_ ? 1 : 0;
+      low[p] = volume_fraction_above(position_[p], level_ + guard_margin_) ? 0 : 1;
     }
   });
   for (std::size_t p = 0; p < n; ++p) {
@@ -419,6 +419,30 @@ double ImprovedField::volume_fraction(const Vec2& x) const {
 
 double ImprovedField::operator()(const Vec2& x) const {
   return sum_at(x, true);
+}
+
+bool ImprovedField::volume_fraction_above(const Vec2& x, double threshold) const {
+  int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
+  const int rows = bins_.slot_rows_near(x, rings_, begin, end);
+  const detail::KernelColumns columns{slot_.x.data(),     slot_.y.data(),   slot_.k00.data(),
+                                      slot_.k01.data(),   slot_.k10.data(), slot_.k11.data(),
+                                      slot_.weight.data()};
+  // The middle row, then the others outwards. phi = units x 2^-s never falls as units grow (the
+  // conversion to double is monotone), so a partial sum above the threshold decides.
+  int order[2 * kBinRings + 1];
+  int n = 0;
+  order[n++] = rows / 2;
+  for (int d = 1; n < rows; ++d) {
+    if (rows / 2 + d < rows) order[n++] = rows / 2 + d;
+    if (rows / 2 - d >= 0) order[n++] = rows / 2 - d;
+  }
+  std::uint64_t units = 0;
+  for (int k = 0; k < rows; ++k) {
+    const int r = order[k];
+    units += detail::kernel_sum(exponent_, columns, begin + r, end + r, 1, x.x(), x.y());
+    if (static_cast<double>(units) * fixed_point_unit_ > threshold) return true;
+  }
+  return false;
 }
 
 double ImprovedField::operator()(const Vec2& x, const KernelArrays& slots) const {

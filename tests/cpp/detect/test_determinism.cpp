@@ -371,6 +371,34 @@ TEST(KernelSums, TwoMillionStackedPointsSumWithoutOverflow) {
   EXPECT_EQ(field.fixed_point_bits(), 43);
 }
 
+// The guard decision stops summing once the nearest bin rows exceed the threshold: at the
+// particles of 200 random clouds and at points between them, against thresholds just below, at
+// and just above phi and at the guard's level, it must answer as the full sum does.
+TEST(KernelSums, EarlyStopAgreesWithTheFullSum) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  long checks = 0, mismatches = 0;
+  for (std::uint64_t seed = 0; seed < 200; ++seed) {
+    const auto rc = random_case(seed + 500000);
+    const ImprovedConfig config;
+    const ImprovedField field(rc.cloud.view(), config, ImprovedField::DeferGuards{});
+    for (std::size_t p = 0; p < rc.cloud.position.size(); ++p) {
+      const Vec2 x = rc.cloud.position[p] + 0.5 * rc.cloud.initial_spacing *
+                                                Vec2(u01(rng) - 0.5, u01(rng) - 0.5) *
+                                                static_cast<double>(p % 2);
+      const double phi = field.volume_fraction(x);
+      for (const double t :
+           {std::nextafter(phi, -1.0), phi, std::nextafter(phi, 2.0), 0.52, 0.5 * phi}) {
+        ++checks;
+        if (field.volume_fraction_above(x, t) != (phi > t)) ++mismatches;
+      }
+    }
+  }
+  std::printf("%ld checks, %ld mismatches\n", checks, mismatches);
+  EXPECT_GT(checks, 10000);
+  EXPECT_EQ(mismatches, 0);
+}
+
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
   const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(6, 6),
                                    [](const Vec2& x) { return (x - Vec2(4, 4)).norm() < 1.8; });
