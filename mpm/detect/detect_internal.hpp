@@ -1,6 +1,8 @@
 // Internal interfaces between detector.cpp and the detector implementations.
 #pragma once
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -31,7 +33,11 @@ DetectedBoundary detect_cell_density(const ParticleCloud& cloud, const Grid& gri
 template <class Body>
 void for_each_on_threads(std::size_t n, std::size_t chunk, const Body& body) {
   const std::size_t n_chunks = (n + chunk - 1) / chunk;
-#pragma omp parallel for schedule(dynamic, 1) if (n_chunks > 1)
+  if (n_chunks <= 1 || omp_get_max_threads() == 1) {  // no team (a team of one still costs)
+    for (std::size_t k = 0; k < n; ++k) body(k);
+    return;
+  }
+#pragma omp parallel for schedule(dynamic, 1)
   for (std::size_t c = 0; c < n_chunks; ++c) {
     const std::size_t end = std::min(n, (c + 1) * chunk);
     for (std::size_t k = c * chunk; k < end; ++k) body(k);

@@ -29,6 +29,13 @@ namespace {
 constexpr std::size_t kParticleChunk = 16384;
 // Field evaluations per chunk of a batch (about 60 ns each):
 constexpr std::size_t kEvaluationChunk = 512;
+// Cells per chunk of the loops over grid rows (about 1 ns each):
+constexpr std::size_t kCellChunk = 32768;
+
+// Rows of `width` cells per chunk of a loop over grid rows.
+std::size_t rows_per_chunk(int width) {
+  return std::max<std::size_t>(1, kCellChunk / static_cast<std::size_t>(std::max(width, 1)));
+}
 
 // Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
 // moment), kappa from the circle through the neighbours one kernel radius away along the contour.
@@ -260,34 +267,48 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
 // cells it reads cell k (unset for k >= n) into a state, state = next(state, set, k), and writes
 // cell k - rings as keep(state, k - rings), k = 0 .. n + rings - 1. The columns are swept row by
 // row with one state per column, so that both passes read and write contiguous rows (in vector
-// lanes) instead of striding down the columns.
+// lanes) instead of striding down the columns; rows and blocks of columns on the threads.
 template <class Next, class Keep>
 std::vector<char> rows_then_columns(const std::vector<char>& in, int n_x, int n_y, int rings,
                                     int start, Next next, Keep keep) {
   std::vector<char> rows(in.size(), 0), out(in.size(), 0);
-  for (int j = 0; j < n_y; ++j) {
-    const char* a = in.data() + static_cast<std::size_t>(j) * n_x;
-    char* b = rows.data() + static_cast<std::size_t>(j) * n_x;
+  // Everything by value in the loops: a char store may alias anything reached by reference,
+  // which would then be read again at every cell.
+  const char* const source = in.data();
+  char* const across = rows.data();
+  char* const result = out.data();
+  for_each_on_threads(static_cast<std::size_t>(n_y), rows_per_chunk(n_x), [=](std::size_t j) {
+    const char* a = source + j * n_x;
+    char* b = across + j * n_x;
     int state = start;
     for (int k = 0; k < n_x + rings; ++k) {
       state = next(state, k < n_x && a[k] != 0, k);
       if (k >= rings) b[k - rings] = keep(state, k - rings) ? 1 : 0;
     }
-  }
-  std::vector<int> state(static_cast<std::size_t>(n_x), start);
-  int* s = state.data();
-  for (int k = 0; k < n_y + rings; ++k) {
-    const char* a = rows.data() + static_cast<std::size_t>(k) * n_x;
-    if (k < n_y) {
-      for (int i = 0; i < n_x; ++i) s[i] = next(s[i], a[i] != 0, k);
-    } else {
-      for (int i = 0; i < n_x; ++i) s[i] = next(s[i], false, k);
-    }
-    if (k >= rings) {
-      char* b = out.data() + static_cast<std::size_t>(k - rings) * n_x;
-      for (int i = 0; i < n_x; ++i) b[i] = keep(s[i], k - rings) ? 1 : 0;
-    }
-  }
+  });
+  // The columns by blocks of kColumns, each block swept over every row.
+  constexpr int kColumns = 256;
+  const std::size_t n_blocks = static_cast<std::size_t>((n_x + kColumns - 1) / kColumns);
+  const std::size_t height = static_cast<std::size_t>(n_y) + rings;
+  for_each_on_threads(n_blocks, std::max<std::size_t>(1, kCellChunk / (kColumns * height)),
+                      [=](std::size_t block) {
+                        const int i0 = static_cast<int>(block) * kColumns;
+                        const int width = std::min(kColumns, n_x - i0);
+                        int s[kColumns];
+                        std::fill(s, s + width, start);
+                        for (int k = 0; k < n_y + rings; ++k) {
+                          const char* a = across + static_cast<std::size_t>(k) * n_x + i0;
+                          if (k < n_y) {
+                            for (int i = 0; i < width; ++i) s[i] = next(s[i], a[i] != 0, k);
+                          } else {
+                            for (int i = 0; i < width; ++i) s[i] = next(s[i], false, k);
+                          }
+                          if (k >= rings) {
+                            char* b = result + static_cast<std::size_t>(k - rings) * n_x + i0;
+                            for (int i = 0; i < width; ++i) b[i] = keep(s[i], k - rings) ? 1 : 0;
+                          }
+                        }
+                      });
   return out;
 }
 
@@ -367,7 +388,7 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   const int pad = kernel_rings + particle_rings;
   const int px = ncx + 2 * pad, py = ncy + 2 * pad;
   // Index of the grid cell that padded cell (a, b) images, or -1 for the void.
-  const auto source = [&](int a, int b) {
+  const auto source = [=](int a, int b) {
     int i = a - pad, j = b - pad;
     if (i < 0 || i >= ncx) {
       if (!mirror_x[i < 0 ? 0 : 1]) return -1;
@@ -382,81 +403,109 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     return j * ncx + i;
   };
   std::vector<double> padded_volume(static_cast<std::size_t>(px) * py, 0.0);
-  for (int b = 0; b < py; ++b) {
+  // (The loops over rows run on the threads, by chunks of rows.)
+  const std::size_t padded_rows = rows_per_chunk(px);
+  double* const volume = padded_volume.data();
+  const double* const cell_volume = survey.cell_volume.data();
+  for_each_on_threads(static_cast<std::size_t>(py), padded_rows, [=](std::size_t row) {
+    const int b = static_cast<int>(row);
     for (int a = 0; a < px; ++a) {
       const int c = source(a, b);
-      if (c >= 0) {
-        padded_volume[static_cast<std::size_t>(b) * px + a] =
-            survey.cell_volume[static_cast<std::size_t>(c)];
-      }
+      if (c >= 0) volume[static_cast<std::size_t>(b) * px + a] = cell_volume[c];
     }
-  }
+  });
   // The volume of padded cell (a, b), 0 beyond the padding.
-  const auto volume_at = [&](int a, int b) {
-    return a < 0 || b < 0 || a >= px || b >= py
-               ? 0.0
-               : padded_volume[static_cast<std::size_t>(b) * px + a];
+  const auto volume_at = [=](int a, int b) {
+    return a < 0 || b < 0 || a >= px || b >= py ? 0.0
+                                                : volume[static_cast<std::size_t>(b) * px + a];
   };
   const double solid_cell = solid_fraction * h * h, solid_window = 4.0 * solid_cell;
   // Whether the 2 x 2 cells around padded node (a, b) are fuller than solid_fraction.
-  const auto full_window = [&](int a, int b) {
+  const auto full_window = [=](int a, int b) {
     return volume_at(a - 1, b - 1) + volume_at(a, b - 1) + volume_at(a - 1, b) + volume_at(a, b) >=
            solid_window;
   };
   std::vector<char> padded_solid(static_cast<std::size_t>(px) * py, 0);
-  for (int b = 0; b < py; ++b) {
+  char* const solid_out = padded_solid.data();
+  for_each_on_threads(static_cast<std::size_t>(py), padded_rows, [=](std::size_t row) {
+    const int b = static_cast<int>(row);
     for (int a = 0; a < px; ++a) {
-      const double v = padded_volume[static_cast<std::size_t>(b) * px + a];
-      padded_solid[static_cast<std::size_t>(b) * px + a] =
+      const double v = volume[static_cast<std::size_t>(b) * px + a];
+      solid_out[static_cast<std::size_t>(b) * px + a] =
           v >= solid_cell || (v > 0.0 && full_window(a, b) && full_window(a + 1, b) &&
                               full_window(a, b + 1) && full_window(a + 1, b + 1));
     }
-  }
+  });
   const std::vector<char> padded_interior = erode(padded_solid, px, py, kernel_rings);
   std::vector<char> padded_open(padded_interior.size());
   for (std::size_t c = 0; c < padded_open.size(); ++c) padded_open[c] = !padded_interior[c];
   const std::vector<char> padded_needed = dilate(padded_open, px, py, particle_rings);
   band.interior_by_volume.assign(static_cast<std::size_t>(ncx) * ncy, 0);
   std::vector<char> needed(band.interior_by_volume.size());
-  for (int j = 0; j < ncy; ++j) {
-    for (int i = 0; i < ncx; ++i) {
-      const std::size_t inside = static_cast<std::size_t>(j) * ncx + i;
-      const std::size_t padded = static_cast<std::size_t>(j + pad) * px + (i + pad);
-      band.interior_by_volume[inside] = padded_interior[padded];
-      needed[inside] = padded_needed[padded];
-    }
-  }
+  const std::size_t grid_rows = rows_per_chunk(ncx);
+  // (Raw pointers: a char store could alias a vector's own pointer, which would then be read
+  // again at every cell.)
+  char* const interior_out = band.interior_by_volume.data();
+  char* const needed_out = needed.data();
+  const char* const interior_in = padded_interior.data();
+  const char* const needed_in = padded_needed.data();
+  for_each_on_threads(static_cast<std::size_t>(ncy), grid_rows, [=](std::size_t j) {
+    const std::size_t padded = (j + pad) * px + pad;
+    std::copy_n(interior_in + padded, ncx, interior_out + j * ncx);
+    std::copy_n(needed_in + padded, ncx, needed_out + j * ncx);
+  });
   const bool deformed = !cloud.deformation_gradient.empty();
   // Selected indices first, then the copies. One sweep: code[c + 1] of the particle's cell c
   // (c = -1 outside the grid) has bit 0 set where the particle enters the field, bit 1 where it
   // may touch a grid edge (in a cell along the edges or outside the grid: closer to the edge than
   // one initial spacing <= h; a larger spacing takes every particle).
-  const std::size_t n = cloud.position.size();
   const bool every_particle_may_touch = cloud.initial_spacing > h;
   std::vector<char> code(needed.size() + 1, 3);
-  for (int j = 0; j < ncy; ++j) {
+  char* const code_out = code.data() + 1;
+  for_each_on_threads(static_cast<std::size_t>(ncy), grid_rows, [=](std::size_t row) {
+    const int j = static_cast<int>(row);
     for (int i = 0; i < ncx; ++i) {
       const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
       const bool edge =
           every_particle_may_touch || i == 0 || j == 0 || i == ncx - 1 || j == ncy - 1;
-      code[c + 1] = static_cast<char>((needed[c] ? 1 : 0) | (edge ? 2 : 0));
+      code_out[c] = static_cast<char>((needed_out[c] != 0 ? 1 : 0) | (edge ? 2 : 0));
     }
-  }
-  std::vector<std::uint32_t> selected(n);
-  std::vector<Vec2> touching;
-  std::size_t m = 0;
-  for (const Runs& runs : survey.runs) {
+  });
+  // The selection run by run, each chunk of the survey's runs on its own, joined in order.
+  std::vector<std::vector<std::uint32_t>> chunk_selected(survey.runs.size());
+  std::vector<std::vector<Vec2>> chunk_touching(survey.runs.size());
+  for_each_on_threads(survey.runs.size(), 1, [&](std::size_t chunk) {
+    const Runs& runs = survey.runs[chunk];
+    if (runs.cell.empty()) return;
+    std::vector<std::uint32_t>& chosen = chunk_selected[chunk];
+    chosen.resize(runs.start.back() - runs.start.front());
+    std::size_t m = 0;
     for (std::size_t r = 0; r < runs.cell.size(); ++r) {
       const char k = code[static_cast<std::size_t>(runs.cell[r] + 1)];
       const std::uint32_t first = runs.start[r], end = runs.start[r + 1];
       if (k & 1) {
-        for (std::uint32_t p = first; p < end; ++p) selected[m++] = p;
+        for (std::uint32_t p = first; p < end; ++p) chosen[m++] = p;
       }
       if (k & 2) {
-        for (std::uint32_t p = first; p < end; ++p) touching.push_back(cloud.position[p]);
+        for (std::uint32_t p = first; p < end; ++p) {
+          chunk_touching[chunk].push_back(cloud.position[p]);
+        }
       }
     }
+    chosen.resize(m);
+  });
+  std::vector<std::uint32_t> selected;
+  std::vector<Vec2> touching;
+  for (std::size_t chunk = 0; chunk < survey.runs.size(); ++chunk) {
+    if (chunk == 0) {
+      selected = std::move(chunk_selected[0]);
+      touching = std::move(chunk_touching[0]);
+      continue;
+    }
+    selected.insert(selected.end(), chunk_selected[chunk].begin(), chunk_selected[chunk].end());
+    touching.insert(touching.end(), chunk_touching[chunk].begin(), chunk_touching[chunk].end());
   }
+  const std::size_t m = selected.size();
   if (config.mirror_grid_edges) {
     band.contacts = ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid,
                                                       cloud.initial_spacing);
@@ -464,12 +513,12 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   band.position.resize(m);
   band.volume.resize(m);
   if (deformed) band.deformation.resize(m);
-  for (std::size_t k = 0; k < m; ++k) {
+  for_each_on_threads(m, kParticleChunk / 4, [&](std::size_t k) {
     const std::size_t p = selected[k];
     band.position[k] = cloud.position[p];
     band.volume[k] = cloud.volume[p];
     if (deformed) band.deformation[k] = cloud.deformation_gradient[p];
-  }
+  });
   return band;
 }
 
