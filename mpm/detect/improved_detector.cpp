@@ -1021,6 +1021,9 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
     Vec2 a, b;
   };
   std::vector<CellSegment> segments;
+  std::size_t n_segments = 0;
+  for (const Contour& c : boundary.contours) n_segments += c.points.size();
+  segments.reserve(n_segments);
   std::vector<char> crossed(static_cast<std::size_t>(ncx) * ncy, 0);
   for (const Contour& c : boundary.contours) {
     const std::size_t n = c.points.size();
@@ -1035,36 +1038,40 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
   }
   std::stable_sort(segments.begin(), segments.end(),
                    [](const CellSegment& x, const CellSegment& y) { return x.cell < y.cell; });
-  std::vector<std::size_t> left_out;
-  for (std::size_t p = 0; p < positions.size(); ++p) {
-    if (!candidate.empty() && !candidate[p]) continue;
+  // Each particle's verdict on the threads: 0 inside, 1 outside, 2 its fine cell holds no
+  // contour and none of its corners is known (evaluated after, on this thread: the node store
+  // grows).
+  std::vector<char> verdict(positions.size(), 0);
+  for_each_on_threads(positions.size(), kParticleChunk / 4, [&](std::size_t p) {
+    if (!candidate.empty() && !candidate[p]) return;
     const Vec2& x = positions[p];
     int fi = 0, fj = 0;
-    if (!nodes.cell_of(x, fi, fj)) continue;
+    if (!nodes.cell_of(x, fi, fj)) return;
     const int ci = fi / r, cj = fj / r;
     const int cell = fj * n_fine_x + fi;
-    auto it = segments.end();
+    auto it = segments.cend();
     if (crossed[static_cast<std::size_t>(cj) * ncx + ci]) {
-      it = std::lower_bound(segments.begin(), segments.end(), cell,
+      it = std::lower_bound(segments.cbegin(), segments.cend(), cell,
                             [](const CellSegment& s, int value) { return s.cell < value; });
     }
-    if (it == segments.end() || it->cell != cell) {
+    if (it == segments.cend() || it->cell != cell) {
       // No contour in p's fine cell: its corners share one sign, which must be inside (a few
       // stacked points make an island smaller than a fine cell, which no node sees). Any corner
       // tells; one already evaluated (the lattice holds one of every fine cell at stride 2)
       // saves an evaluation.
-      double corner = std::numeric_limits<double>::quiet_NaN();
-      for (int k = 0; k < 4 && std::isnan(corner); ++k) {
+      for (int k = 0; k < 4; ++k) {
         const double* known = nodes.known(fi + (k & 1), fj + (k >> 1));
-        if (known != nullptr) corner = *known;
+        if (known != nullptr && !std::isnan(*known)) {
+          verdict[p] = *known > level ? 0 : 1;
+          return;
+        }
       }
-      if (std::isnan(corner)) corner = nodes.value(fi, fj);
-      if (!(corner > level)) left_out.push_back(p);
-      continue;
+      verdict[p] = 2;
+      return;
     }
     const CellSegment* nearest = nullptr;
     double best = std::numeric_limits<double>::infinity();
-    for (; it != segments.end() && it->cell == cell; ++it) {
+    for (; it != segments.cend() && it->cell == cell; ++it) {
       const Vec2 d = it->b - it->a;
       const double t = std::clamp((x - it->a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
       const double distance = (it->a + t * d - x).squaredNorm();
@@ -1073,9 +1080,18 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
         nearest = &*it;
       }
     }
-    if (nearest == nullptr) continue;
+    if (nearest == nullptr) return;
     const Vec2 d = nearest->b - nearest->a, e = x - nearest->a;
-    if (d.x() * e.y() - d.y() * e.x() < 0.0) left_out.push_back(p);
+    verdict[p] = d.x() * e.y() - d.y() * e.x() < 0.0 ? 1 : 0;
+  });
+  std::vector<std::size_t> left_out;
+  for (std::size_t p = 0; p < positions.size(); ++p) {
+    if (verdict[p] == 2) {
+      int fi = 0, fj = 0;
+      nodes.cell_of(positions[p], fi, fj);
+      verdict[p] = nodes.value(fi, fj) > level ? 0 : 1;
+    }
+    if (verdict[p] == 1) left_out.push_back(p);
   }
   return left_out;
 }

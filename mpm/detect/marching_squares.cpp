@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 namespace pfm {
 
@@ -34,6 +34,33 @@ struct EdgeNumbering {
   long horizontal(long i, long j) const { return j * (n_x - 1) + i; }
   long vertical(long i, long j) const { return n_horizontal() + j * n_x + i; }
   long count() const { return n_horizontal() + n_x * (n_y - 1); }
+};
+
+// The point of each crossed edge of a narrow band on a large field: open addressing with linear
+// probing. A cell has at most 4 crossed edges, so with room for 8 per cell the table is at most
+// half full.
+class SparseEdgePoints {
+ public:
+  explicit SparseEdgePoints(std::size_t cells) {
+    int bits = 4;
+    while ((std::size_t{1} << bits) < 8 * cells) ++bits;
+    shift_ = 64 - bits;
+    key_.assign(std::size_t{1} << bits, -1);
+    point_.assign(key_.size(), -1);
+  }
+  /// The point of `edge` (-1 while it has none).
+  int& operator[](long edge) {
+    const std::size_t mask = key_.size() - 1;
+    std::size_t k = (static_cast<std::uint64_t>(edge) * 0x9E3779B97F4A7C15ULL) >> shift_;
+    while (key_[k] != edge && key_[k] != -1) k = (k + 1) & mask;
+    key_[k] = edge;
+    return point_[k];
+  }
+
+ private:
+  int shift_ = 60;
+  std::vector<long> key_;
+  std::vector<int> point_;
 };
 
 }  // namespace
@@ -72,12 +99,11 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
   check_geometry(geom);
   const EdgeNumbering edges{geom.n_x, geom.n_y};
   // Point of each edge crossing: a dense table when the cells cover a good part of the field, a
-  // hash map for a narrow band on a large field (lookups only, so the result does not depend on
-  // the choice).
+  // hash table for a narrow band on a large field (lookups only, so the result does not depend
+  // on the choice).
   const bool dense = static_cast<double>(edges.count()) <= 16.0 * cells.size() + 4096.0;
   std::vector<int> point_of_edge(dense ? edges.count() : 0, -1);
-  std::unordered_map<long, int> sparse_point_of_edge;
-  if (!dense) sparse_point_of_edge.reserve(2 * cells.size());
+  SparseEdgePoints sparse_point_of_edge(dense ? 0 : cells.size());
   std::vector<EdgeCrossing> crossings;  // by point
   std::vector<DirectedSegment> segments;
   const auto node_pos = [&geom](int i, int j) {
@@ -86,8 +112,7 @@ DetectedBoundary marching_squares_cells(const NodalField& geom,
   // Crossing on the edge from node (ia, ja) to node (ib, jb), one point per edge so the two cells
   // sharing it use the identical point (found after the walk).
   const auto crossing = [&](long edge, int ia, int ja, double va, int ib, int jb, double vb) {
-    int& slot =
-        dense ? point_of_edge[edge] : sparse_point_of_edge.try_emplace(edge, -1).first->second;
+    int& slot = dense ? point_of_edge[edge] : sparse_point_of_edge[edge];
     if (slot >= 0) return slot;
     slot = static_cast<int>(crossings.size());
     crossings.push_back({node_pos(ia, ja), va, node_pos(ib, jb), vb});
