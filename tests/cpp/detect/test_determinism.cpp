@@ -399,6 +399,49 @@ TEST(KernelSums, EarlyStopAgreesWithTheFullSum) {
   EXPECT_EQ(mismatches, 0);
 }
 
+// The survey's sweep takes sigma_max(F)^2 of every particle in vector lanes: its maximum must be
+// that of the scalar formula, bit for bit, for identical F everywhere, small random strains, one
+// outlier at the start, in the middle or at the end, values that grow by two ulps from each
+// particle to the next and huge stretches, with AVX2 and without.
+TEST(Survey, LargestStretchEqualsTheMaximumOverEveryParticle) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const auto sigma_squared = [](const Mat2& f) {
+    const double a = f(0, 0) * f(0, 0) + f(1, 0) * f(1, 0),
+                 c = f(0, 1) * f(0, 1) + f(1, 1) * f(1, 1);
+    const double b = f(0, 0) * f(0, 1) + f(1, 0) * f(1, 1);
+    return 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b));
+  };
+  int cases = 0;
+  for (const int kind : {0, 1, 2, 3, 4, 5, 6}) {
+    for (const std::size_t n :
+         {std::size_t{1}, std::size_t{255}, std::size_t{1000}, std::size_t{5000}}) {
+      std::vector<Mat2> f(n);
+      for (std::size_t p = 0; p < n; ++p) {
+        const double e = kind == 0 ? 0.0 : 1e-3 * (u01(rng) - 0.5);
+        f[p] << 1.0 + e, 0.3 * e, -0.2 * e, 1.0 - e;
+        if (kind == 5) f[p] = (1.0 + std::ldexp(static_cast<double>(p), -52)) * Mat2::Identity();
+        if (kind == 6) f[p] << 1e6 * (1.0 + e), 0.0, 0.0, 1e-6;
+      }
+      const std::size_t outlier = kind == 2 ? 0 : kind == 3 ? n / 2 : n - 1;
+      if (kind >= 2 && kind <= 4) f[outlier] << 1.7, 0.4, 0.1, 0.9;
+      std::vector<Vec2> x(n, Vec2(1.0, 1.0));
+      std::vector<double> volume(n, 0.01);
+      double expected = 0.0;
+      for (const Mat2& m : f) expected = std::max(expected, sigma_squared(m));
+      for (const bool avx2 : {true, false}) {
+        detail::set_vector_loops_avx2(avx2);
+        const detail::CloudTotals totals = detail::sweep_cloud(
+            x.data()->data(), volume.data(), f.data()->data(), n, {0.0, 0.0, 1.0, 4, 4}, nullptr);
+        EXPECT_EQ(totals.largest_squared, expected) << "kind " << kind << ", n " << n;
+        ++cases;
+      }
+      detail::set_vector_loops_avx2(true);
+    }
+  }
+  EXPECT_EQ(cases, 56);
+}
+
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
   const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(6, 6),
                                    [](const Vec2& x) { return (x - Vec2(4, 4)).norm() < 1.8; });
