@@ -288,27 +288,28 @@ std::vector<char> rows_then_columns(const std::vector<char>& in, int n_x, int n_
   });
   // The columns by blocks of kColumns, each block swept over every row.
   constexpr int kColumns = 256;
+  const auto column_block = [=](std::size_t block) {
+    const int i0 = static_cast<int>(block) * kColumns;
+    const int width = std::min(kColumns, n_x - i0);
+    int s[kColumns];
+    std::fill(s, s + width, start);
+    for (int k = 0; k < n_y + rings; ++k) {
+      const char* a = across + static_cast<std::size_t>(k) * n_x + i0;
+      if (k < n_y) {
+        for (int i = 0; i < width; ++i) s[i] = next(s[i], a[i] != 0, k);
+      } else {
+        for (int i = 0; i < width; ++i) s[i] = next(s[i], false, k);
+      }
+      if (k >= rings) {
+        char* b = result + static_cast<std::size_t>(k - rings) * n_x + i0;
+        for (int i = 0; i < width; ++i) b[i] = keep(s[i], k - rings) ? 1 : 0;
+      }
+    }
+  };
   const std::size_t n_blocks = static_cast<std::size_t>((n_x + kColumns - 1) / kColumns);
-  const std::size_t height = static_cast<std::size_t>(n_y) + rings;
-  for_each_on_threads(n_blocks, std::max<std::size_t>(1, kCellChunk / (kColumns * height)),
-                      [=](std::size_t block) {
-                        const int i0 = static_cast<int>(block) * kColumns;
-                        const int width = std::min(kColumns, n_x - i0);
-                        int s[kColumns];
-                        std::fill(s, s + width, start);
-                        for (int k = 0; k < n_y + rings; ++k) {
-                          const char* a = across + static_cast<std::size_t>(k) * n_x + i0;
-                          if (k < n_y) {
-                            for (int i = 0; i < width; ++i) s[i] = next(s[i], a[i] != 0, k);
-                          } else {
-                            for (int i = 0; i < width; ++i) s[i] = next(s[i], false, k);
-                          }
-                          if (k >= rings) {
-                            char* b = result + static_cast<std::size_t>(k - rings) * n_x + i0;
-                            for (int i = 0; i < width; ++i) b[i] = keep(s[i], k - rings) ? 1 : 0;
-                          }
-                        }
-                      });
+  const std::size_t cells_per_block = static_cast<std::size_t>(kColumns) * (n_y + rings);
+  for_each_on_threads(n_blocks, std::max<std::size_t>(1, kCellChunk / cells_per_block),
+                      column_block);
   return out;
 }
 
