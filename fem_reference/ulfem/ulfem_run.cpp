@@ -138,7 +138,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   const std::string dir = options.out_dir;
 
   nlohmann::json run;
-  run["provenance"] = provenance(c.file, options.command_line);
+  run["provenance"] = provenance({{"case_file", c.file}}, options.command_line);
   run["provenance"]["threads"] = threads;
   run["provenance"]["solver"] = "ulfem";
   run["case"] = c.source;

@@ -4,7 +4,7 @@
 //               [--checkpoint-steps N] [--checkpoint-seconds T]
 //   pfm-mpm run --restart DIR [--threads N]      continue a killed run from its checkpoint
 //   pfm-mpm validate CASE.json
-//   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR
+//   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR [--threads N]
 //
 // Exit codes: 0 success, 2 bad input (nothing written), 3 the simulation stopped (NaN, CFL,
 // a particle leaving the grid); the outputs up to the last good step are kept.
@@ -55,6 +55,9 @@ int main(int argc, char** argv) {
       ->required();
   detect->add_option("--config", detect_config, "detector configuration (JSON)")->required();
   detect->add_option("--out", detect_out, "output directory")->required();
+  int detect_threads = 0;
+  detect->add_option("--threads", detect_threads, "threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
 
   std::string validate_file;
   CLI::App* validate = app.add_subcommand("validate", "check a case file and exit");
@@ -75,7 +78,10 @@ int main(int argc, char** argv) {
                 << solver.dt() << " s)\n";
       return pfm::kExitOk;
     }
-    if (*detect) return pfm::run_detect_command(particles_csv, detect_config, detect_out);
+    if (*detect) {
+      return pfm::run_detect_command(particles_csv, detect_config, detect_out, detect_threads,
+                                     command_line);
+    }
     options.progress = !quiet;
     if (!restart_dir.empty()) {
       if (!case_file.empty() || !options.out_dir.empty())

@@ -31,8 +31,12 @@ struct ParticleTable {
 };
 ParticleTable read_particle_csv(const std::string& path);
 
-/// Runs the command; returns 0 on success. Bad input throws InputError before OUT_DIR exists.
+/// Runs the command on `threads` OpenMP threads (0: every core; the boundary is the same for any
+/// count); returns 0 on success. Bad input throws InputError before OUT_DIR exists. summary.json
+/// records the provenance: program, git revision, build type, the two input files, the command
+/// line, the thread count, the start time and the units.
 int run_detect_command(const std::string& particles_csv, const std::string& config_json,
-                       const std::string& out_dir);
+                       const std::string& out_dir, int threads = 0,
+                       const std::string& command_line = "");
 
 }  // namespace pfm

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/core/provenance.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
@@ -17,9 +18,6 @@ void write_file_atomically(const std::string& path, const std::string& text);
 
 /// `v` with 17 significant digits (reads back to the same double).
 std::string format_exact(double v);
-
-/// The current UTC time as 2026-11-29T12:00:00Z.
-std::string utc_now();
 
 /// timeseries.csv, held in memory: time, kinetic_energy, external_work, internal_work,
 /// damping_work, momentum_x, momentum_y, and with surface loads the resultants of the loads

@@ -20,13 +20,6 @@
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
 
-#ifndef PFM_GIT_REVISION
-#define PFM_GIT_REVISION "unknown"
-#endif
-#ifndef PFM_BUILD_TYPE
-#define PFM_BUILD_TYPE "unknown"
-#endif
-
 namespace pfm {
 
 namespace fs = std::filesystem;
@@ -62,16 +55,6 @@ class Progress {
 };
 
 }  // namespace
-
-nlohmann::json provenance(const std::string& case_file, const std::string& command_line) {
-  return {{"program", "pfm-mpm"},
-          {"git_revision", PFM_GIT_REVISION},
-          {"build_type", PFM_BUILD_TYPE},
-          {"case_file", case_file},
-          {"command", command_line},
-          {"started_utc", utc_now()},
-          {"units", "kN, m, s, t, kPa; plane strain; tension positive"}};
-}
 
 void prepare_output_directory(const std::string& out_dir) {
   if (out_dir.empty()) throw InputError("--out: an output directory is required");
@@ -113,7 +96,7 @@ int run_case(const Case& c, const RunOptions& options) {
                                {"threads", threads}});
   } else {
     prepare_output_directory(options.out_dir);
-    run["provenance"] = provenance(c.file, options.command_line);
+    run["provenance"] = provenance({{"case_file", c.file}}, options.command_line);
     run["provenance"]["threads"] = threads;
     run["case"] = c.source;
     run["status"] = "running";

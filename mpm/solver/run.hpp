@@ -48,7 +48,4 @@ void prepare_output_directory(const std::string& out_dir);
 /// created when the case or options are invalid).
 int run_case(const Case& c, const RunOptions& options);
 
-/// Provenance block shared by every output directory.
-nlohmann::json provenance(const std::string& case_file, const std::string& command_line);
-
 }  // namespace pfm

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -71,6 +72,38 @@ TEST(DetectCommand, WritesBoundaryAndSummary) {
   EXPECT_EQ(summary["points_per_loop"][0], rows);
   EXPECT_TRUE(summary["timings_s"].contains("field"));
   EXPECT_FALSE(fs::exists(dir / "out" / ".boundary.csv.tmp"));
+  // Provenance: this binary, the inputs, the threads.
+  const auto& made = summary["provenance"];
+  EXPECT_EQ(made["program"], "pfm-mpm");
+  EXPECT_FALSE(made["git_revision"].get<std::string>().empty());
+  EXPECT_TRUE(made.contains("build_type"));
+  EXPECT_EQ(made["particles_file"], (dir / "p.csv").string());
+  EXPECT_EQ(made["config_file"], (dir / "c.json").string());
+  EXPECT_GE(made["threads"].get<int>(), 1);
+  EXPECT_EQ(made["units"], "kN, m, s, t, kPa; plane strain; tension positive");
+}
+
+// The same files on 1 and 2 threads: the same boundary.csv, byte for byte, and the thread count
+// in the summary.
+TEST(DetectCommand, BoundaryDoesNotDependOnTheThreadCount) {
+  const auto dir = scratch("threads");
+  write(dir / "p.csv", block_csv(true));
+  write(dir / "c.json", R"({"method": "improved", "initial_spacing": 0.25,
+                            "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [14, 12]}})");
+  std::string text[2];
+  for (const int threads : {1, 2}) {
+    const fs::path out = dir / ("out" + std::to_string(threads));
+    ASSERT_EQ(run_detect_command((dir / "p.csv").string(), (dir / "c.json").string(), out.string(),
+                                 threads, "pfm-mpm detect"),
+              0);
+    std::ifstream csv(out / "boundary.csv");
+    text[threads - 1].assign(std::istreambuf_iterator<char>(csv), {});
+    const auto summary = read_json_file((out / "summary.json").string());
+    EXPECT_EQ(summary["provenance"]["threads"], threads);
+    EXPECT_EQ(summary["provenance"]["command"], "pfm-mpm detect");
+  }
+  EXPECT_GT(text[0].size(), 100u);
+  EXPECT_EQ(text[0], text[1]);
 }
 
 void expect_error(const std::string& name, const std::string& csv, const std::string& config,
