@@ -27,6 +27,9 @@ namespace {
 // threads, decide what is added in which order, so the results do not depend on the thread
 // count. Particles per chunk of the survey's sweep (about 4 ns each):
 constexpr std::size_t kParticleChunk = 16384;
+// Particles per chunk of the loops over the band's particles (copies, containment verdicts: 10-20
+// ns each):
+constexpr std::size_t kBandChunk = 4096;
 // Field evaluations per chunk of a batch (about 60 ns each):
 constexpr std::size_t kEvaluationChunk = 512;
 // Cells per chunk of the loops over grid rows (about 1 ns each):
@@ -514,7 +517,7 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   band.position.resize(m);
   band.volume.resize(m);
   if (deformed) band.deformation.resize(m);
-  for_each_on_threads(m, kParticleChunk / 4, [&](std::size_t k) {
+  for_each_on_threads(m, kBandChunk, [&](std::size_t k) {
     const std::size_t p = selected[k];
     band.position[k] = cloud.position[p];
     band.volume[k] = cloud.volume[p];
@@ -1043,7 +1046,7 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
   // contour and none of its corners is known (evaluated after, on this thread: the node store
   // grows).
   std::vector<char> verdict(positions.size(), 0);
-  for_each_on_threads(positions.size(), kParticleChunk / 4, [&](std::size_t p) {
+  for_each_on_threads(positions.size(), kBandChunk, [&](std::size_t p) {
     if (!candidate.empty() && !candidate[p]) return;
     const Vec2& x = positions[p];
     int fi = 0, fj = 0;
