@@ -29,7 +29,8 @@ DetectedBoundary detect_cell_density(const ParticleCloud& cloud, const Grid& gri
 
 /// body(k) for every k < n, by chunks of `chunk` on the OpenMP threads (a single chunk runs on the
 /// calling thread). Each body(k) may write only its own places: then the result does not depend
-/// on the thread count.
+/// on the thread count. It must not throw (an exception cannot leave an OpenMP region): input is
+/// checked before.
 template <class Body>
 void for_each_on_threads(std::size_t n, std::size_t chunk, const Body& body) {
   const std::size_t n_chunks = (n + chunk - 1) / chunk;
