@@ -1,8 +1,7 @@
 # pfm-mpm: the two commands a newcomer needs are `make run` and `make test` (see README.md).
-# The Debian interpreter (the first python on PATH may be another that cannot see the Debian
-# packages); its Python modules come as Debian packages named after it.
-DEBIAN_PYTHON := /usr/bin/python3
-PYTHON ?= $(DEBIAN_PYTHON)
+# Python runs as the Debian interpreter (the first python on PATH may be another that cannot see
+# the Debian packages); its modules come as Debian packages named after it (DEB_PYTHON_MODULES).
+PYTHON ?= /usr/bin/python3
 BUILD_DIR ?= build
 SANITIZE_DIR ?= build-sanitize
 JOBS ?= 2
@@ -16,7 +15,7 @@ DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypot
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
-  $(addprefix $(notdir $(DEBIAN_PYTHON))-,$(DEB_PYTHON_MODULES))
+  $(addprefix $(notdir /usr/bin/python3)-,$(DEB_PYTHON_MODULES))
 
 .PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
   study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks
