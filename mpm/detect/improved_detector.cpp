@@ -218,22 +218,16 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   std::vector<Runs> chunk_runs(cells ? n_chunks : 0);
   const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
   const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
-#pragma omp parallel if (n_chunks > 1)
-  {
-#pragma omp for schedule(dynamic, 1)
-    for (std::size_t k = 0; k < n_chunks; ++k) {
-      const std::size_t b = chunk_begin(k);
-      chunk_totals[k] =
-          sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
-                      chunk_end(k) - b, lattice, cell ? cell + b : nullptr);
-    }
-    if (cells) {
-#pragma omp for schedule(dynamic, 1)
-      for (std::size_t k = 0; k < n_chunks; ++k) {
-        chunk_runs[k] = runs_starting_in(cell, volume, chunk_begin(k), chunk_end(k), n);
-      }
-    }
-  }
+  for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
+    const std::size_t b = chunk_begin(k);
+    chunk_totals[k] =
+        sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
+                    chunk_end(k) - b, lattice, cell ? cell + b : nullptr);
+  });
+  // (After every cell is known: a run may go on into the next chunk.)
+  for_each_on_threads(chunk_runs.size(), 1, [&](std::size_t k) {
+    chunk_runs[k] = runs_starting_in(cell, volume, chunk_begin(k), chunk_end(k), n);
+  });
   CloudTotals totals = chunk_totals[0];
   for (std::size_t k = 1; k < n_chunks; ++k) {
     const CloudTotals& t = chunk_totals[k];
@@ -444,38 +438,33 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   std::vector<char> padded_open(padded_interior.size());
   for (std::size_t c = 0; c < padded_open.size(); ++c) padded_open[c] = !padded_interior[c];
   const std::vector<char> padded_needed = dilate(padded_open, px, py, particle_rings);
+  // The grid's cells out of the padded ones: interior by volume, and the code of each cell, by
+  // which one sweep over the runs selects: code[c + 1] of the particle's cell c (c = -1 outside
+  // the grid) has bit 0 set where the particle enters the field (a needed cell), bit 1 where it
+  // may touch a grid edge (in a cell along the edges or outside the grid: closer to the edge than
+  // one initial spacing <= h; a larger spacing takes every particle). (Raw pointers: a char store
+  // could alias a vector's own pointer, which would then be read again at every cell.)
+  const bool every_particle_may_touch = cloud.initial_spacing > h;
   band.interior_by_volume.assign(static_cast<std::size_t>(ncx) * ncy, 0);
-  std::vector<char> needed(band.interior_by_volume.size());
-  const std::size_t grid_rows = rows_per_chunk(ncx);
-  // (Raw pointers: a char store could alias a vector's own pointer, which would then be read
-  // again at every cell.)
+  std::vector<char> code(band.interior_by_volume.size() + 1, 3);
   char* const interior_out = band.interior_by_volume.data();
-  char* const needed_out = needed.data();
+  char* const code_out = code.data() + 1;
   const char* const interior_in = padded_interior.data();
   const char* const needed_in = padded_needed.data();
-  for_each_on_threads(static_cast<std::size_t>(ncy), grid_rows, [=](std::size_t j) {
-    const std::size_t padded = (j + pad) * px + pad;
-    std::copy_n(interior_in + padded, ncx, interior_out + j * ncx);
-    std::copy_n(needed_in + padded, ncx, needed_out + j * ncx);
-  });
-  const bool deformed = !cloud.deformation_gradient.empty();
-  // Selected indices first, then the copies. One sweep: code[c + 1] of the particle's cell c
-  // (c = -1 outside the grid) has bit 0 set where the particle enters the field, bit 1 where it
-  // may touch a grid edge (in a cell along the edges or outside the grid: closer to the edge than
-  // one initial spacing <= h; a larger spacing takes every particle).
-  const bool every_particle_may_touch = cloud.initial_spacing > h;
-  std::vector<char> code(needed.size() + 1, 3);
-  char* const code_out = code.data() + 1;
-  for_each_on_threads(static_cast<std::size_t>(ncy), grid_rows, [=](std::size_t row) {
+  for_each_on_threads(static_cast<std::size_t>(ncy), rows_per_chunk(ncx), [=](std::size_t row) {
     const int j = static_cast<int>(row);
+    const std::size_t padded = (row + pad) * px + pad;
+    std::copy_n(interior_in + padded, ncx, interior_out + row * ncx);
     for (int i = 0; i < ncx; ++i) {
-      const std::size_t c = static_cast<std::size_t>(j) * ncx + i;
       const bool edge =
           every_particle_may_touch || i == 0 || j == 0 || i == ncx - 1 || j == ncy - 1;
-      code_out[c] = static_cast<char>((needed_out[c] != 0 ? 1 : 0) | (edge ? 2 : 0));
+      code_out[row * ncx + i] =
+          static_cast<char>((needed_in[padded + i] != 0 ? 1 : 0) | (edge ? 2 : 0));
     }
   });
-  // The selection run by run, each chunk of the survey's runs on its own, joined in order.
+  const bool deformed = !cloud.deformation_gradient.empty();
+  // Selected indices first, then the copies; the selection run by run, each chunk of the survey's
+  // runs on its own, joined in order.
   std::vector<std::vector<std::uint32_t>> chunk_selected(survey.runs.size());
   std::vector<std::vector<Vec2>> chunk_touching(survey.runs.size());
   for_each_on_threads(survey.runs.size(), 1, [&](std::size_t chunk) {
@@ -955,28 +944,23 @@ class EdgeRoots {
   void operator()(std::span<const EdgeCrossing> crossing, std::span<Vec2> point) {
     const auto start = std::chrono::steady_clock::now();
     const std::size_t n = crossing.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
-    long evaluations = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : evaluations) if (n_chunks > 1)
-    for (std::size_t k = 0; k < n_chunks; ++k) {
+    std::vector<long> evaluations(n_chunks, 0);
+    for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
       ImprovedField::KernelArrays slots;
       int slots_square = -1;  // the square whose slots `slots` holds (-1: none)
       for (std::size_t c = k * kCrossingChunk; c < std::min(n, (k + 1) * kCrossingChunk); ++c) {
-        point[c] = root(crossing[c], slots, slots_square, evaluations);
+        point[c] = root(crossing[c], slots, slots_square, evaluations[k]);
       }
-    }
+    });
     count_ += static_cast<long>(n);
-    evaluations_ += evaluations;
+    for (const long e : evaluations) evaluations_ += e;
     seconds_ += seconds_since(start);
   }
-  long count() const {
-    return count_;
-  }  ///< edge points found
-  long evaluations() const {
-    return evaluations_;
-  }  ///< field evaluations spent on them
-  double seconds() const {
-    return seconds_;
-  }
+  /// Edge points found.
+  long count() const { return count_; }
+  /// Field evaluations spent on them.
+  long evaluations() const { return evaluations_; }
+  double seconds() const { return seconds_; }
 
  private:
   static constexpr std::size_t kCrossingChunk = 128;  // about 3.5 evaluations each

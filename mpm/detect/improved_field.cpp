@@ -32,6 +32,12 @@ double wall_distance(int w, const Vec2& x, const Vec2& g0, const Vec2& g1) {
                   : g1.y() - x.y();
 }
 
+// The columns of `kernels` that the kernel sums read.
+detail::KernelColumns summed_columns(const ImprovedField::KernelArrays& k) {
+  return {k.x.data(),   k.y.data(),   k.k00.data(),   k.k01.data(),
+          k.k10.data(), k.k11.data(), k.weight.data()};
+}
+
 double wall_along(int w, const Vec2& x, const Vec2& g0) {
   return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
 }
@@ -380,9 +386,7 @@ void ImprovedField::switch_guard_on(std::size_t p) {
 
 double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, const int* end,
                                  int n_ranges, const Vec2& x, bool guard) const {
-  const detail::KernelColumns columns{kernels.x.data(),     kernels.y.data(),   kernels.k00.data(),
-                                      kernels.k01.data(),   kernels.k10.data(), kernels.k11.data(),
-                                      kernels.weight.data()};
+  const detail::KernelColumns columns = summed_columns(kernels);
   const double px = x.x(), py = x.y();
   const std::uint64_t units = detail::kernel_sum(exponent_, columns, begin, end, n_ranges, px, py);
   const double phi = static_cast<double>(units) * fixed_point_unit_;
@@ -424,9 +428,7 @@ double ImprovedField::operator()(const Vec2& x) const {
 bool ImprovedField::volume_fraction_above(const Vec2& x, double threshold) const {
   int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
   const int rows = bins_.slot_rows_near(x, rings_, begin, end);
-  const detail::KernelColumns columns{slot_.x.data(),     slot_.y.data(),   slot_.k00.data(),
-                                      slot_.k01.data(),   slot_.k10.data(), slot_.k11.data(),
-                                      slot_.weight.data()};
+  const detail::KernelColumns columns = summed_columns(slot_);
   // The middle row, then the others outwards. phi = units x 2^-s never falls as units grow (the
   // conversion to double is monotone), so a partial sum above the threshold decides.
   int order[2 * kBinRings + 1];
