@@ -1,17 +1,16 @@
 #include "fem_reference/ulfem/ulfem_run.hpp"
 
 #include <hdf5.h>
-#include <omp.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
+#include "mpm/core/provenance.hpp"
 #include "mpm/solver/output.hpp"
 
 namespace pfm::ulfem {
@@ -131,15 +130,13 @@ void MeshSeriesWriter::write_xdmf() const {
 }
 
 int run_ulfem_case(const Case& c, const RunOptions& options) {
-  const int threads = options.threads > 0 ? options.threads : omp_get_num_procs();
-  omp_set_num_threads(threads);
+  const int threads = use_threads(options.threads);
   UlFemSolver solver(c);  // may throw InputError: nothing created yet
   prepare_output_directory(options.out_dir);
   const std::string dir = options.out_dir;
 
   nlohmann::json run;
-  run["provenance"] = provenance({{"case_file", c.file}}, options.command_line);
-  run["provenance"]["threads"] = threads;
+  run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
   run["provenance"]["solver"] = "ulfem";
   run["case"] = c.source;
   run["status"] = "running";

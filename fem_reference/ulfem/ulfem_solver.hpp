@@ -147,7 +147,6 @@ class UlFemSolver {
   const EdgeLoadDiagnostics& load_diagnostics() const { return load_diagnostics_; }
   EnergyBalance energy() const;
 
-  void set_damping(double coefficient) { counters_.damping = coefficient; }
   /// Replace the base time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }

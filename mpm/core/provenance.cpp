@@ -1,5 +1,7 @@
 #include "mpm/core/provenance.hpp"
 
+#include <omp.h>
+
 #include <ctime>
 
 #ifndef PFM_GIT_REVISION
@@ -18,11 +20,19 @@ std::string utc_now() {
   return buffer;
 }
 
-nlohmann::json provenance(const nlohmann::json& inputs, const std::string& command_line) {
+int use_threads(int requested) {
+  const int threads = requested > 0 ? requested : omp_get_num_procs();
+  omp_set_num_threads(threads);
+  return threads;
+}
+
+nlohmann::json provenance(const nlohmann::json& inputs, const std::string& command_line,
+                          int threads) {
   nlohmann::json p = {{"program", "pfm-mpm"},
                       {"git_revision", PFM_GIT_REVISION},
                       {"build_type", PFM_BUILD_TYPE},
                       {"command", command_line},
+                      {"threads", threads},
                       {"started_utc", utc_now()},
                       {"units", "kN, m, s, t, kPa; plane strain; tension positive"}};
   p.update(inputs);

@@ -1,7 +1,5 @@
 #include "mpm/detect/detect_command.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -133,8 +131,6 @@ ParticleTable read_particle_csv(const std::string& path) {
 int run_detect_command(const std::string& particles_csv, const std::string& config_json,
                        const std::string& out_dir, int threads, const std::string& command_line) {
   if (threads < 0) throw InputError("--threads: expected a count >= 1 (0: every core)");
-  nlohmann::json made =
-      provenance({{"particles_file", particles_csv}, {"config_file", config_json}}, command_line);
   // 1. Input: configuration, then particles; nothing is created before both are valid.
   nlohmann::json json = read_json_file(config_json);
   const JsonView root(json, config_json);
@@ -203,8 +199,9 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
   }
 
   // 2. Detection.
-  made["threads"] = threads > 0 ? threads : omp_get_num_procs();
-  omp_set_num_threads(made["threads"].get<int>());
+  nlohmann::json made =
+      provenance({{"particles_file", particles_csv}, {"config_file", config_json}}, command_line,
+                 use_threads(threads));
   const ParticleCloud cloud{table.position, table.volume, table.deformation_gradient, spacing};
   DetectorState state;
   DetectionTimings timings;

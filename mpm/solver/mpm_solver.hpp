@@ -119,8 +119,6 @@ class MpmSolver {
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
   void set_grid_velocity_hook(GridVelocityHook hook) { velocity_hook_ = std::move(hook); }
-  /// Override the local damping coefficient (used by gravity loading).
-  void set_damping(double coefficient) { counters_.damping = coefficient; }
   /// Replace the time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
 

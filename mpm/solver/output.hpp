@@ -8,7 +8,6 @@
 #include <string>
 #include <vector>
 
-#include "mpm/core/provenance.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {

@@ -1,13 +1,11 @@
 #include "mpm/solver/run.hpp"
 
-#include <omp.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -15,6 +13,7 @@
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/provenance.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
@@ -76,8 +75,7 @@ void prepare_output_directory(const std::string& out_dir) {
 }
 
 int run_case(const Case& c, const RunOptions& options) {
-  const int threads = options.threads > 0 ? options.threads : omp_get_num_procs();
-  omp_set_num_threads(threads);
+  const int threads = use_threads(options.threads);
   MpmSolver solver(c);  // may throw InputError: nothing created yet
   BoundaryCoupling coupling(c);
   const std::string dir = options.out_dir;
@@ -96,8 +94,7 @@ int run_case(const Case& c, const RunOptions& options) {
                                {"threads", threads}});
   } else {
     prepare_output_directory(options.out_dir);
-    run["provenance"] = provenance({{"case_file", c.file}}, options.command_line);
-    run["provenance"]["threads"] = threads;
+    run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
     run["case"] = c.source;
     run["status"] = "running";
   }
