@@ -1,7 +1,9 @@
 // `detect` command: particle CSV in, boundary.csv and summary.json out; bad input names file,
 // line and column, and leaves no output directory behind.
 #include <gtest/gtest.h>
+#include <omp.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -27,12 +29,13 @@ void write(const fs::path& p, const std::string& text) {
   std::ofstream(p) << text;
 }
 
-std::string block_csv(bool with_f) {
+// A block of nx x ny points 0.25 m apart from (2, 2) m.
+std::string block_csv(bool with_f, int nx = 12, int ny = 8) {
   std::ostringstream s;
   s << "id,x,y,volume" << (with_f ? ",F11,F12,F21,F22" : "") << "\n";
   int id = 0;
-  for (int j = 0; j < 8; ++j) {
-    for (int i = 0; i < 12; ++i) {
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
       s << id++ << "," << 2.125 + 0.25 * i << "," << 2.125 + 0.25 * j << ",0.0625";
       if (with_f) s << ",1,0,0,1";
       s << "\n";
@@ -83,26 +86,33 @@ TEST(DetectCommand, WritesBoundaryAndSummary) {
   EXPECT_EQ(made["units"], "kN, m, s, t, kPa; plane strain; tension positive");
 }
 
-// The same files on 1 and 2 threads: the same boundary.csv, byte for byte, and the thread count
-// in the summary.
+// The same files on 1 and 2 threads: the command runs the detection on the count it is given and
+// writes the same boundary.csv, byte for byte. 200 x 100 points: more than one chunk of the
+// survey (16,384 particles) and of every batch of the band, so that 2 threads share them.
 TEST(DetectCommand, BoundaryDoesNotDependOnTheThreadCount) {
   const auto dir = scratch("threads");
-  write(dir / "p.csv", block_csv(true));
+  write(dir / "p.csv", block_csv(true, 200, 100));
   write(dir / "c.json", R"({"method": "improved", "initial_spacing": 0.25,
-                            "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [14, 12]}})");
+                            "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [112, 62]}})");
+  const int threads_before = omp_get_max_threads();
   std::string text[2];
   for (const int threads : {1, 2}) {
     const fs::path out = dir / ("out" + std::to_string(threads));
     ASSERT_EQ(run_detect_command((dir / "p.csv").string(), (dir / "c.json").string(), out.string(),
                                  threads, "pfm-mpm detect"),
               0);
+    EXPECT_EQ(omp_get_max_threads(), threads);
     std::ifstream csv(out / "boundary.csv");
     text[threads - 1].assign(std::istreambuf_iterator<char>(csv), {});
     const auto summary = read_json_file((out / "summary.json").string());
+    EXPECT_EQ(summary["particles"], 20000);
     EXPECT_EQ(summary["provenance"]["threads"], threads);
     EXPECT_EQ(summary["provenance"]["command"], "pfm-mpm detect");
   }
-  EXPECT_GT(text[0].size(), 100u);
+  omp_set_num_threads(threads_before);
+  // One closed loop around the 50 m x 25 m block, clear of the grid edges: 4 points per 0.5 m
+  // cell along 150 m, some 1,200.
+  EXPECT_GT(std::count(text[0].begin(), text[0].end(), '\n'), 1000);
   EXPECT_EQ(text[0], text[1]);
 }
 

@@ -346,6 +346,9 @@ TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheThreadCount) {
     EXPECT_EQ(timings[0].field_evaluations, timings[1].field_evaluations);
     EXPECT_EQ(timings[0].field_particles, timings[1].field_particles);
     EXPECT_EQ(timings[0].edge_point_count, timings[1].edge_point_count);
+    // Enough work that 2 threads share it: more than one survey chunk (16,384 particles) and
+    // over 7 chunks of edge roots (128 crossings).
+    EXPECT_GT(cloud.position.size(), 16384u);
     EXPECT_GT(timings[0].edge_point_count, 1000);
   }
 }
