@@ -5,8 +5,6 @@
 #include <limits>
 #include <string>
 
-#include "mpm/solver/mpm_solver.hpp"
-
 namespace pfm {
 
 void Particles::reserve(std::size_t n) {
@@ -160,50 +158,6 @@ void apply_k0_stress(const Case& c, Particles& particles) {
     const double sigma_v = -m.unit_weight * std::max(depth, 0.0);
     particles.stress[p] = Stress(k0 * sigma_v, sigma_v, 0.0, k0 * sigma_v);
   }
-}
-
-bool initialise_stress(const Case& c, Particles& particles, SolverCounters& counters,
-                       const std::function<void()>& step,
-                       const std::function<double()>& kinetic_energy) {
-  switch (c.initial_stress.method) {
-    case InitialStressMethod::kZero:
-      return false;
-    case InitialStressMethod::kK0:
-      apply_k0_stress(c, particles);
-      counters.gravity_full = true;
-      return false;
-    case InitialStressMethod::kGravity:
-      break;
-  }
-  const InitialStressSpec& spec = c.initial_stress;
-  const double saved_damping = counters.damping;
-  counters.damping = spec.damping;
-  counters.gravity_full = true;
-  counters.loads_active = false;
-  double peak = 0.0;
-  while (true) {
-    step();
-    const double ke = kinetic_energy();
-    peak = std::max(peak, ke);
-    if (counters.step > 10 && peak > 0.0 && ke < spec.kinetic_energy_ratio * peak) break;
-    if (counters.time > spec.max_time) {
-      throw SimulationError("gravity loading did not reach kinetic energy ratio " +
-                            std::to_string(spec.kinetic_energy_ratio) + " within " +
-                            std::to_string(spec.max_time) + " s (ratio now " +
-                            std::to_string(ke / peak) + ")");
-    }
-  }
-  counters.damping = saved_damping;
-  counters.loads_active = true;
-  for (std::size_t p = 0; p < particles.size(); ++p) {
-    particles.velocity[p].setZero();
-    particles.reference_position[p] = particles.position[p];
-  }
-  counters.initial_stress_steps = counters.step;
-  counters.time = 0.0;
-  counters.step = 0;
-  counters.external_work = counters.internal_work = counters.damping_work = 0.0;
-  return true;
 }
 
 }  // namespace pfm

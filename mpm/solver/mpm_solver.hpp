@@ -32,8 +32,8 @@
 #include <string>
 #include <vector>
 
-#include "mpm/solver/body_fill.hpp"
 #include "mpm/solver/case.hpp"
+#include "mpm/solver/initial_stress.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
@@ -124,10 +124,9 @@ class MpmSolver {
 
   /// The scalars that carry from step to step besides the particles (checkpoints: with the
   /// particles they are the complete state; the grid is rebuilt every step).
-  using Counters = SolverCounters;
-  const Counters& counters() const { return counters_; }
+  const SolverCounters& counters() const { return counters_; }
   /// Restores counters() of a checkpoint (after the particles have been restored).
-  void restore(const Counters& n) { counters_ = n; }
+  void restore(const SolverCounters& n) { counters_ = n; }
 
   /// Nodes on the initial top surface and their consistent nodal force per unit pressure for
   /// a grid_top_nodes load (exposed for tests).

@@ -110,7 +110,7 @@ int run_case(const Case& c, const RunOptions& options) {
   auto save_checkpoint = [&]() {
     CheckpointFile file;
     put_particles(file, solver.particles());
-    const MpmSolver::Counters n = solver.counters();
+    const SolverCounters n = solver.counters();
     file.put("solver/time", n.time);
     file.put("solver/step", static_cast<double>(n.step));
     file.put("solver/dt", n.dt);
@@ -132,7 +132,7 @@ int run_case(const Case& c, const RunOptions& options) {
     get_particles(file, solver.particles());
     if (solver.particles().size() != solver.particles().mass.size())
       throw InputError(checkpoint_path + ": inconsistent particle arrays");
-    MpmSolver::Counters n;
+    SolverCounters n;
     n.time = file.scalar("solver/time");
     n.step = static_cast<long>(file.scalar("solver/step"));
     n.dt = file.scalar("solver/dt");
