@@ -11,7 +11,11 @@ the slope; the throughput in particle-steps per second.
 Cases: a block of soil (4 points per cell, linear elastic, gravity, K0 start, h = 0.5 m)
 sized to N points, run for a fixed number of steps with a fixed dt (about 3e6 particle-steps
 per run, at least 10 and at most 100 steps) with the improved detector every step, and the slope
-(``cases/slope.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. Runs are
+(``cases/slope.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. The slope
+is also timed through its failure and run-out (``slope_runout``: 2.5 s = 270 steps, the boundary
+study's last time, improved and thesis PFM): the body then lies spread and sheared, its points
+no longer 2 x 2 per cell, and both the step (plastic points) and the detection (a wider band)
+cost more than in the first 0.5 s. Runs are
 never cached (every repetition is a fresh process) and run one at a time (parallel runs would
 time each other). The library baseline (scikit-image) does not run inside pfm-mpm: its cost is
 the ``summary.json`` timing of ``studies.detectors.skimage_detector`` on the slope's points.
@@ -58,6 +62,9 @@ SWEEP_DETECTOR = "pfm_improved"
 QUICK_SLOPE_DETECTORS = ("pfm_thesis", "pfm_improved")
 SLOPE_END_TIME = 0.5  # s: 54 steps of the slope
 QUICK_SLOPE_END_TIME = 0.1  # s: 11 steps
+RUNOUT_END_TIME = 2.5  # s: 270 steps of the slope, through its failure
+RUNOUT_DETECTORS = ("pfm_improved", "pfm_thesis")
+QUICK_RUNOUT_DETECTORS = ("pfm_improved",)
 BOUNDARY_STAGES = ("detect", "bezier", "traction")
 THESIS_DETECT_S, THESIS_STEP_S, THESIS_POINTS = 0.047, 0.048, 3368
 CELL_SIZE = 0.5  # m
@@ -66,6 +73,7 @@ POINTS_PER_CELL = 2  # 2 x 2 = 4 points per cell, as the thesis
 EXPECTED_METRICS = [
     "timing.slope.pfm_improved.detect_to_step_ratio",
     "timing.slope.pfm_thesis.detect_to_step_ratio",
+    "timing.slope_runout.pfm_improved.detect_to_step_ratio",
     "timing.block_100k.mpm_particle_steps_per_s",
 ]
 
@@ -267,39 +275,41 @@ def run(context) -> StudyOutcome:
             "output": {"interval": end_time},
         },
     )
-    for name in slope_detectors:
-        if not det.in_run(name):
-            rows = attempt(f"slope {name}", lambda: library_timings(slope, REPETITIONS))
-            raw += rows or []
-            continue
+    def slope_rows(case: dict, label: str, detector: str | None) -> list[dict]:
+        """The repetitions of one slope run on 1 thread; none if the detector cannot run."""
+        rows = []
+        if detector is not None:
+            case = derive(case, {"detection": det.detection_block(detector)})
         for repetition in range(REPETITIONS):
-            case = derive(slope, {"detection": det.detection_block(name)})
-            summary = attempt(f"slope {name}", lambda: timed_run(case, 1))
+            summary = attempt(f"{label} {detector}", lambda: timed_run(case, 1))
             if summary is None:
                 break
-            raw += stage_rows(
+            rows += stage_rows(
                 summary,
                 {
-                    "case": "slope",
+                    "case": label,
                     "n_particles": int(summary.get("n_particles", 0)),
                     "threads": 1,
-                    "detector": name,
+                    "detector": detector or "none",
                     "repetition": repetition,
                 },
             )
+        return rows
+
+    for name in slope_detectors:
+        if det.in_run(name):
+            raw += slope_rows(slope, "slope", name)
+        else:
+            rows = attempt(f"slope {name}", lambda: library_timings(slope, REPETITIONS))
+            raw += rows or []
+    runout = derive(
+        slope,
+        {"time": {"end_time": RUNOUT_END_TIME}, "output": {"interval": RUNOUT_END_TIME}},
+    )
+    for name in QUICK_RUNOUT_DETECTORS if quick else RUNOUT_DETECTORS:
+        raw += slope_rows(runout, "slope_runout", name)
     if not any(r["case"] == "slope" and r["detector"] != det.LIBRARY for r in raw):
-        for repetition in range(REPETITIONS):  # at least the MPM step of the slope
-            summary = timed_run(slope, 1)
-            raw += stage_rows(
-                summary,
-                {
-                    "case": "slope",
-                    "n_particles": int(summary.get("n_particles", 0)),
-                    "threads": 1,
-                    "detector": "none",
-                    "repetition": repetition,
-                },
-            )
+        raw += slope_rows(slope, "slope", None)  # at least the MPM step of the slope
     raw = pd.DataFrame(raw)
     raw.to_csv(context.folder / "raw_timings.csv", index=False)
     table = summarise(raw)
@@ -347,18 +357,20 @@ def run(context) -> StudyOutcome:
             "(median of the repetitions)",
         )
     )
-    for row in ratios[ratios["case"] == "slope"].itertuples(index=False):
+    for row in ratios[ratios["case"].isin(["slope", "slope_runout"])].itertuples(index=False):
         if row.detector == "none":
             continue
         if row.detect_s is None or not np.isfinite(row.detect_s):
             continue
         outcome.metrics.append(
             Metric(
-                f"timing.slope.{row.detector}.detect_to_step_ratio",
+                f"timing.{row.case}.{row.detector}.detect_to_step_ratio",
                 row.detect_to_step_ratio,
                 "1",
             )
         )
+        if row.case != "slope":
+            continue
         outcome.headline += [
             Headline("cost.detect_per_step", row.detector, row.detect_s, "s"),
             Headline(
