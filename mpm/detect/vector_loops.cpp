@@ -19,21 +19,42 @@ using U4 = std::uint64_t __attribute__((vector_size(32)));
 constexpr double kMagic = 0x1p52;
 constexpr std::uint64_t kMagicBits = 0x4330000000000000ULL;
 
-// The body of kernel_sum() for exponent E: compiled once for plain x86-64 and once for AVX2.
-// Lanes past a range's end (reading the arrays' padding or the next range) add 0; every
-// operation is a plain IEEE one, so both compilations give the same terms.
-template <int E>
+// The vector types of W lanes: four as above, eight in one AVX-512 register.
+template <int W>
+struct Lanes;
+template <>
+struct Lanes<4> {
+  using V = V4;
+  using I = I4;
+  using U = U4;
+};
+template <>
+struct Lanes<8> {
+  using V = double __attribute__((vector_size(64)));
+  using I = std::int64_t __attribute__((vector_size(64)));
+  using U = std::uint64_t __attribute__((vector_size(64)));
+};
+
+// The body of kernel_sum() for exponent E, W lanes: compiled once for plain x86-64 and AVX2 (4
+// lanes) and once for AVX-512 (8 lanes). Lanes past a range's end (reading the arrays' padding
+// or the next range) add 0; every operation is a plain IEEE one, so all compilations give the
+// same terms.
+template <int E, int W>
 [[gnu::always_inline]] inline std::uint64_t sum_ranges(const KernelColumns& c, const int* begin,
                                                        const int* end, int n_ranges, double px,
                                                        double py) {
-  U4 acc = {0, 0, 0, 0};
+  using V = typename Lanes<W>::V;
+  using I = typename Lanes<W>::I;
+  using U = typename Lanes<W>::U;
+  U acc = {};
   std::uint64_t lanes = 0;
-  const I4 lane = {0, 1, 2, 3};
-  const I4 no_sign = {INT64_MAX, INT64_MAX, INT64_MAX, INT64_MAX};
+  I lane;
+  for (int k = 0; k < W; ++k) lane[k] = k;
+  const I no_sign = lane * 0 + INT64_MAX;
   for (int r = 0; r < n_ranges; ++r) {
     const int last = end[r];
-    for (int k = begin[r]; k < last; k += 4) {
-      V4 x, y, k00, k01, k10, k11, weight;
+    for (int k = begin[r]; k < last; k += W) {
+      V x, y, k00, k01, k10, k11, weight;
       std::memcpy(&x, c.x + k, sizeof x);
       std::memcpy(&y, c.y + k, sizeof y);
       std::memcpy(&k00, c.k00 + k, sizeof k00);
@@ -41,12 +62,12 @@ template <int E>
       std::memcpy(&k10, c.k10 + k, sizeof k10);
       std::memcpy(&k11, c.k11 + k, sizeof k11);
       std::memcpy(&weight, c.weight + k, sizeof weight);
-      const V4 dx = px - x, dy = py - y;
-      const V4 ux = k00 * dx + k01 * dy, uy = k10 * dx + k11 * dy;
-      const V4 t = 1.0 - (ux * ux + uy * uy);
+      const V dx = px - x, dy = py - y;
+      const V ux = k00 * dx + k01 * dy, uy = k10 * dx + k11 * dy;
+      const V t = 1.0 - (ux * ux + uy * uy);
       // max(t, 0) = (|t| + t) / 2 exactly, without a branch.
-      const V4 w = 0.5 * ((V4)((I4)t & no_sign) + t);
-      V4 term;
+      const V w = 0.5 * ((V)((I)t & no_sign) + t);
+      V term;
       if constexpr (E == 1) {
         term = weight * w;
       } else if constexpr (E == 2) {
@@ -54,13 +75,15 @@ template <int E>
       } else {
         term = weight * ((w * w) * w);
       }
-      const I4 in_range = (lane + k) < last;  // all ones or zero per lane
-      term = (V4)((I4)term & in_range);
-      acc += (U4)(term + kMagic);
-      lanes += 4;
+      const I in_range = (lane + k) < last;  // all ones or zero per lane
+      term = (V)((I)term & in_range);
+      acc += (U)(term + kMagic);
+      lanes += W;
     }
   }
-  return acc[0] + acc[1] + acc[2] + acc[3] - lanes * kMagicBits;
+  std::uint64_t total = 0;
+  for (int k = 0; k < W; ++k) total += acc[k];
+  return total - lanes * kMagicBits;
 }
 
 // The sweep of sweep_cloud(), compiled like sum_ranges(). Minima, maxima and the sums of zeros
@@ -125,7 +148,7 @@ template <bool Cells>
 template <int E>
 std::uint64_t sum_plain(const KernelColumns& c, const int* begin, const int* end, int n_ranges,
                         double px, double py) {
-  return sum_ranges<E>(c, begin, end, n_ranges, px, py);
+  return sum_ranges<E, 4>(c, begin, end, n_ranges, px, py);
 }
 
 template <bool Cells>
@@ -135,12 +158,13 @@ CloudTotals sweep_plain(const double* x, const double* v, const double* f, std::
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
-#define PFM_VECTOR_LOOPS_AVX2 1
-// No "fma" in the target: a fused multiply-add would round differently from the plain version.
+#define PFM_VECTOR_LOOPS_X86 1
+// Fused multiply-adds would round differently from the plain version: the file is compiled
+// with -ffp-contract=off (AVX-512 brings FMA instructions with it).
 template <int E>
 [[gnu::target("avx2")]] std::uint64_t sum_avx2(const KernelColumns& c, const int* begin,
                                                const int* end, int n_ranges, double px, double py) {
-  return sum_ranges<E>(c, begin, end, n_ranges, px, py);
+  return sum_ranges<E, 4>(c, begin, end, n_ranges, px, py);
 }
 
 template <bool Cells>
@@ -148,28 +172,53 @@ template <bool Cells>
                                                std::size_t n, const CellLattice& g, int* cell) {
   return sweep<Cells>(x, v, f, n, g, cell);
 }
+
+#define PFM_AVX512 "avx512f,avx512dq,avx512vl"
+template <int E>
+[[gnu::target(PFM_AVX512)]] std::uint64_t sum_avx512(const KernelColumns& c, const int* begin,
+                                                     const int* end, int n_ranges, double px,
+                                                     double py) {
+  return sum_ranges<E, 8>(c, begin, end, n_ranges, px, py);
+}
+
+template <bool Cells>
+[[gnu::target(PFM_AVX512)]] CloudTotals sweep_avx512(const double* x, const double* v,
+                                                     const double* f, std::size_t n,
+                                                     const CellLattice& g, int* cell) {
+  return sweep<Cells>(x, v, f, n, g, cell);
+}
+#undef PFM_AVX512
 #endif
 
 using SumFunction = std::uint64_t (*)(const KernelColumns&, const int*, const int*, int, double,
                                       double);
 
-bool detect_avx2() {
-#ifdef PFM_VECTOR_LOOPS_AVX2
-  return __builtin_cpu_supports("avx2") != 0;
-#else
-  return false;
+VectorLanes best_lanes() {
+#ifdef PFM_VECTOR_LOOPS_X86
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512vl")) {
+    return VectorLanes::kAvx512;
+  }
+  if (__builtin_cpu_supports("avx2")) return VectorLanes::kAvx2;
 #endif
+  return VectorLanes::kPlain;
 }
 
-bool avx2_on = detect_avx2();
+VectorLanes lanes_in_use = best_lanes();
 
 }  // namespace
 
 std::uint64_t kernel_sum(int exponent, const KernelColumns& columns, const int* begin,
                          const int* end, int n_ranges, double px, double py) {
-#ifdef PFM_VECTOR_LOOPS_AVX2
+#ifdef PFM_VECTOR_LOOPS_X86
+  static constexpr SumFunction kAvx512[3] = {sum_avx512<1>, sum_avx512<2>, sum_avx512<3>};
   static constexpr SumFunction kAvx2[3] = {sum_avx2<1>, sum_avx2<2>, sum_avx2<3>};
-  if (avx2_on) return kAvx2[exponent - 1](columns, begin, end, n_ranges, px, py);
+  if (lanes_in_use == VectorLanes::kAvx512) {
+    return kAvx512[exponent - 1](columns, begin, end, n_ranges, px, py);
+  }
+  if (lanes_in_use == VectorLanes::kAvx2) {
+    return kAvx2[exponent - 1](columns, begin, end, n_ranges, px, py);
+  }
 #endif
   static constexpr SumFunction kPlain[3] = {sum_plain<1>, sum_plain<2>, sum_plain<3>};
   return kPlain[exponent - 1](columns, begin, end, n_ranges, px, py);
@@ -177,22 +226,33 @@ std::uint64_t kernel_sum(int exponent, const KernelColumns& columns, const int* 
 
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
                         std::size_t n, const CellLattice& lattice, int* cell) {
-#ifdef PFM_VECTOR_LOOPS_AVX2
-  if (avx2_on) {
-    return cell != nullptr ? sweep_avx2<true>(position, volume, deformation, n, lattice, cell)
-                           : sweep_avx2<false>(position, volume, deformation, n, lattice, cell);
+  const double* x = position;
+  const double* v = volume;
+  const double* f = deformation;
+#ifdef PFM_VECTOR_LOOPS_X86
+  if (lanes_in_use == VectorLanes::kAvx512) {
+    return cell != nullptr ? sweep_avx512<true>(x, v, f, n, lattice, cell)
+                           : sweep_avx512<false>(x, v, f, n, lattice, cell);
+  }
+  if (lanes_in_use == VectorLanes::kAvx2) {
+    return cell != nullptr ? sweep_avx2<true>(x, v, f, n, lattice, cell)
+                           : sweep_avx2<false>(x, v, f, n, lattice, cell);
   }
 #endif
-  return cell != nullptr ? sweep_plain<true>(position, volume, deformation, n, lattice, cell)
-                         : sweep_plain<false>(position, volume, deformation, n, lattice, cell);
+  return cell != nullptr ? sweep_plain<true>(x, v, f, n, lattice, cell)
+                         : sweep_plain<false>(x, v, f, n, lattice, cell);
 }
 
-bool vector_loops_use_avx2() {
-  return avx2_on;
+VectorLanes vector_lanes() {
+  return lanes_in_use;
 }
 
-void set_vector_loops_avx2(bool on) {
-  avx2_on = on && detect_avx2();
+VectorLanes widest_vector_lanes() {
+  return best_lanes();
+}
+
+void set_vector_lanes(VectorLanes lanes) {
+  lanes_in_use = std::min(lanes, best_lanes());
 }
 
 }  // namespace pfm::detail

@@ -1,8 +1,9 @@
 // The improved detector's loops that run in vector registers: the kernel sums and the one sweep
-// over every particle of the cloud. Each is compiled for plain x86-64 and for AVX2, chosen at run
-// time; both give the same bits (plain IEEE operations, no fused multiply-add).
+// over every particle of the cloud. Each is compiled for plain x86-64, AVX2 and AVX-512, chosen
+// at run time; all give the same bits (plain IEEE operations, no fused multiply-add).
 //
-// Kernel sums, phi(x) = sum_k w_k (1 - q_k(x))_+^E, four slots at a time: each term is rounded to
+// Kernel sums, phi(x) = sum_k w_k (1 - q_k(x))_+^E, four or eight slots at a time: each term is
+// rounded to
 // an integer multiple of 2^-s (s fixed per detection by the largest kernel weight,
 // ImprovedField::fixed_point_bits()) and the integers are added. An integer sum does not depend
 // on the order of its terms, so the sums may be split into vector lanes, and a field built on
@@ -19,8 +20,9 @@
 
 namespace pfm::detail {
 
-/// Slots past the end of every kernel array that the sums may read (filled with zeros).
-inline constexpr int kKernelPadding = 4;
+/// Slots past the end of every kernel array that the sums may read (filled with zeros): the
+/// eight lanes of AVX-512.
+inline constexpr int kKernelPadding = 8;
 
 /// Kernel data by slot (one array per quantity): centre x, y (m), the inverse shape matrix
 /// S^-1 = [k00 k01; k10 k11] (1/m) and the weight V_p C_p scaled by 2^s.
@@ -55,9 +57,14 @@ struct CloudTotals {
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
                         std::size_t n, const CellLattice& lattice, int* cell);
 
-/// Whether these loops use AVX2; tests switch it off to compare (false: plain x86-64, two lanes
-/// of SSE2 where four are written).
-bool vector_loops_use_avx2();
-void set_vector_loops_avx2(bool on);
+/// The instruction sets these loops are compiled for: plain x86-64 (two lanes of SSE2 where four
+/// are written), AVX2 (four lanes) and AVX-512 (eight lanes in the kernel sums). All give the
+/// same bits; the widest the processor has is used.
+enum class VectorLanes { kPlain, kAvx2, kAvx512 };
+/// The set in use, and the widest this processor has.
+VectorLanes vector_lanes();
+VectorLanes widest_vector_lanes();
+/// Uses `lanes`, or the widest the processor has if that is narrower (tests compare them).
+void set_vector_lanes(VectorLanes lanes);
 
 }  // namespace pfm::detail

@@ -144,19 +144,28 @@ TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
   EXPECT_EQ(cases_that_differ(200000, 300, "shuffled cloud differs", shuffled), 0);
 }
 
-// The vectorised loops (kernel sums, the sweep over the cloud) run with AVX2 where the processor
-// has it and on plain x86-64 otherwise; both must give the same boundary, bit for bit (no fused
-// multiply-add in either).
-TEST(Determinism, KernelSumsWithAndWithoutAvx2GiveTheSameBoundary) {
-  if (!detail::vector_loops_use_avx2()) GTEST_SKIP() << "no AVX2 on this processor";
-  const auto plain = [](const RandomCase& rc, const DetectorConfig& config) {
-    detail::set_vector_loops_avx2(false);
-    DetectorState state;
-    auto b = detect(rc.cloud.view(), rc.grid, config, state);
-    detail::set_vector_loops_avx2(true);
-    return b;
-  };
-  EXPECT_EQ(cases_that_differ(300000, 300, "plain and AVX2 loops differ", plain), 0);
+// The vectorised loops (kernel sums, the sweep over the cloud) run with the widest instruction
+// set the processor has (AVX-512, AVX2 or plain x86-64); each narrower one must give the same
+// boundary, bit for bit (no fused multiply-add in any).
+TEST(Determinism, KernelSumsGiveTheSameBoundaryOnEveryInstructionSet) {
+  const detail::VectorLanes widest = detail::widest_vector_lanes();
+  if (widest == detail::VectorLanes::kPlain) GTEST_SKIP() << "no AVX2 on this processor";
+  int compared = 0;
+  for (const auto lanes : {detail::VectorLanes::kPlain, detail::VectorLanes::kAvx2}) {
+    if (lanes >= widest) continue;
+    const auto narrower = [lanes, widest](const RandomCase& rc, const DetectorConfig& config) {
+      detail::set_vector_lanes(lanes);
+      DetectorState state;
+      auto b = detect(rc.cloud.view(), rc.grid, config, state);
+      detail::set_vector_lanes(widest);
+      return b;
+    };
+    const char* what = lanes == detail::VectorLanes::kPlain ? "plain and widest loops differ"
+                                                            : "AVX2 and AVX-512 loops differ";
+    EXPECT_EQ(cases_that_differ(300000, 300, what, narrower), 0);
+    ++compared;
+  }
+  EXPECT_EQ(compared, widest == detail::VectorLanes::kAvx512 ? 2 : 1);
 }
 
 // The narrow band skips, without evaluating the field, the cells whose neighbourhood is full of
@@ -405,7 +414,7 @@ TEST(KernelSums, EarlyStopAgreesWithTheFullSum) {
 // The survey's sweep takes sigma_max(F)^2 of every particle in vector lanes: its maximum must be
 // that of the scalar formula, bit for bit, for identical F everywhere, small random strains, one
 // outlier at the start, in the middle or at the end, values that grow by two ulps from each
-// particle to the next and huge stretches, with AVX2 and without.
+// particle to the next and huge stretches, on every instruction set the processor has.
 TEST(Survey, LargestStretchEqualsTheMaximumOverEveryParticle) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u01(0.0, 1.0);
@@ -432,17 +441,20 @@ TEST(Survey, LargestStretchEqualsTheMaximumOverEveryParticle) {
       std::vector<double> volume(n, 0.01);
       double expected = 0.0;
       for (const Mat2& m : f) expected = std::max(expected, sigma_squared(m));
-      for (const bool avx2 : {true, false}) {
-        detail::set_vector_loops_avx2(avx2);
+      for (const auto lanes : {detail::VectorLanes::kPlain, detail::VectorLanes::kAvx2,
+                               detail::VectorLanes::kAvx512}) {
+        if (lanes > detail::widest_vector_lanes()) continue;
+        detail::set_vector_lanes(lanes);
         const detail::CloudTotals totals = detail::sweep_cloud(
             x.data()->data(), volume.data(), f.data()->data(), n, {0.0, 0.0, 1.0, 4, 4}, nullptr);
-        EXPECT_EQ(totals.largest_squared, expected) << "kind " << kind << ", n " << n;
+        EXPECT_EQ(totals.largest_squared, expected)
+            << "kind " << kind << ", n " << n << ", lanes " << static_cast<int>(lanes);
         ++cases;
       }
-      detail::set_vector_loops_avx2(true);
+      detail::set_vector_lanes(detail::widest_vector_lanes());
     }
   }
-  EXPECT_EQ(cases, 56);
+  EXPECT_EQ(cases, 28 * (static_cast<int>(detail::widest_vector_lanes()) + 1));
 }
 
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
