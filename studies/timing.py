@@ -281,7 +281,7 @@ def run(context) -> StudyOutcome:
         if detector is not None:
             case = derive(case, {"detection": det.detection_block(detector)})
         for repetition in range(REPETITIONS):
-            summary = attempt(f"{label} {detector}", lambda: timed_run(case, 1))
+            summary = attempt(f"{label} {detector or 'MPM'}", lambda: timed_run(case, 1))
             if summary is None:
                 break
             rows += stage_rows(
