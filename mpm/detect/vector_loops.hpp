@@ -3,8 +3,7 @@
 // at run time; all give the same bits (plain IEEE operations, no fused multiply-add).
 //
 // Kernel sums, phi(x) = sum_k w_k (1 - q_k(x))_+^E, four or eight slots at a time: each term is
-// rounded to
-// an integer multiple of 2^-s (s fixed per detection by the largest kernel weight,
+// rounded to an integer multiple of 2^-s (s fixed per detection by the largest kernel weight,
 // ImprovedField::fixed_point_bits()) and the integers are added. An integer sum does not depend
 // on the order of its terms, so the sums may be split into vector lanes, and a field built on
 // part of the particles (the narrow band), an evaluation over a few slots (the edge roots) and
