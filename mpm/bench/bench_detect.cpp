@@ -101,53 +101,74 @@ Fixture& fixture(int scale) {
   return cache.emplace(scale, std::move(f)).first->second;
 }
 
-void BM_Detect(benchmark::State& state) {
-  const int scale = static_cast<int>(state.range(0));
-  const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
-  Fixture& f = fixture(scale);
-  omp_set_num_threads(1);
-  const pfm::Particles& particles = f.particles;
-  const pfm::ParticleCloud cloud{particles.position, particles.volume,
-                                 particles.deformation_gradient, f.initial_spacing};
-  const pfm::Grid& grid = f.solver->grid();
-  pfm::DetectorConfig config;
-  config.method = method;
-  pfm::DetectorState detector_state;
-  pfm::DetectionTimings timings;
-  const pfm::GridState& nodes = f.solver->grid_state();
-  if (method == pfm::DetectorMethod::kSmm) pfm::detect(cloud, grid, config, detector_state);
-  long points = 0;
+// The cloud of the fixture's particles.
+pfm::ParticleCloud cloud_of(const Fixture& f) {
+  const pfm::Particles& p = f.particles;
+  return {p.position, p.volume, p.deformation_gradient, f.initial_spacing};
+}
+
+// Times one detection per benchmark iteration by `clock` (after before_each(), timed too), and
+// sets the counters both benchmarks share; returns the seconds per detection. `last`: the last
+// detection's boundary points and timings.
+template <class BeforeEach>
+double time_detections(benchmark::State& state, const Fixture& f, double step_seconds,
+                       const pfm::DetectorConfig& config, pfm::DetectorState& detector_state,
+                       double (*clock)(), BeforeEach before_each, long& points,
+                       pfm::DetectionTimings& last) {
+  const pfm::ParticleCloud cloud = cloud_of(f);
   double seconds = 0.0;
-  const long faults_before = thread_page_faults();
   for (auto _ : state) {
-    const double start = thread_seconds();
-    if (method == pfm::DetectorMethod::kSmm) {
-      // A zero time step: the markers stay put, the cost is that of a real step.
-      pfm::advect_surface_markers(detector_state, grid, nodes.velocity, nodes.mass, 0.0);
-    }
-    const pfm::DetectedBoundary b = pfm::detect(cloud, grid, config, detector_state, &timings);
-    const double elapsed = thread_seconds() - start;
+    const double start = clock();
+    before_each();
+    const pfm::DetectedBoundary b =
+        pfm::detect(cloud, f.solver->grid(), config, detector_state, &last);
+    const double elapsed = clock() - start;
     state.SetIterationTime(elapsed);
     seconds += elapsed;
     points = 0;
     for (const auto& c : b.contours) points += static_cast<long>(c.points.size());
     benchmark::DoNotOptimize(points);
   }
+  const double per_detection = seconds / static_cast<double>(std::max<long>(state.iterations(), 1));
+  state.counters["particles"] = static_cast<double>(f.particles.size());
+  state.counters["step_ms"] = 1e3 * step_seconds;
+  state.counters["detect_ms"] = 1e3 * per_detection;
+  state.counters["ratio_to_step"] = per_detection / step_seconds;
+  return per_detection;
+}
+
+void BM_Detect(benchmark::State& state) {
+  const int scale = static_cast<int>(state.range(0));
+  const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
+  Fixture& f = fixture(scale);
+  omp_set_num_threads(1);
+  const pfm::Grid& grid = f.solver->grid();
+  pfm::DetectorConfig config;
+  config.method = method;
+  pfm::DetectorState detector_state;
+  pfm::DetectionTimings timings;
+  const pfm::GridState& nodes = f.solver->grid_state();
+  if (method == pfm::DetectorMethod::kSmm) pfm::detect(cloud_of(f), grid, config, detector_state);
+  long points = 0;
+  const long faults_before = thread_page_faults();
+  // SMM: a zero time step, so the markers stay put and the cost is that of a real step.
+  const auto advect = [&] {
+    if (method == pfm::DetectorMethod::kSmm) {
+      pfm::advect_surface_markers(detector_state, grid, nodes.velocity, nodes.mass, 0.0);
+    }
+  };
+  time_detections(state, f, f.step_seconds, config, detector_state, thread_seconds, advect, points,
+                  timings);
   const double iterations = static_cast<double>(std::max<long>(state.iterations(), 1));
-  const double per_detection = seconds / iterations;
   // Memory the detection took back from the system (0 when its freed scratch is reused).
   state.counters["page_faults"] =
       static_cast<double>(thread_page_faults() - faults_before) / iterations;
-  state.counters["particles"] = static_cast<double>(particles.size());
   // Doubles per vector of the improved detector's kernel sums (2 plain x86-64, 4 AVX2, 8
   // AVX-512): the instruction set the figures were taken with.
   const pfm::detail::VectorLanes lanes = pfm::detail::vector_lanes();
   state.counters["vector_doubles"] = lanes == pfm::detail::VectorLanes::kAvx512 ? 8
                                      : lanes == pfm::detail::VectorLanes::kAvx2 ? 4
                                                                                 : 2;
-  state.counters["step_ms"] = 1e3 * f.step_seconds;
-  state.counters["detect_ms"] = 1e3 * per_detection;
-  state.counters["ratio_to_step"] = per_detection / f.step_seconds;
   state.counters["boundary_points"] = static_cast<double>(points);
   state.counters["refinement"] = timings.refinement;
   if (method == pfm::DetectorMethod::kImproved) {
@@ -176,7 +197,7 @@ void BM_Detect(benchmark::State& state) {
         static_cast<double>(timings.particles_outside_first_contours);
   }
   state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
-                 std::to_string(particles.size()) + " points");
+                 std::to_string(f.particles.size()) + " points");
 }
 
 // range(0): scale 0 (slope), 1 (~10 x), 2 (~100 x); range(1): DetectorMethod.
@@ -202,28 +223,15 @@ void BM_DetectThreads(benchmark::State& state) {
   const double step = step_wall_seconds(scale, threads);
   Fixture& f = fixture(scale);
   omp_set_num_threads(threads);
-  const pfm::Particles& particles = f.particles;
-  const pfm::ParticleCloud cloud{particles.position, particles.volume,
-                                 particles.deformation_gradient, f.initial_spacing};
   pfm::DetectorConfig config;
   config.method = pfm::DetectorMethod::kImproved;
   pfm::DetectorState detector_state;
-  double seconds = 0.0;
-  for (auto _ : state) {
-    const double start = wall_seconds();
-    const pfm::DetectedBoundary b = pfm::detect(cloud, f.solver->grid(), config, detector_state);
-    const double elapsed = wall_seconds() - start;
-    state.SetIterationTime(elapsed);
-    seconds += elapsed;
-    benchmark::DoNotOptimize(b.contours.data());
-  }
-  const double per_detection = seconds / static_cast<double>(std::max<long>(state.iterations(), 1));
+  pfm::DetectionTimings timings;
+  long points = 0;
+  time_detections(
+      state, f, step, config, detector_state, wall_seconds, [] {}, points, timings);
   state.counters["threads"] = threads;
-  state.counters["particles"] = static_cast<double>(particles.size());
-  state.counters["step_ms"] = 1e3 * step;
-  state.counters["detect_ms"] = 1e3 * per_detection;
-  state.counters["ratio_to_step"] = per_detection / step;
-  state.SetLabel("improved, " + std::to_string(particles.size()) + " points, " +
+  state.SetLabel("improved, " + std::to_string(f.particles.size()) + " points, " +
                  std::to_string(threads) + " thread(s), wall clock");
   omp_set_num_threads(1);
 }
