@@ -15,7 +15,7 @@ DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypot
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
-  $(addprefix $(notdir /usr/bin/python3)-,$(DEB_PYTHON_MODULES))
+  $(addprefix $(notdir $(PYTHON))-,$(DEB_PYTHON_MODULES))
 
 .PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
   study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks

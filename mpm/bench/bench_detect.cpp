@@ -108,13 +108,13 @@ pfm::ParticleCloud cloud_of(const Fixture& f) {
 }
 
 // Times one detection per benchmark iteration by `clock` (after before_each(), timed too), and
-// sets the counters both benchmarks share; returns the seconds per detection. `last`: the last
+// sets the counters both benchmarks share (detect_ms, ratio_to_step, ...). `last`: the last
 // detection's boundary points and timings.
 template <class BeforeEach>
-double time_detections(benchmark::State& state, const Fixture& f, double step_seconds,
-                       const pfm::DetectorConfig& config, pfm::DetectorState& detector_state,
-                       double (*clock)(), BeforeEach before_each, long& points,
-                       pfm::DetectionTimings& last) {
+void time_detections(benchmark::State& state, const Fixture& f, double step_seconds,
+                     const pfm::DetectorConfig& config, pfm::DetectorState& detector_state,
+                     double (*clock)(), BeforeEach before_each, long& points,
+                     pfm::DetectionTimings& last) {
   const pfm::ParticleCloud cloud = cloud_of(f);
   double seconds = 0.0;
   for (auto _ : state) {
@@ -134,7 +134,6 @@ double time_detections(benchmark::State& state, const Fixture& f, double step_se
   state.counters["step_ms"] = 1e3 * step_seconds;
   state.counters["detect_ms"] = 1e3 * per_detection;
   state.counters["ratio_to_step"] = per_detection / step_seconds;
-  return per_detection;
 }
 
 void BM_Detect(benchmark::State& state) {

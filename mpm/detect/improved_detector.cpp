@@ -490,11 +490,6 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   std::vector<std::uint32_t> selected;
   std::vector<Vec2> touching;
   for (std::size_t chunk = 0; chunk < survey.runs.size(); ++chunk) {
-    if (chunk == 0) {
-      selected = std::move(chunk_selected[0]);
-      touching = std::move(chunk_touching[0]);
-      continue;
-    }
     selected.insert(selected.end(), chunk_selected[chunk].begin(), chunk_selected[chunk].end());
     touching.insert(touching.end(), chunk_touching[chunk].begin(), chunk_touching[chunk].end());
   }
