@@ -21,8 +21,21 @@
 #include "mpm/detect/contour.hpp"
 #include "mpm/detect/marching_squares.hpp"
 #include "mpm/detect/particle_bins.hpp"
+#include "mpm/detect/vector_loops.hpp"
 
 namespace pfm {
+
+/// What a solver's step already found of its particles (MpmSolver::step_survey()), so that the
+/// improved detector need not read every particle again: each particle's cell of `lattice` and
+/// the cloud's totals, as detail::sweep_positions() and detail::sweep_volumes() give them (over
+/// any chunks: the totals are minima and maxima). The detector uses it when `lattice` is that of
+/// its grid and the totals are valid; it finds bitwise the boundary of its own sweep.
+struct StepSurvey {
+  std::span<const int> cell;  ///< j n_x + i, -1 outside the lattice
+  detail::CellLattice lattice;
+  detail::PositionTotals positions;
+  detail::VolumeTotals volumes;
+};
 
 /// The material points seen by a detector. Spans are views; the caller owns the data.
 struct ParticleCloud {
@@ -30,6 +43,7 @@ struct ParticleCloud {
   std::span<const double> volume;              ///< current volume, m^2 (per unit thickness)
   std::span<const Mat2> deformation_gradient;  ///< total F since the initial state; may be empty
   double initial_spacing = 0.0;                ///< particle spacing in the initial state, m
+  const StepSurvey* step_survey = nullptr;     ///< of these particles, or none
 };
 
 enum class DetectorMethod { kPfm, kImproved, kSmm, kVof, kDensity };

@@ -195,12 +195,30 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
   return runs;
 }
 
+// The grid's lattice of cells, as the sweeps take it.
+CellLattice cell_lattice(const Grid& grid) {
+  return {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x, grid.n_cells_y};
+}
+
+// Whether the cloud's step survey may stand for the detector's own sweep: of these particles, on
+// this grid's lattice, with valid totals (the detector's own sweep reports what is invalid).
+bool step_survey_applies(const ParticleCloud& cloud, const Grid& grid) {
+  const StepSurvey* s = cloud.step_survey;
+  if (s == nullptr) return false;
+  const CellLattice l = cell_lattice(grid);
+  return s->cell.size() == cloud.position.size() && s->lattice.origin_x == l.origin_x &&
+         s->lattice.origin_y == l.origin_y && s->lattice.inverse_size == l.inverse_size &&
+         s->lattice.n_x == l.n_x && s->lattice.n_y == l.n_y && s->positions.finite &&
+         s->volumes.valid;
+}
+
 // The one pass over every particle the improved detector makes: checks each particle (with the
 // messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
 // band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised). Large
 // clouds are swept by chunks on the OpenMP threads; the chunks' minima and maxima, the volumes of
 // the runs (each added in particle order) and the cells' volumes (the runs added in run order)
-// are those of one sweep, whatever the thread count.
+// are those of one sweep, whatever the thread count. A solver's step survey (StepSurvey) stands
+// for the sweep: only the runs and the cells' volumes are left.
 CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
@@ -210,44 +228,43 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
   const double* deformation =
       cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
-  const CellLattice lattice{grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, n_x, n_y};
-  std::vector<int> cell_of(cells ? n : 0);  // grid cell of each particle, -1 outside
-  int* cell = cells ? cell_of.data() : nullptr;
+  const CellLattice lattice = cell_lattice(grid);
+  const bool handed = step_survey_applies(cloud, grid);
+  std::vector<int> cell_of(cells && !handed ? n : 0);  // grid cell of each particle, -1 outside
+  const int* cell = !cells ? nullptr : handed ? cloud.step_survey->cell.data() : cell_of.data();
   const std::size_t n_chunks = (n + kParticleChunk - 1) / kParticleChunk;
-  std::vector<CloudTotals> chunk_totals(n_chunks);
-  std::vector<Runs> chunk_runs(cells ? n_chunks : 0);
   const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
   const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
-  for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
-    const std::size_t b = chunk_begin(k);
-    chunk_totals[k] =
-        sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
-                    chunk_end(k) - b, lattice, cell ? cell + b : nullptr);
-  });
+  CloudTotals totals;
+  if (handed) {
+    totals = {cloud.step_survey->positions, cloud.step_survey->volumes};
+  } else {
+    std::vector<CloudTotals> chunk_totals(n_chunks);
+    for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
+      const std::size_t b = chunk_begin(k);
+      chunk_totals[k] =
+          sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
+                      chunk_end(k) - b, lattice, cells ? cell_of.data() + b : nullptr);
+    });
+    totals = chunk_totals[0];
+    for (std::size_t k = 1; k < n_chunks; ++k) {
+      include(totals.positions, chunk_totals[k].positions);
+      include(totals.volumes, chunk_totals[k].volumes);
+    }
+    if (!totals.valid()) {
+      for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
+    }
+  }
   // (After every cell is known: a run may go on into the next chunk.)
+  std::vector<Runs> chunk_runs(cells ? n_chunks : 0);
   for_each_on_threads(chunk_runs.size(), 1, [&](std::size_t k) {
     chunk_runs[k] = runs_starting_in(cell, volume, chunk_begin(k), chunk_end(k), n);
   });
-  CloudTotals totals = chunk_totals[0];
-  for (std::size_t k = 1; k < n_chunks; ++k) {
-    const CloudTotals& t = chunk_totals[k];
-    totals.lo_x = std::min(totals.lo_x, t.lo_x);
-    totals.lo_y = std::min(totals.lo_y, t.lo_y);
-    totals.hi_x = std::max(totals.hi_x, t.hi_x);
-    totals.hi_y = std::max(totals.hi_y, t.hi_y);
-    totals.largest_volume = std::max(totals.largest_volume, t.largest_volume);
-    totals.largest_squared = std::max(totals.largest_squared, t.largest_squared);
-    totals.smallest_det = std::min(totals.smallest_det, t.smallest_det);
-    totals.valid = totals.valid && t.valid;
-  }
-  if (!totals.valid) {
-    for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
-  }
-  survey.lo = Vec2(totals.lo_x, totals.lo_y);
-  survey.hi = Vec2(totals.hi_x, totals.hi_y);
-  survey.largest_stretch = std::sqrt(totals.largest_squared);
-  survey.largest_volume = totals.largest_volume;
-  survey.smallest_det = totals.smallest_det;
+  survey.lo = Vec2(totals.positions.lo_x, totals.positions.lo_y);
+  survey.hi = Vec2(totals.positions.hi_x, totals.positions.hi_y);
+  survey.largest_stretch = std::sqrt(totals.volumes.largest_squared);
+  survey.largest_volume = totals.volumes.largest_volume;
+  survey.smallest_det = totals.volumes.smallest_det;
   if (cells) {
     survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
     for (const Runs& r : chunk_runs) {

@@ -86,32 +86,28 @@ template <int E, int W>
   return total - lanes * kMagicBits;
 }
 
-// The sweep of sweep_cloud(), compiled like sum_ranges(). Minima, maxima and the sums of zeros
-// that test finiteness are exact in any order, so the vector lanes change nothing.
+// The sweeps of sweep_positions() and sweep_volumes(), compiled like sum_ranges(). Minima, maxima
+// and the sums of zeros that test finiteness are exact in any order, so the vector lanes change
+// nothing.
 template <bool Cells>
-[[gnu::always_inline]] inline CloudTotals sweep(const double* x, const double* volume,
-                                                const double* f, std::size_t n,
-                                                const CellLattice& g, int* cell) {
-  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1], largest_volume = 0.0;
+[[gnu::always_inline]] inline PositionTotals position_sweep(const double* x, std::size_t n,
+                                                            const CellLattice& g, int* cell) {
+  double lo_x = x[0], lo_y = x[1], hi_x = x[0], hi_y = x[1];
   double finite = 0.0;  // stays 0 while every value is finite (v * 0 is NaN for inf and NaN)
-  int positive = 1;
   // Truncation is the floor for the offsets in [0, n); the others are outside (converted as 0,
   // then replaced by -1: no branch, so the loop runs in vector lanes). The lattice in locals: the
   // stores to `cell` could otherwise alias it.
   const double upper_i = g.n_x, upper_j = g.n_y;
   const double origin_x = g.origin_x, origin_y = g.origin_y, inverse_size = g.inverse_size;
   const int n_x = g.n_x;
-#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y, largest_volume) \
-    reduction(+ : finite) reduction(& : positive)
+#pragma omp simd reduction(min : lo_x, lo_y) reduction(max : hi_x, hi_y) reduction(+ : finite)
   for (std::size_t p = 0; p < n; ++p) {
-    const double px = x[2 * p], py = x[2 * p + 1], v = volume[p];
+    const double px = x[2 * p], py = x[2 * p + 1];
     lo_x = std::min(lo_x, px);
     lo_y = std::min(lo_y, py);
     hi_x = std::max(hi_x, px);
     hi_y = std::max(hi_y, py);
-    largest_volume = std::max(largest_volume, v);
-    finite += (px + py + v) * 0.0;
-    positive &= v > 0.0 ? 1 : 0;
+    finite += (px + py) * 0.0;
     if constexpr (Cells) {
       const double ti = (px - origin_x) * inverse_size;
       const double tj = (py - origin_y) * inverse_size;
@@ -119,6 +115,20 @@ template <bool Cells>
       const int c = static_cast<int>(in ? tj : 0.0) * n_x + static_cast<int>(in ? ti : 0.0);
       cell[p] = in ? c : -1;
     }
+  }
+  return {lo_x, lo_y, hi_x, hi_y, finite == 0.0};
+}
+
+[[gnu::always_inline]] inline VolumeTotals volume_sweep(const double* volume, const double* f,
+                                                        std::size_t n) {
+  double largest_volume = 0.0, finite = 0.0;
+  int positive = 1;
+#pragma omp simd reduction(max : largest_volume) reduction(+ : finite) reduction(& : positive)
+  for (std::size_t p = 0; p < n; ++p) {
+    const double v = volume[p];
+    largest_volume = std::max(largest_volume, v);
+    finite += v * 0.0;
+    positive &= v > 0.0 ? 1 : 0;
   }
   double largest_squared = 1.0, smallest_det = 1.0;
   if (f != nullptr) {
@@ -139,10 +149,7 @@ template <bool Cells>
           std::max(largest_squared, 0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
     }
   }
-  return {lo_x,           lo_y,
-          hi_x,           hi_y,
-          largest_volume, largest_squared,
-          smallest_det,   finite == 0.0 && positive != 0};
+  return {largest_volume, largest_squared, smallest_det, finite == 0.0 && positive != 0};
 }
 
 template <int E>
@@ -152,9 +159,12 @@ std::uint64_t sum_plain(const KernelColumns& c, const int* begin, const int* end
 }
 
 template <bool Cells>
-CloudTotals sweep_plain(const double* x, const double* v, const double* f, std::size_t n,
-                        const CellLattice& g, int* cell) {
-  return sweep<Cells>(x, v, f, n, g, cell);
+PositionTotals positions_plain(const double* x, std::size_t n, const CellLattice& g, int* cell) {
+  return position_sweep<Cells>(x, n, g, cell);
+}
+
+VolumeTotals volumes_plain(const double* v, const double* f, std::size_t n) {
+  return volume_sweep(v, f, n);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -168,9 +178,13 @@ template <int E>
 }
 
 template <bool Cells>
-[[gnu::target("avx2")]] CloudTotals sweep_avx2(const double* x, const double* v, const double* f,
-                                               std::size_t n, const CellLattice& g, int* cell) {
-  return sweep<Cells>(x, v, f, n, g, cell);
+[[gnu::target("avx2")]] PositionTotals positions_avx2(const double* x, std::size_t n,
+                                                      const CellLattice& g, int* cell) {
+  return position_sweep<Cells>(x, n, g, cell);
+}
+
+[[gnu::target("avx2")]] VolumeTotals volumes_avx2(const double* v, const double* f, std::size_t n) {
+  return volume_sweep(v, f, n);
 }
 
 #define PFM_AVX512 "avx512f,avx512dq,avx512vl"
@@ -182,10 +196,14 @@ template <int E>
 }
 
 template <bool Cells>
-[[gnu::target(PFM_AVX512)]] CloudTotals sweep_avx512(const double* x, const double* v,
-                                                     const double* f, std::size_t n,
-                                                     const CellLattice& g, int* cell) {
-  return sweep<Cells>(x, v, f, n, g, cell);
+[[gnu::target(PFM_AVX512)]] PositionTotals positions_avx512(const double* x, std::size_t n,
+                                                            const CellLattice& g, int* cell) {
+  return position_sweep<Cells>(x, n, g, cell);
+}
+
+[[gnu::target(PFM_AVX512)]] VolumeTotals volumes_avx512(const double* v, const double* f,
+                                                        std::size_t n) {
+  return volume_sweep(v, f, n);
 }
 #undef PFM_AVX512
 #endif
@@ -224,23 +242,49 @@ std::uint64_t kernel_sum(int exponent, const KernelColumns& columns, const int* 
   return kPlain[exponent - 1](columns, begin, end, n_ranges, px, py);
 }
 
-CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
-                        std::size_t n, const CellLattice& lattice, int* cell) {
+void include(PositionTotals& totals, const PositionTotals& part) {
+  totals.lo_x = std::min(totals.lo_x, part.lo_x);
+  totals.lo_y = std::min(totals.lo_y, part.lo_y);
+  totals.hi_x = std::max(totals.hi_x, part.hi_x);
+  totals.hi_y = std::max(totals.hi_y, part.hi_y);
+  totals.finite = totals.finite && part.finite;
+}
+
+void include(VolumeTotals& totals, const VolumeTotals& part) {
+  totals.largest_volume = std::max(totals.largest_volume, part.largest_volume);
+  totals.largest_squared = std::max(totals.largest_squared, part.largest_squared);
+  totals.smallest_det = std::min(totals.smallest_det, part.smallest_det);
+  totals.valid = totals.valid && part.valid;
+}
+
+PositionTotals sweep_positions(const double* position, std::size_t n, const CellLattice& lattice,
+                               int* cell) {
   const double* x = position;
-  const double* v = volume;
-  const double* f = deformation;
 #ifdef PFM_VECTOR_LOOPS_X86
   if (lanes_in_use == VectorLanes::kAvx512) {
-    return cell != nullptr ? sweep_avx512<true>(x, v, f, n, lattice, cell)
-                           : sweep_avx512<false>(x, v, f, n, lattice, cell);
+    return cell != nullptr ? positions_avx512<true>(x, n, lattice, cell)
+                           : positions_avx512<false>(x, n, lattice, cell);
   }
   if (lanes_in_use == VectorLanes::kAvx2) {
-    return cell != nullptr ? sweep_avx2<true>(x, v, f, n, lattice, cell)
-                           : sweep_avx2<false>(x, v, f, n, lattice, cell);
+    return cell != nullptr ? positions_avx2<true>(x, n, lattice, cell)
+                           : positions_avx2<false>(x, n, lattice, cell);
   }
 #endif
-  return cell != nullptr ? sweep_plain<true>(x, v, f, n, lattice, cell)
-                         : sweep_plain<false>(x, v, f, n, lattice, cell);
+  return cell != nullptr ? positions_plain<true>(x, n, lattice, cell)
+                         : positions_plain<false>(x, n, lattice, cell);
+}
+
+VolumeTotals sweep_volumes(const double* volume, const double* deformation, std::size_t n) {
+#ifdef PFM_VECTOR_LOOPS_X86
+  if (lanes_in_use == VectorLanes::kAvx512) return volumes_avx512(volume, deformation, n);
+  if (lanes_in_use == VectorLanes::kAvx2) return volumes_avx2(volume, deformation, n);
+#endif
+  return volumes_plain(volume, deformation, n);
+}
+
+CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
+                        std::size_t n, const CellLattice& lattice, int* cell) {
+  return {sweep_positions(position, n, lattice, cell), sweep_volumes(volume, deformation, n)};
 }
 
 VectorLanes vector_lanes() {

@@ -41,18 +41,39 @@ struct CellLattice {
   int n_x, n_y;
 };
 
-/// What one sweep over every particle gathers.
-struct CloudTotals {
+/// What a sweep over the positions gathers.
+struct PositionTotals {
   double lo_x, lo_y, hi_x, hi_y;  ///< bounding box of the positions, m
-  double largest_volume;          ///< m^2
-  double largest_squared;         ///< largest sigma_max(F)^2 (1 without F)
-  double smallest_det;            ///< smallest det F (1 without F)
-  bool valid;                     ///< every value finite, every volume and det F > 0
+  bool finite;                    ///< every coordinate finite
 };
 
-/// One sweep over n >= 1 particles: positions x0 y0 x1 y1 ..., volumes, deformation gradients
-/// column-major (f00 f10 f01 f11 ...; nullptr: none). With `cell`, the cell of `lattice` holding
+/// What a sweep over the volumes and deformation gradients gathers.
+struct VolumeTotals {
+  double largest_volume;   ///< m^2
+  double largest_squared;  ///< largest sigma_max(F)^2 (1 without F)
+  double smallest_det;     ///< smallest det F (1 without F)
+  bool valid;              ///< every value finite, every volume and det F > 0
+};
+
+/// What one sweep over every particle gathers.
+struct CloudTotals {
+  PositionTotals positions;
+  VolumeTotals volumes;
+  bool valid() const { return positions.finite && volumes.valid; }
+};
+
+/// The totals of two parts of a cloud together (minima and maxima: exact in any order).
+void include(PositionTotals& totals, const PositionTotals& part);
+void include(VolumeTotals& totals, const VolumeTotals& part);
+
+/// The positions x0 y0 x1 y1 ... of n >= 1 particles; with `cell`, the cell of `lattice` holding
 /// each particle, or -1 outside it.
+PositionTotals sweep_positions(const double* position, std::size_t n, const CellLattice& lattice,
+                               int* cell);
+/// The volumes and deformation gradients, column-major (f00 f10 f01 f11 ...; nullptr: none), of
+/// n >= 1 particles.
+VolumeTotals sweep_volumes(const double* volume, const double* deformation, std::size_t n);
+/// Both sweeps.
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
                         std::size_t n, const CellLattice& lattice, int* cell);
 

@@ -46,6 +46,8 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
 void BoundaryCoupling::attach(MpmSolver& solver) {
   solver_ = &solver;
   if (!detection_enabled()) return;
+  // The improved detector takes the cells and totals of the particles from the step.
+  solver.set_step_survey(case_.detection->detector.method == DetectorMethod::kImproved);
   tie_material_intervals();
   if (case_.detection->detector.method == DetectorMethod::kSmm) {
     // Surface markers ride on the updated grid velocities (thesis eq. 4.6-4.7), every step.
@@ -104,6 +106,8 @@ void BoundaryCoupling::detect_now() {
   cloud.volume = particles.volume;
   cloud.deformation_gradient = particles.deformation_gradient;
   cloud.initial_spacing = initial_spacing_;
+  // At the external-force hook the step has swept the particles for the detector already.
+  cloud.step_survey = solver_->step_survey();
   boundary_ =
       detect(cloud, case_.grid, case_.detection->detector, detector_state_, &detection_timings_);
   detected_at_step_ = solver_->step_count();

@@ -18,6 +18,9 @@ using Clock = std::chrono::steady_clock;
 // Sums over particles or nodes (energies) are taken per fixed block of this many items, then
 // over the blocks, both in index order: deterministic, and parallel over the blocks.
 constexpr std::size_t kSumBlock = 1024;
+// Particles per block of the step survey's sweep over positions in locate_particles (their
+// positions are then read from the cache by the loop that follows).
+constexpr std::size_t kSurveyBlock = 1024;
 
 // Every loop is shared out dynamically, by blocks (particle and node blocks, bands, chunks):
 // a thread that the operating system holds back then delays the others by one block at most.
@@ -103,6 +106,39 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   chunk_offsets_.resize(static_cast<std::size_t>(n_chunks_) * static_cast<std::size_t>(n_bands_));
   band_start_.resize(static_cast<std::size_t>(n_bands_) + 1);
   sorted_.resize(n);
+}
+
+void MpmSolver::set_step_survey(bool on) {
+  surveying_ = on;
+  positions_surveyed_ = volumes_surveyed_ = false;
+  survey_cell_.assign(on ? particles_.size() : 0, -1);
+  chunk_positions_.assign(on ? static_cast<std::size_t>(n_chunks_) : 0, {});
+  block_volumes_.assign(on ? internal_work_blocks_.size() : 0, {});
+}
+
+const StepSurvey* MpmSolver::step_survey() {
+  if (!surveying_ || !positions_surveyed_) return nullptr;
+  const std::size_t n = particles_.size();
+  if (!volumes_surveyed_) {
+    const double* volume = particles_.volume.data();
+    const double* deformation = particles_.deformation_gradient.data()->data();
+#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
+    for (std::size_t k = 0; k < block_volumes_.size(); ++k) {
+      const std::size_t b = k * kSumBlock;
+      block_volumes_[k] =
+          detail::sweep_volumes(volume + b, deformation + 4 * b, std::min(n, b + kSumBlock) - b);
+    }
+    volumes_surveyed_ = true;
+  }
+  const Grid& grid = case_.grid;
+  survey_.cell = survey_cell_;
+  survey_.lattice = {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x,
+                     grid.n_cells_y};
+  survey_.positions = chunk_positions_.front();
+  for (const detail::PositionTotals& t : chunk_positions_) detail::include(survey_.positions, t);
+  survey_.volumes = block_volumes_.front();
+  for (const detail::VolumeTotals& t : block_volumes_) detail::include(survey_.volumes, t);
+  return &survey_;
 }
 
 void MpmSolver::set_dt(double dt) {
@@ -219,6 +255,7 @@ void MpmSolver::run_step() {
   times_.update_grid += seconds_since(t0);
   if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
 
+  positions_surveyed_ = false;  // the particles move
   if (case_.solver.scheme == Scheme::kMUSL) {
     t0 = Clock::now();
     grid_to_particles<W, true>();
@@ -313,6 +350,10 @@ void MpmSolver::locate_particles(bool clear_grid) {
   double* mass = grid_.mass.data();
   Vec2* momentum = grid_.momentum.data();
   Vec2* force = grid_.internal_force.data();
+  const detail::CellLattice lattice{x0, y0, 1.0 / h, grid.n_cells_x, grid.n_cells_y};
+  const bool surveying = surveying_;
+  int* survey_cell = survey_cell_.data();
+  detail::PositionTotals* chunk_positions = chunk_positions_.data();
   long outside = -1;
 #pragma omp parallel reduction(max : outside) if (parallel_)
   {
@@ -335,6 +376,17 @@ void MpmSolver::locate_particles(bool clear_grid) {
       const std::size_t end =
           n * static_cast<std::size_t>(k + 1) / static_cast<std::size_t>(n_chunks);
       for (std::size_t p = begin; p < end; ++p) {
+        // The step survey's sweep over the next block of positions, which the loop then reads
+        // from the cache.
+        if (surveying && (p - begin) % kSurveyBlock == 0) {
+          const detail::PositionTotals block = detail::sweep_positions(
+              position[p].data(), std::min(end, p + kSurveyBlock) - p, lattice, survey_cell + p);
+          if (p == begin) {
+            chunk_positions[k] = block;
+          } else {
+            detail::include(chunk_positions[k], block);
+          }
+        }
         const Vec2 x = position[p];
         // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
         // value checked to lie in [0, n_cells) first (also false for NaN).
@@ -377,6 +429,7 @@ void MpmSolver::locate_particles(bool clear_grid) {
       }
     }
   }
+  positions_surveyed_ = surveying_;
   if (outside >= 0) {
     const auto p = static_cast<std::size_t>(outside);
     throw SimulationError(describe_particle(particles_, p) +
@@ -641,6 +694,8 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   const double* initial_volume = particles_.initial_volume.data();
   const int* particle_material = particles_.material.data();
   double* work_blocks = internal_work_blocks_.data();
+  const bool surveying = surveying_;
+  detail::VolumeTotals* volume_blocks = block_volumes_.data();
   long bad = -1;
   const std::size_t n_blocks = internal_work_blocks_.size();
   remap_seconds_ = 0.0;
@@ -704,8 +759,15 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
         if (!std::isfinite(work)) bad = std::max(bad, static_cast<long>(p));
       }
       work_blocks[k] = block_work;
+      // The step survey's sweep over the volumes and F just written.
+      if (surveying) {
+        const std::size_t b = k * kSumBlock;
+        volume_blocks[k] = detail::sweep_volumes(
+            particle_volume + b, particle_deformation[b].data(), std::min(n, b + kSumBlock) - b);
+      }
     }
   }
+  volumes_surveyed_ = surveying_;
   bad_particle_ = std::max(bad_particle_, bad);
   for (std::size_t k = 0; k < n_blocks; ++k) counters_.internal_work += work_blocks[k];
 }

@@ -129,7 +129,7 @@ int run_case(const Case& c, const RunOptions& options) {
     file.write(checkpoint_path);
   };
   auto restore_checkpoint = [&](const CheckpointFile& file) {
-    get_particles(file, solver.particles());
+    get_particles(file, solver.mutable_particles());
     if (solver.particles().size() != solver.particles().mass.size())
       throw InputError(checkpoint_path + ": inconsistent particle arrays");
     SolverCounters n;

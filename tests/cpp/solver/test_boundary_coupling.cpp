@@ -2,10 +2,12 @@
 // exact surface traction", checks 6 and 7).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
 
+#include "mpm/detect/detector.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
@@ -144,7 +146,7 @@ TEST(BoundaryCoupling, MaterialIntervalFollowsTheParticlesUnderItsEnds) {
     EXPECT_NEAR(std::abs(x.x() - (e == 0 ? 4.0 : 6.0)), 0.125, 1e-12);
   }
   const double dx = 1.0;
-  for (Vec2& x : solver.particles().position) x.x() += dx;
+  for (Vec2& x : solver.mutable_particles().position) x.x() += dx;
   solver.step();
   const Vec2 moved = *coupling.current_x_range(0), fixed = *coupling.current_x_range(1);
   EXPECT_NEAR(moved.x(), 4.0 + dx, 1e-12);
@@ -179,7 +181,7 @@ TEST(BoundaryCoupling, SurfaceMarkersMoveWithTheGridVelocitiesInARun) {
   BoundaryCoupling coupling(c);
   coupling.attach(solver);
   const Vec2 v(0.4, -0.1);
-  for (Vec2& velocity : solver.particles().velocity) velocity = v;
+  for (Vec2& velocity : solver.mutable_particles().velocity) velocity = v;
   const DetectedBoundary initial = coupling.current_boundary();
   ASSERT_EQ(initial.contours.size(), 1u);
   for (int step = 0; step < 40; ++step) solver.step();
@@ -194,6 +196,101 @@ TEST(BoundaryCoupling, SurfaceMarkersMoveWithTheGridVelocitiesInARun) {
   std::printf("SMM markers after %.3f s of rigid translation: max error %.2e m\n", solver.time(),
               worst);
   EXPECT_LE(worst, 1e-12);
+}
+
+// The step's survey for the improved detector (MpmSolver::step_survey()), on the slope collapsing
+// under gravity switched on at once: at the external-force hook of every step it is exactly what
+// the detector's own sweep finds (each particle's cell, the box, the largest volume and stretch,
+// the smallest det F), the detector gives bitwise the same boundary with it and without, and the
+// steps leave the particles bitwise as a solver without the survey does. Particles changed from
+// outside between steps are swept anew.
+TEST(StepSurvey, IsTheDetectorsOwnSweepAndLeavesTheStepsAsTheyWere) {
+  const Case c = read_case("cases/slope.json");
+  MpmSolver plain(c);
+  MpmSolver surveyed(c);
+  EXPECT_EQ(surveyed.step_survey(), nullptr);  // off by default
+  surveyed.set_step_survey(true);
+  EXPECT_EQ(surveyed.step_survey(), nullptr);  // nothing swept before a step
+  const Grid& grid = c.grid;
+  const detail::CellLattice lattice{grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size,
+                                    grid.n_cells_x, grid.n_cells_y};
+  DetectorConfig config;
+  config.method = DetectorMethod::kImproved;
+  int hooks = 0, same_boundaries = 0, moved_cells = 0;
+  double largest_stretch = 1.0;
+  std::vector<int> first_cells;
+  surveyed.set_external_force_hook([&](double, const GridState&, std::vector<Vec2>&) {
+    ++hooks;
+    const StepSurvey* survey = surveyed.step_survey();
+    ASSERT_NE(survey, nullptr);
+    const Particles& p = surveyed.particles();
+    std::vector<int> cell(p.size());
+    const detail::PositionTotals positions =
+        detail::sweep_positions(p.position.data()->data(), p.size(), lattice, cell.data());
+    const detail::VolumeTotals volumes =
+        detail::sweep_volumes(p.volume.data(), p.deformation_gradient.data()->data(), p.size());
+    EXPECT_TRUE(std::equal(cell.begin(), cell.end(), survey->cell.begin(), survey->cell.end()));
+    EXPECT_EQ(positions.lo_x, survey->positions.lo_x);
+    EXPECT_EQ(positions.lo_y, survey->positions.lo_y);
+    EXPECT_EQ(positions.hi_x, survey->positions.hi_x);
+    EXPECT_EQ(positions.hi_y, survey->positions.hi_y);
+    EXPECT_EQ(volumes.largest_volume, survey->volumes.largest_volume);
+    EXPECT_EQ(volumes.largest_squared, survey->volumes.largest_squared);
+    EXPECT_EQ(volumes.smallest_det, survey->volumes.smallest_det);
+    EXPECT_TRUE(survey->positions.finite && survey->volumes.valid);
+    largest_stretch = std::sqrt(survey->volumes.largest_squared);
+    if (first_cells.empty()) first_cells = cell;
+    moved_cells = 0;
+    for (std::size_t k = 0; k < cell.size(); ++k) moved_cells += cell[k] != first_cells[k] ? 1 : 0;
+    ParticleCloud cloud{p.position, p.volume, p.deformation_gradient,
+                        grid.cell_size / c.bodies[0].points_per_cell};
+    DetectorState own_state, handed_state;
+    const DetectedBoundary own = detect(cloud, grid, config, own_state);
+    cloud.step_survey = survey;
+    const DetectedBoundary handed = detect(cloud, grid, config, handed_state);
+    bool same = own.contours.size() == handed.contours.size();
+    for (std::size_t k = 0; same && k < own.contours.size(); ++k) {
+      same = own.contours[k].points == handed.contours[k].points &&
+             own.contours[k].closed == handed.contours[k].closed;
+    }
+    // A survey of another lattice is not taken (here its cells would be wrong).
+    StepSurvey other = *survey;
+    const std::vector<int> zeros(p.size(), 0);
+    other.cell = zeros;
+    other.lattice.n_x += 1;
+    cloud.step_survey = &other;
+    const DetectedBoundary ignored = detect(cloud, grid, config, handed_state);
+    same = same && ignored.contours.size() == own.contours.size();
+    for (std::size_t k = 0; same && k < own.contours.size(); ++k) {
+      same = own.contours[k].points == ignored.contours[k].points;
+    }
+    same_boundaries += same ? 1 : 0;
+  });
+  constexpr int kSteps = 150;
+  for (int step = 0; step < kSteps; ++step) {
+    plain.step();
+    surveyed.step();
+  }
+  EXPECT_EQ(surveyed.step_survey(), nullptr);  // the particles have moved since the hook
+  const double stretch_before = largest_stretch;
+  EXPECT_GT(stretch_before, 1.5);  // the slope has collapsed: stretched kernels
+  const Particles& a = plain.particles();
+  const Particles& b = surveyed.particles();
+  EXPECT_TRUE(a.position == b.position && a.velocity == b.velocity && a.volume == b.volume &&
+              a.deformation_gradient == b.deformation_gradient && a.stress == b.stress);
+  // Changed from outside: the next hook finds the new F (compared with a fresh sweep above),
+  // whose stretch 3 is the cloud's largest.
+  surveyed.mutable_particles().deformation_gradient[0] << 3.0, 0.0, 0.0, 1.0 / 3.0;
+  surveyed.step();
+  EXPECT_GE(largest_stretch, 3.0);
+  std::printf(
+      "step survey: %d hooks, %d same boundaries, largest stretch %.4f before the change "
+      "from outside, %d of %zu particles in another cell than at the first step\n",
+      hooks, same_boundaries, stretch_before, moved_cells, b.size());
+  EXPECT_EQ(hooks, kSteps + 1);
+  EXPECT_EQ(same_boundaries, hooks);
+  // The survey saw the slope deform: particles that changed cell.
+  EXPECT_GT(moved_cells, 0);
 }
 
 }  // namespace

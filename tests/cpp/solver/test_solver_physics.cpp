@@ -125,7 +125,7 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
   const double m = elastic_parameters(c.materials[0].model).constrained_modulus();
   const double density = 20.0 / 9.81;
   const double period = 4.0 * height / std::sqrt(m / density);
-  Particles& p = solver.particles();
+  Particles& p = solver.mutable_particles();
   const double v0 = 0.01;  // m/s: small strain
   for (std::size_t k = 0; k < p.size(); ++k) {
     p.velocity[k] = Vec2(0.0, v0 * std::sin(std::numbers::pi * p.position[k].y() / (2 * height)));
