@@ -129,9 +129,15 @@ int run_case(const Case& c, const RunOptions& options) {
     file.write(checkpoint_path);
   };
   auto restore_checkpoint = [&](const CheckpointFile& file) {
+    // The solver's work arrays are sized for the case's particles.
+    const std::size_t filled = solver.particles().size();
     get_particles(file, solver.mutable_particles());
     if (solver.particles().size() != solver.particles().mass.size())
       throw InputError(checkpoint_path + ": inconsistent particle arrays");
+    if (solver.particles().size() != filled) {
+      throw InputError(checkpoint_path + ": holds " + std::to_string(solver.particles().size()) +
+                       " particles, the case fills " + std::to_string(filled));
+    }
     SolverCounters n;
     n.time = file.scalar("solver/time");
     n.step = static_cast<long>(file.scalar("solver/step"));
