@@ -46,8 +46,11 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
 void BoundaryCoupling::attach(MpmSolver& solver) {
   solver_ = &solver;
   if (!detection_enabled()) return;
-  // The improved detector takes the cells and totals of the particles from the step.
-  solver.set_step_survey(case_.detection->detector.method == DetectorMethod::kImproved);
+  // The improved detector, detecting at every step, takes the cells and totals of the particles
+  // from the step (at a step without a detection the step's sweep would be lost: it costs about
+  // what it saves the detection).
+  solver.set_step_survey(case_.detection->detector.method == DetectorMethod::kImproved &&
+                         case_.detection->every_steps == 1);
   tie_material_intervals();
   if (case_.detection->detector.method == DetectorMethod::kSmm) {
     // Surface markers ride on the updated grid velocities (thesis eq. 4.6-4.7), every step.

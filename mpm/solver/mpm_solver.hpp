@@ -125,7 +125,7 @@ class MpmSolver {
   /// before the first step).
   const StepSurvey* step_survey();
   /// Whether the steps sweep the particles for step_survey() (off by default: a run that
-  /// detects with the improved detector turns it on; it costs 1-5 % of a step).
+  /// detects with the improved detector at every step turns it on; it costs 1-5 % of a step).
   void set_step_survey(bool on);
   const Grid& grid() const { return case_.grid; }
   const GridState& grid_state() const { return grid_; }
