@@ -1,6 +1,6 @@
 # pfm-mpm: the two commands a newcomer needs are `make run` and `make test` (see README.md).
 # Python runs as the Debian interpreter (the first python on PATH may be another that cannot see
-# the Debian packages); its modules come as Debian packages named after it (DEB_PYTHON_MODULES).
+# the Debian packages); its modules come as Debian packages (DEB_PYTHON_MODULES).
 PYTHON ?= /usr/bin/python3
 BUILD_DIR ?= build
 SANITIZE_DIR ?= build-sanitize
@@ -8,14 +8,16 @@ JOBS ?= 2
 CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
-# Debian packages the build, the tests and the studies need. The Python modules come as Debian
-# packages named after the interpreter and the module (Python itself always runs as $(PYTHON)).
+# Debian packages the build, the tests and the studies need. Debian names the package of a Python
+# module DEB_PYTHON_PREFIX<module> whatever the interpreter's path (Python itself always runs as
+# $(PYTHON)).
+DEB_PYTHON_PREFIX := python3-
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypothesis jinja2 h5py \
   meshio gmsh dolfinx distributed
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
-  $(addprefix $(notdir $(PYTHON))-,$(DEB_PYTHON_MODULES))
+  $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 
 .PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
   study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks

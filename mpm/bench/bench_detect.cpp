@@ -23,7 +23,6 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -63,42 +62,29 @@ long thread_page_faults() {
   return usage.ru_minflt;
 }
 
-// The median time of one step of scale `scale` on `threads` threads after a warm-up, by `clock`
-// (seconds).
-double median_step_seconds(pfm::MpmSolver& solver, int scale, int threads, double (*clock)()) {
+// The median time of one step of each of `solvers` (of scale `scale`), stepped in turn on
+// `threads` threads after a warm-up, by `clock` (seconds). Solvers stepped in turn from the same
+// state share the machine's moods.
+std::vector<double> median_step_seconds(const std::vector<pfm::MpmSolver*>& solvers, int scale,
+                                        int threads, double (*clock)()) {
   omp_set_num_threads(threads);
-  for (int k = 0; k < 2; ++k) solver.step();
-  std::vector<double> times;
-  for (int k = 0; k < (scale == 2 ? 5 : 21); ++k) {
-    const double start = clock();
-    solver.step();
-    times.push_back(clock() - start);
-  }
-  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
-  return times[times.size() / 2];
-}
-
-// The median times of one step of `plain` and of `surveyed` (the same solver sweeping its
-// particles for step_survey()), from the same state, stepped in turn on 1 thread after a warm-up
-// (the sweeps leave the particles bitwise as they were).
-std::pair<double, double> median_step_pair(pfm::MpmSolver& plain, pfm::MpmSolver& surveyed,
-                                           int scale) {
-  omp_set_num_threads(1);
   for (int k = 0; k < 2; ++k) {
-    plain.step();
-    surveyed.step();
+    for (pfm::MpmSolver* solver : solvers) solver->step();
   }
-  std::vector<double> times[2];
+  std::vector<std::vector<double>> times(solvers.size());
   for (int k = 0; k < (scale == 2 ? 9 : 21); ++k) {
-    double start = thread_seconds();
-    plain.step();
-    times[0].push_back(thread_seconds() - start);
-    start = thread_seconds();
-    surveyed.step();
-    times[1].push_back(thread_seconds() - start);
+    for (std::size_t s = 0; s < solvers.size(); ++s) {
+      const double start = clock();
+      solvers[s]->step();
+      times[s].push_back(clock() - start);
+    }
   }
-  for (auto& t : times) std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
-  return {times[0][times[0].size() / 2], times[1][times[1].size() / 2]};
+  std::vector<double> medians;
+  for (auto& t : times) {
+    std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+    medians.push_back(t[t.size() / 2]);
+  }
+  return medians;
 }
 
 struct Fixture {
@@ -133,8 +119,12 @@ Fixture& fixture(int scale) {
   {
     pfm::MpmSolver surveyed = *f.solver;
     surveyed.set_step_survey(true);
-    std::tie(f.step_seconds, f.surveyed_step_seconds) =
-        median_step_pair(*f.solver, surveyed, scale);
+    // The same solver sweeping its particles for step_survey() (the sweeps leave the particles
+    // bitwise as they were).
+    const std::vector<double> medians =
+        median_step_seconds({f.solver.get(), &surveyed}, scale, 1, thread_seconds);
+    f.step_seconds = medians[0];
+    f.surveyed_step_seconds = medians[1];
     // The particles at the hook of the next step (as the plain solver's last step left them),
     // and what the step had found of them.
     surveyed.set_external_force_hook([&](double, const pfm::GridState&, std::vector<pfm::Vec2>&) {
@@ -275,7 +265,8 @@ double step_wall_seconds(int scale, int threads) {
   static std::map<std::pair<int, int>, double> cache;
   const auto key = std::make_pair(scale, threads);
   if (const auto it = cache.find(key); it != cache.end()) return it->second;
-  return cache[key] = median_step_seconds(*fixture(scale).solver, scale, threads, wall_seconds);
+  return cache[key] =
+             median_step_seconds({fixture(scale).solver.get()}, scale, threads, wall_seconds)[0];
 }
 
 // range(0): scale; range(1): OpenMP threads of both the detection and the step.

@@ -37,6 +37,13 @@ struct StepSurvey {
   detail::VolumeTotals volumes;
 };
 
+namespace detail {
+/// The lattice of the grid's cells as the sweeps take it (a StepSurvey's `lattice` must be it).
+inline CellLattice cell_lattice(const Grid& grid) {
+  return {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x, grid.n_cells_y};
+}
+}  // namespace detail
+
 /// The material points seen by a detector. Spans are views; the caller owns the data.
 struct ParticleCloud {
   std::span<const Vec2> position;              ///< m

@@ -195,11 +195,6 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
   return runs;
 }
 
-// The grid's lattice of cells, as the sweeps take it.
-CellLattice cell_lattice(const Grid& grid) {
-  return {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x, grid.n_cells_y};
-}
-
 // Whether the cloud's step survey may stand for the detector's own sweep: of these particles, on
 // this grid's lattice, with valid totals (the detector's own sweep reports what is invalid).
 bool step_survey_applies(const ParticleCloud& cloud, const Grid& grid) {

@@ -130,10 +130,8 @@ const StepSurvey* MpmSolver::step_survey() {
     }
     volumes_surveyed_ = true;
   }
-  const Grid& grid = case_.grid;
   survey_.cell = survey_cell_;
-  survey_.lattice = {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x,
-                     grid.n_cells_y};
+  survey_.lattice = detail::cell_lattice(case_.grid);
   survey_.positions = chunk_positions_.front();
   for (const detail::PositionTotals& t : chunk_positions_) detail::include(survey_.positions, t);
   survey_.volumes = block_volumes_.front();
@@ -350,7 +348,7 @@ void MpmSolver::locate_particles(bool clear_grid) {
   double* mass = grid_.mass.data();
   Vec2* momentum = grid_.momentum.data();
   Vec2* force = grid_.internal_force.data();
-  const detail::CellLattice lattice{x0, y0, 1.0 / h, grid.n_cells_x, grid.n_cells_y};
+  const detail::CellLattice lattice = detail::cell_lattice(grid);
   const bool surveying = surveying_;
   int* survey_cell = survey_cell_.data();
   detail::PositionTotals* chunk_positions = chunk_positions_.data();
@@ -375,56 +373,60 @@ void MpmSolver::locate_particles(bool clear_grid) {
           n * static_cast<std::size_t>(k) / static_cast<std::size_t>(n_chunks);
       const std::size_t end =
           n * static_cast<std::size_t>(k + 1) / static_cast<std::size_t>(n_chunks);
-      for (std::size_t p = begin; p < end; ++p) {
-        // The step survey's sweep over the next block of positions, which the loop then reads
-        // from the cache.
-        if (surveying && (p - begin) % kSurveyBlock == 0) {
-          const detail::PositionTotals block = detail::sweep_positions(
-              position[p].data(), std::min(end, p + kSurveyBlock) - p, lattice, survey_cell + p);
-          if (p == begin) {
-            chunk_positions[k] = block;
+      for (std::size_t block = begin; block < end; block += kSurveyBlock) {
+        const std::size_t block_end = std::min(end, block + kSurveyBlock);
+        // The step survey's sweep over the block's positions, which the loop then reads from the
+        // cache.
+        if (surveying) {
+          const detail::PositionTotals totals = detail::sweep_positions(
+              position[block].data(), block_end - block, lattice, survey_cell + block);
+          if (block == begin) {
+            chunk_positions[k] = totals;
           } else {
-            detail::include(chunk_positions[k], block);
+            detail::include(chunk_positions[k], totals);
           }
         }
-        const Vec2 x = position[p];
-        // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
-        // value checked to lie in [0, n_cells) first (also false for NaN).
-        const double tx = (x.x() - x0) / h, ty = (x.y() - y0) / h;
-        if (!(tx >= 0.0 && tx < n_cells_x && ty >= 0.0 && ty < n_cells_y)) {
-          outside = std::max(outside, static_cast<long>(p));
-          particle_band[p] = 0;
-          continue;
-        }
-        const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
-        const int band = cj / band_rows;
-        particle_band[p] = band;
-        ++count[band];
-        const double xi = (x.x() - x0) * inv_h - ci;
-        const double eta = (x.y() - y0) * inv_h - cj;
-        if constexpr (W == 2) {
-          linear[p] = {xi, eta, ci, cj};
-        } else {
-          double* f = gimp[p].data();
-          const int bi = xi < 0.5 ? ci - 1 : ci;
-          const int bj = eta < 0.5 ? cj - 1 : cj;
-          gimp_base[p] = {bi, bj};
-          const Vec2& lp = half_length[p];
-          for (int a = 0; a < 3; ++a) {
-            const double node_x = x0 + (bi + a) * h;
-            const double node_y = y0 + (bj + a) * h;
-            f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
-            f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
+        for (std::size_t p = block; p < block_end; ++p) {
+          const Vec2 x = position[p];
+          // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
+          // value checked to lie in [0, n_cells) first (also false for NaN).
+          const double tx = (x.x() - x0) / h, ty = (x.y() - y0) / h;
+          if (!(tx >= 0.0 && tx < n_cells_x && ty >= 0.0 && ty < n_cells_y)) {
+            outside = std::max(outside, static_cast<long>(p));
+            particle_band[p] = 0;
+            continue;
           }
-          // A node off the grid must carry no weight (the particle domain stays on the grid).
-          bool off = false;
-          for (int a = 0; a < 3; ++a) {
-            if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
-              off = true;
-            if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0))
-              off = true;
+          const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
+          const int band = cj / band_rows;
+          particle_band[p] = band;
+          ++count[band];
+          const double xi = (x.x() - x0) * inv_h - ci;
+          const double eta = (x.y() - y0) * inv_h - cj;
+          if constexpr (W == 2) {
+            linear[p] = {xi, eta, ci, cj};
+          } else {
+            double* f = gimp[p].data();
+            const int bi = xi < 0.5 ? ci - 1 : ci;
+            const int bj = eta < 0.5 ? cj - 1 : cj;
+            gimp_base[p] = {bi, bj};
+            const Vec2& lp = half_length[p];
+            for (int a = 0; a < 3; ++a) {
+              const double node_x = x0 + (bi + a) * h;
+              const double node_y = y0 + (bj + a) * h;
+              f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
+              f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
+            }
+            // A node off the grid must carry no weight (the particle domain stays on the grid).
+            bool off = false;
+            for (int a = 0; a < 3; ++a) {
+              if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
+                off = true;
+              if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) &&
+                  (f[3 + a] != 0.0 || f[9 + a] != 0.0))
+                off = true;
+            }
+            if (off) outside = std::max(outside, static_cast<long>(p));
           }
-          if (off) outside = std::max(outside, static_cast<long>(p));
         }
       }
     }

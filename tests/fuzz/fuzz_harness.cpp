@@ -209,8 +209,7 @@ DetectedBoundary detect_on_step_survey(const ParticleCloud& cloud, const Grid& g
   const std::size_t n = cloud.position.size();
   std::vector<int> cells(n);
   StepSurvey survey;
-  survey.lattice = {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x,
-                    grid.n_cells_y};
+  survey.lattice = detail::cell_lattice(grid);
   const double* position = cloud.position.data()->data();
   const double* deformation =
       cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();

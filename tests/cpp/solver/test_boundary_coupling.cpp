@@ -11,6 +11,7 @@
 #include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "tests/cpp/detect/detect_test_support.hpp"
 
 namespace pfm {
 namespace {
@@ -212,8 +213,7 @@ TEST(StepSurvey, IsTheDetectorsOwnSweepAndLeavesTheStepsAsTheyWere) {
   surveyed.set_step_survey(true);
   EXPECT_EQ(surveyed.step_survey(), nullptr);  // nothing swept before a step
   const Grid& grid = c.grid;
-  const detail::CellLattice lattice{grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size,
-                                    grid.n_cells_x, grid.n_cells_y};
+  const detail::CellLattice lattice = detail::cell_lattice(grid);
   DetectorConfig config;
   config.method = DetectorMethod::kImproved;
   int hooks = 0, same_boundaries = 0, moved_cells = 0;
@@ -245,26 +245,28 @@ TEST(StepSurvey, IsTheDetectorsOwnSweepAndLeavesTheStepsAsTheyWere) {
     ParticleCloud cloud{p.position, p.volume, p.deformation_gradient,
                         grid.cell_size / c.bodies[0].points_per_cell};
     DetectorState own_state, handed_state;
-    const DetectedBoundary own = detect(cloud, grid, config, own_state);
+    DetectionTimings own_timings, handed_timings, ignored_timings;
+    const DetectedBoundary own = detect(cloud, grid, config, own_state, &own_timings);
     cloud.step_survey = survey;
-    const DetectedBoundary handed = detect(cloud, grid, config, handed_state);
-    bool same = own.contours.size() == handed.contours.size();
-    for (std::size_t k = 0; same && k < own.contours.size(); ++k) {
-      same = own.contours[k].points == handed.contours[k].points &&
-             own.contours[k].closed == handed.contours[k].closed;
-    }
-    // A survey of another lattice is not taken (here its cells would be wrong).
+    const DetectedBoundary handed = detect(cloud, grid, config, handed_state, &handed_timings);
+    same_boundaries += test::same_contours(own, handed) ? 1 : 0;
+    EXPECT_EQ(handed_timings.field_particles, own_timings.field_particles);
+    // A survey of another lattice is not taken: its cells (here all 0) would put every point's
+    // volume in one cell, leave no cell solid and so every point in the field (the boundary
+    // stays the same: the narrow band gives the full field's).
     StepSurvey other = *survey;
     const std::vector<int> zeros(p.size(), 0);
     other.cell = zeros;
-    other.lattice.n_x += 1;
     cloud.step_survey = &other;
-    const DetectedBoundary ignored = detect(cloud, grid, config, handed_state);
-    same = same && ignored.contours.size() == own.contours.size();
-    for (std::size_t k = 0; same && k < own.contours.size(); ++k) {
-      same = own.contours[k].points == ignored.contours[k].points;
+    DetectorState other_state;
+    detect(cloud, grid, config, other_state, &ignored_timings);
+    if (hooks == 1) {
+      EXPECT_EQ(ignored_timings.field_particles, static_cast<long>(p.size()));  // taken
+      EXPECT_LT(own_timings.field_particles, static_cast<long>(p.size()) / 2);
     }
-    same_boundaries += same ? 1 : 0;
+    other.lattice.n_x += 1;
+    detect(cloud, grid, config, other_state, &ignored_timings);
+    EXPECT_EQ(ignored_timings.field_particles, own_timings.field_particles);  // not taken
   });
   constexpr int kSteps = 150;
   for (int step = 0; step < kSteps; ++step) {
