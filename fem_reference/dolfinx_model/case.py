@@ -444,6 +444,7 @@ DETECTOR_KEYS = {
         "root_tolerance",
         "curvature_correction",
         "mirror_grid_edges",
+        "neighbour_shape",
     },
     "smm": {"marker_spacing", "initial_contour", "massless_nodes"},
     "vof": {"refinement", "fraction", "mixed_tolerance"},

@@ -189,14 +189,12 @@ pfm::DetectionTimings time_improved_detections(benchmark::State& state, const Fi
   return timings;
 }
 
-void BM_Detect(benchmark::State& state) {
-  const int scale = static_cast<int>(state.range(0));
-  const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
+// One detection with `config` on the particles of scale `scale`, one thread, and its counters.
+void detect_on_one_thread(benchmark::State& state, int scale, const pfm::DetectorConfig& config) {
+  const pfm::DetectorMethod method = config.method;
   Fixture& f = fixture(scale);
   omp_set_num_threads(1);
   const pfm::Grid& grid = f.solver->grid();
-  pfm::DetectorConfig config;
-  config.method = method;
   pfm::DetectorState detector_state;
   pfm::DetectionTimings timings;
   const pfm::GridState& nodes = f.solver->grid_state();
@@ -238,6 +236,7 @@ void BM_Detect(benchmark::State& state) {
     state.counters["screening_ms"] = 1e3 * parts.screening;
     state.counters["guards_ms"] = 1e3 * parts.guards;
     state.counters["nodes_ms"] = 1e3 * parts.nodes;
+    state.counters["shape_ms"] = 1e3 * parts.shape;
     // Exact field evaluations of the last detection (nodes, screening, guards, roots).
     state.counters["field_evaluations"] = static_cast<double>(timings.field_evaluations);
     state.counters["root_evaluations"] = static_cast<double>(timings.root_evaluations);
@@ -248,13 +247,33 @@ void BM_Detect(benchmark::State& state) {
     state.counters["outside_first_contours"] =
         static_cast<double>(timings.particles_outside_first_contours);
   }
-  state.SetLabel(std::string(pfm::detector_method_name(method)) + ", " +
+  state.SetLabel(std::string(pfm::detector_method_name(method)) +
+                 (config.improved.neighbour_shape > 0.0 ? " (neighbour_shape)" : "") + ", " +
                  std::to_string(f.particles.size()) + " points");
+}
+
+void BM_Detect(benchmark::State& state) {
+  pfm::DetectorConfig config;
+  config.method = static_cast<pfm::DetectorMethod>(state.range(1));
+  detect_on_one_thread(state, static_cast<int>(state.range(0)), config);
 }
 
 // range(0): scale 0 (slope), 1 (~10 x), 2 (~100 x); range(1): DetectorMethod.
 BENCHMARK(BM_Detect)
     ->ArgsProduct({{0, 1, 2}, {0, 1, 2, 3, 4}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->MinTime(0.5);
+
+// The improved detector with its kernels shaped by the neighbours (neighbour_shape 0.7).
+void BM_DetectShaped(benchmark::State& state) {
+  pfm::DetectorConfig config;
+  config.method = pfm::DetectorMethod::kImproved;
+  config.improved.neighbour_shape = 0.7;
+  detect_on_one_thread(state, static_cast<int>(state.range(0)), config);
+}
+BENCHMARK(BM_DetectShaped)
+    ->DenseRange(0, 2)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->MinTime(0.5);

@@ -250,7 +250,8 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     const auto& parts = timings.field_parts;
     summary["timings_s"]["field_parts"] = {{"survey", parts.survey}, {"band", parts.band},
                                            {"setup", parts.setup},   {"screening", parts.screening},
-                                           {"guards", parts.guards}, {"nodes", parts.nodes}};
+                                           {"guards", parts.guards}, {"nodes", parts.nodes},
+                                           {"shape", parts.shape}};
     summary["particles_guarded_after_contouring"] = timings.particles_guarded_after_contouring;
     summary["particles_outside_first_contours"] = timings.particles_outside_first_contours;
   }

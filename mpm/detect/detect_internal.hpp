@@ -6,8 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
+#include <memory>
+#include <vector>
 
 #include "mpm/detect/detector.hpp"
+
+namespace pfm {
+class ParticleBins;
+}
 
 namespace pfm::detail {
 
@@ -58,6 +64,52 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
   largest = q + r;
   smallest = std::abs(q - r);
 }
+
+/// The neighbours of the kernel shapes regularised by the neighbours
+/// (ImprovedConfig::neighbour_shape): a cloud (kept by reference) and its bins.
+class NeighbourSearch {
+ public:
+  /// window_reach (m): no smaller than a0 times the largest stretch of the particles' F whose
+  /// windows are searched (the bins are half of it).
+  NeighbourSearch(const ParticleCloud& cloud, double window_reach);
+  ~NeighbourSearch();
+  const ParticleCloud& cloud() const { return cloud_; }
+  const ParticleBins& bins() const { return *bins_; }
+
+ private:
+  const ParticleCloud& cloud_;
+  std::unique_ptr<ParticleBins> bins_;
+};
+
+/// Kernel shapes regularised by the neighbours (ImprovedConfig::neighbour_shape = beta in (0, 1)):
+/// for each of `particles`, all of them in the search's cloud, the symmetric F' with
+/// F' F'^T = F [(1 - beta) I + beta A] F^T, where A has the principal axes e_i of
+/// neighbour_window_moment() and eigenvalues min(1, m_i / (m1 / 2)), m1 from
+/// neighbour_moment_of_unit_window(): the kernel narrows across a body thinner than about half
+/// its window (det F' >= (1 - beta) det F), and is F S0 elsewhere. The clouds must have been
+/// checked.
+std::vector<Mat2> neighbour_shaped_deformation(const NeighbourSearch& search,
+                                               const ParticleCloud& particles,
+                                               const ImprovedConfig& config);
+/// The same for every particle of `cloud`.
+std::vector<Mat2> neighbour_shaped_deformation(const ParticleCloud& cloud,
+                                               const ImprovedConfig& config);
+/// The second moment, in the reference frame of a particle at x with deformation gradient F, of
+/// its neighbours' offsets u = F^-1 (x_j - x) / a0 in the unit window |u| < 1, weighted by
+/// V_j (1 - |u|^2)^k (k of the profile): its principal axes (x and y when it is diagonal) and,
+/// along each, the larger of the moments of the two sides, each normalised by its own weight
+/// (offsets within 1e-9 of the axis, the particle itself, count half on each side). Deep in a
+/// body, or on an affinely deformed lattice with its F, these are m1 up to the lattice's
+/// discreteness; a free surface leaves them so (its inner side is full); a body thinner than the
+/// window makes them small across it.
+struct WindowMoment {
+  Vec2 axis[2] = {Vec2(1.0, 0.0), Vec2(0.0, 1.0)};
+  double moment[2] = {0.0, 0.0};
+};
+WindowMoment neighbour_window_moment(const NeighbourSearch& search, const ImprovedConfig& config,
+                                     const Vec2& x, const Mat2& f);
+/// m1 = E[u_x^2] under the weight (1 - |u|^2)^k on the unit disk: 1 / (2 (k + 2)).
+double neighbour_moment_of_unit_window(KernelProfile profile);
 
 /// Validates the cloud's spans and spacing and every particle (InputError naming the field).
 void check_cloud(const ParticleCloud& cloud);

@@ -117,7 +117,8 @@ ThesisPfmConfig parse_pfm(const JsonView& v) {
 ImprovedConfig parse_improved(const JsonView& v) {
   v.expect_object({"profile", "radius_factor", "level", "guard_factor", "guard_margin",
                    "refinement", "max_refinement", "saddle_rule", "narrow_band", "band_margin",
-                   "root_tolerance", "curvature_correction", "mirror_grid_edges"});
+                   "root_tolerance", "curvature_correction", "mirror_grid_edges",
+                   "neighbour_shape"});
   ImprovedConfig c;
   if (v.has("profile")) {
     const std::string p = v.at("profile").as_choice({"epanechnikov", "biweight", "triweight"});
@@ -163,6 +164,12 @@ ImprovedConfig parse_improved(const JsonView& v) {
     c.curvature_correction = v.at("curvature_correction").as_bool();
   }
   if (v.has("mirror_grid_edges")) c.mirror_grid_edges = v.at("mirror_grid_edges").as_bool();
+  c.neighbour_shape = v.number_or("neighbour_shape", c.neighbour_shape);
+  if (v.has("neighbour_shape")) {
+    v.at("neighbour_shape")
+        .require(c.neighbour_shape >= 0.0 && c.neighbour_shape < 1.0,
+                 "must be in [0, 1) (0 = off)");
+  }
   return c;
 }
 

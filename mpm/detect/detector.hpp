@@ -149,6 +149,15 @@ struct ImprovedConfig {
   /// between roller sides) then has no boundary along it and its contour ends on the edge. No
   /// effect on a body clear of the edges (by more than a spacing) or cut by them.
   bool mirror_grid_edges = true;
+  /// Kernel shape regularised by the neighbours, beta in [0, 1) (0 = off, the shape F S0 alone):
+  /// S S^T = a0^2 F [(1 - beta) I + beta M / m1] F^T, M the second moment of the neighbours'
+  /// offsets pulled back by F^-1 in the particle's own kernel window (along each principal axis,
+  /// the fuller side's), m1 its value for a window full of material. Deep in a body and at a free
+  /// surface M = m1 I (the shape stays F S0); in a body thinner than the window the kernel
+  /// flattens across it (a one-particle filament: beta 0.7 joins it into one loop of the right
+  /// width, beta 0 leaves a guard island per particle). Costs a neighbour search for each particle
+  /// of the narrow band (README of mpm/detect).
+  double neighbour_shape = 0.0;
 };
 
 /// How advect_surface_markers() treats grid nodes without mass, whose velocity (mv)_i / m_i of
@@ -261,9 +270,11 @@ struct DetectionTimings {
   /// band: the cells interior by volume and the copy of the particles within reach of the
   /// others; setup: the field's slots, bins and mirror images; screening: the coarse
   /// deep/far/active cells; guards: phi at the candidate particles; nodes: the fine nodes of the
-  /// active cells and of the traced cells.
+  /// active cells and of the traced cells; shape: the kernel shapes of the field's particles from
+  /// their neighbours (ImprovedConfig::neighbour_shape > 0).
   struct FieldParts {
     double survey = 0.0, band = 0.0, setup = 0.0, screening = 0.0, guards = 0.0, nodes = 0.0;
+    double shape = 0.0;
   } field_parts;
 };
 

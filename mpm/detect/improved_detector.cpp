@@ -1110,9 +1110,12 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const double kernel_reach = config.radius_factor * cloud.initial_spacing * survey.largest_stretch;
   const double particle_reach =
       ImprovedField::reference_reach(config, cloud.initial_spacing) * survey.largest_stretch;
+  //    Kernels shaped by the neighbours only narrow (det F' >= (1 - beta) det F): the reaches of
+  //    F bound theirs, and their weights are at most 1 / (1 - beta) times those of F.
+  const double shaped_weights = 1.0 / (1.0 - config.neighbour_shape);
   const ImprovedField::CloudBounds bounds{
-      ImprovedField::weight_bound(config, cloud.initial_spacing, survey.largest_volume,
-                                  survey.smallest_det),
+      shaped_weights * ImprovedField::weight_bound(config, cloud.initial_spacing,
+                                                   survey.largest_volume, survey.smallest_det),
       4 * cloud.position.size()};
   //    The narrow band; a kernel reaching across the whole grid (a huge stretch or radius) leaves
   //    nothing to screen.
@@ -1121,12 +1124,21 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   if (config.narrow_band && !cloud.position.empty() && particle_reach / h < widest) {
     band = select_band(cloud, grid, config, survey, kernel_reach, particle_reach);
   }
-  const ParticleCloud field_cloud =
+  ParticleCloud field_cloud =
       band ? ParticleCloud{band->position, band->volume, band->deformation, cloud.initial_spacing}
            : cloud;
+  field_cloud.step_survey = nullptr;
   const std::span<const char> interior_by_volume =
       band ? std::span<const char>(band->interior_by_volume) : std::span<const char>();
   lap(parts.band);
+  //    The kernels of the field's particles shaped by their neighbours among all particles.
+  std::vector<Mat2> shaped;
+  if (config.neighbour_shape > 0.0) {
+    const NeighbourSearch search(cloud, kernel_reach);
+    shaped = neighbour_shaped_deformation(search, field_cloud, config);
+    field_cloud.deformation_gradient = shaped;
+  }
+  lap(parts.shape);
   // The wall contacts found by the band are those of the whole cloud, which the band holds a
   // part of.
   ImprovedField field(field_cloud, config, ImprovedField::DeferGuards{},
@@ -1208,8 +1220,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   timings.edge_point_count = edge_points;
   timings.root_evaluations = root_evaluations;
   timings.field_evaluations = field_evaluations + root_evaluations;
-  timings.field =
-      parts.survey + parts.band + parts.setup + parts.screening + parts.guards + parts.nodes;
+  timings.field = parts.survey + parts.band + parts.shape + parts.setup + parts.screening +
+                  parts.guards + parts.nodes;
   if (config.curvature_correction) {
     const auto start = std::chrono::steady_clock::now();
     correct_curvature(boundary, field.curvature_moment(),

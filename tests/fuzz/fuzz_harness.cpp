@@ -138,7 +138,8 @@ Outcome run_config(const std::string& path) {
 // The bytes of a detector input as a particle cloud on its field grid (tests/fuzz/README.md):
 //   0, 1  grid cells n_x, n_y = 3 + b % 10 (cells of 0.5 m, origin 0)
 //   2     points per cell k = 2 + b % 4 (spacing 0.5 / k); bit 2: deformation gradients;
-//         bit 3: no mirroring at the grid edges
+//         bit 3: no mirroring at the grid edges; bit 4: kernels shaped by the neighbours
+//         (neighbour_shape 0.7)
 //   3-6   a block of k x k points per cell: lattice columns i0 .. i1 - 1, rows j0 .. j1 - 1
 //         (spacing units, b % (n k)), points at the lattice centres
 //   7-10  the block's deformation gradient I + (b - 128) / 160 (about its centre), with bit 2
@@ -150,6 +151,7 @@ struct DetectInput {
   test::OwnedCloud cloud;
   Grid grid;
   bool mirror = true;
+  bool shaped = false;
 };
 
 DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
@@ -161,6 +163,7 @@ DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
   const int k = 2 + byte(2) % 4;
   const bool deformed = (byte(2) & 4) != 0;
   in.mirror = (byte(2) & 8) == 0;
+  in.shaped = (byte(2) & 16) != 0;
   const double spacing = in.grid.cell_size / k;
   in.cloud.initial_spacing = spacing;
   const auto gradient = [&](std::size_t at) {
@@ -247,6 +250,7 @@ Outcome run_detect(const std::string& path) {
   DetectorConfig band;
   band.method = DetectorMethod::kImproved;
   band.improved.mirror_grid_edges = in.mirror;
+  band.improved.neighbour_shape = in.shaped ? 0.7 : 0.0;
   DetectorConfig full = band;
   full.improved.narrow_band = false;
   const ParticleCloud cloud = in.cloud.view();
@@ -259,7 +263,14 @@ Outcome run_detect(const std::string& path) {
   if (a.contours.empty()) {
     // No contour: the material covers the whole grid (every edge a wall), and then the field is
     // inside at every node along the grid edge; otherwise a contour was missed.
-    const ImprovedField field(cloud, band.improved, in.mirror ? &in.grid : nullptr);
+    // (The field of the detection: with the neighbours' shapes when they are on.)
+    const std::vector<Mat2> shapes =
+        in.shaped ? detail::neighbour_shaped_deformation(cloud, band.improved)
+                  : std::vector<Mat2>{};
+    const ParticleCloud field_cloud =
+        in.shaped ? ParticleCloud{cloud.position, cloud.volume, shapes, cloud.initial_spacing}
+                  : cloud;
+    const ImprovedField field(field_cloud, band.improved, in.mirror ? &in.grid : nullptr);
     for (int i = 0; i <= in.grid.n_cells_x; ++i) {
       for (int j = 0; j <= in.grid.n_cells_y; ++j) {
         if (i != 0 && j != 0 && i != in.grid.n_cells_x && j != in.grid.n_cells_y) continue;

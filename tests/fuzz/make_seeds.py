@@ -151,6 +151,7 @@ DETECTOR_SEEDS = [
             "band_margin": 0.4,
             "root_tolerance": 1e-6,
             "curvature_correction": True,
+            "neighbour_shape": 0.7,
         },
     },
     {"method": "smm", "smm": {}},
@@ -267,6 +268,10 @@ def detect_seeds():
             [(x, y, (170, 100, 150, 90)) for x, y, _ in ring],
         ),
         cloud(9, 9, 3, (10, 10, 12, 3), identity, ring[8:]),
+        # Kernels shaped by the neighbours: a row one point thick, a sheared block with free
+        # points.
+        cloud(9, 7, 16, (4, 10, 30, 11)),
+        cloud(9, 9, 16 | 4, (6, 6, 20, 20), (180, 150, 128, 100), ring[:8]),
     ]
 
 

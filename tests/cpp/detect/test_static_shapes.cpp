@@ -33,6 +33,21 @@ DetectorConfig thesis_config() {
   return c;
 }
 
+// The detectors compared: the thesis PFM (reported), the improved detector and the improved
+// detector with its kernels shaped by the neighbours (neighbour_shape 0.7; both asserted).
+constexpr int kVariants[3] = {0, 1, 2};
+
+DetectorConfig variant_config(int variant) {
+  if (variant == 0) return thesis_config();
+  DetectorConfig c = improved_config();
+  if (variant == 2) c.improved.neighbour_shape = 0.7;
+  return c;
+}
+
+const char* variant_name(int variant) {
+  return variant == 0 ? "thesis" : (variant == 1 ? "improved" : "shaped");
+}
+
 DetectedBoundary run(const OwnedCloud& cloud, const DetectorConfig& config,
                      DetectionTimings* timings = nullptr) {
   DetectorState state;
@@ -48,8 +63,9 @@ TEST(StaticShapes, RectangleFlatFaces) {
   for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
     const auto cloud =
         lattice_cloud(kH, placement, Vec2(2, 2), Vec2(8, 6), [](const Vec2&) { return true; });
-    for (const bool improved : {false, true}) {
-      const auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      const auto config = variant_config(variant);
       DetectionTimings t;
       const auto b = run(cloud, config, &t);
       ASSERT_GE(b.contours.size(), 1u);
@@ -58,8 +74,8 @@ TEST(StaticShapes, RectangleFlatFaces) {
       std::printf(
           "rectangle %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h"
           "  (refinement %d, %.2f ms)\n",
-          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
-          faces.mean, faces.max, r.corner.max, t.refinement,
+          placement_name(placement), variant_name(variant), b.contours.size(), faces.mean,
+          faces.max, r.corner.max, t.refinement,
           1e3 * (t.field + t.edge_points + t.connection + t.filters));
       if (improved) {
         EXPECT_EQ(b.contours.size(), 1u);
@@ -81,8 +97,9 @@ TEST(StaticShapes, FortyFiveDegreeSlope) {
     const auto cloud = lattice_cloud(kH, placement, Vec2(1, 1), Vec2(11, 8), [c](const Vec2& x) {
       return x.y() < 3.0 || x.x() - x.y() > c;
     });
-    for (const bool improved : {false, true}) {
-      const auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      const auto config = variant_config(variant);
       const auto b = run(cloud, config);
       ASSERT_GE(b.contours.size(), 1u);
       const auto r = face_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH, kH);
@@ -91,8 +108,8 @@ TEST(StaticShapes, FortyFiveDegreeSlope) {
       std::printf(
           "slope45   %-5s %-8s loops %zu  45deg mean %.4f h max %.4f h  flat max %.4f h"
           "  corners max %.4f h\n",
-          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
-          slope.mean, slope.max, flat.max, r.corner.max);
+          placement_name(placement), variant_name(variant), b.contours.size(), slope.mean,
+          slope.max, flat.max, r.corner.max);
       if (improved) {
         EXPECT_EQ(b.contours.size(), 1u);
         EXPECT_GT(slope.count, 10);
@@ -117,16 +134,17 @@ TEST(StaticShapes, RotatedSquare) {
   for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
     const auto cloud = lattice_cloud(
         kH, placement, Vec2(4, 3), Vec2(8, 7), [](const Vec2&) { return true; }, rot, centre);
-    for (const bool improved : {false, true}) {
-      const auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      const auto config = variant_config(variant);
       const auto b = run(cloud, config);
       ASSERT_GE(b.contours.size(), 1u);
       const auto r = face_distances(b, body, 1.5 * kernel_radius(improved_config()) + kH, kH);
       const Stats& faces = r.faces;
       std::printf(
           "square30  %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
-          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
-          faces.mean, faces.max, r.corner.max);
+          placement_name(placement), variant_name(variant), b.contours.size(), faces.mean,
+          faces.max, r.corner.max);
       if (improved) {
         EXPECT_EQ(b.contours.size(), 1u);
         EXPECT_LE(faces.max, 0.02);
@@ -138,7 +156,7 @@ TEST(StaticShapes, RotatedSquare) {
 // Radial distances to circles of radius `radii` about `centre`: signed mean (bias, > 0 outside)
 // and mean/max of the absolute value, per circle, in units of h.
 void circle_report(const char* name, const DetectedBoundary& b, const Vec2& centre,
-                   const std::vector<double>& radii, bool improved, Placement placement,
+                   const std::vector<double>& radii, int variant, Placement placement,
                    std::vector<double>* bias_out) {
   for (const double radius : radii) {
     Stats absolute;
@@ -160,8 +178,8 @@ void circle_report(const char* name, const DetectedBoundary& b, const Vec2& cent
     bias /= std::max(absolute.count, 1);
     if (bias_out != nullptr) bias_out->push_back(bias);
     std::printf("%-9s %-5s %-8s R=%.3f  bias %+.4f h  mean %.4f h max %.4f h  loops %zu\n", name,
-                placement_name(placement), improved ? "improved" : "thesis", radius, bias,
-                absolute.mean, absolute.max, b.contours.size());
+                placement_name(placement), variant_name(variant), radius, bias, absolute.mean,
+                absolute.max, b.contours.size());
   }
 }
 
@@ -175,11 +193,12 @@ TEST(StaticShapes, DiskBiasWithinCurvatureBound) {
     double volume = 0.0;
     for (const double v : cloud.volume) volume += v;
     const double radius = std::sqrt(volume / std::numbers::pi);
-    for (const bool improved : {false, true}) {
-      auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      auto config = variant_config(variant);
       const auto b = run(cloud, config);
       std::vector<double> bias;
-      circle_report("disk", b, centre, {radius}, improved, placement, &bias);
+      circle_report("disk", b, centre, {radius}, variant, placement, &bias);
       if (improved) {
         ASSERT_EQ(b.contours.size(), 1u);
         const double a = kernel_radius(config);
@@ -188,7 +207,7 @@ TEST(StaticShapes, DiskBiasWithinCurvatureBound) {
         config.improved.curvature_correction = true;
         const auto corrected = run(cloud, config);
         std::vector<double> corrected_bias;
-        circle_report("disk+corr", corrected, centre, {radius}, improved, placement,
+        circle_report("disk+corr", corrected, centre, {radius}, variant, placement,
                       &corrected_bias);
       }
     }
@@ -208,10 +227,11 @@ TEST(StaticShapes, Ring) {
     const double outer = std::sqrt(kH * kH / 4.0 * disk_cloud.position.size() / std::numbers::pi);
     const double inner = std::sqrt(
         std::max(0.0, outer * outer - kH * kH / 4.0 * cloud.position.size() / std::numbers::pi));
-    for (const bool improved : {false, true}) {
-      const auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      const auto config = variant_config(variant);
       const auto b = run(cloud, config);
-      circle_report("ring", b, centre, {inner, outer}, improved, placement, nullptr);
+      circle_report("ring", b, centre, {inner, outer}, variant, placement, nullptr);
       if (improved) {
         ASSERT_EQ(b.contours.size(), 2u);
         EXPECT_GT(signed_area(b.contours[0]), 0.0);  // the outer loop starts lower
@@ -241,8 +261,9 @@ TEST(StaticShapes, AffinelyDeformedRectangleKeepsFlatFaces) {
   for (const auto placement : {Placement::kEqualSpacing, Placement::kGaussPoints}) {
     const auto cloud = lattice_cloud(
         kH, placement, Vec2(2, 2), Vec2(8, 6), [](const Vec2&) { return true; }, f, centre);
-    for (const bool improved : {false, true}) {
-      auto config = improved ? improved_config() : thesis_config();
+    for (const int variant : kVariants) {
+      const bool improved = variant > 0;
+      auto config = variant_config(variant);
       config.pfm.deformation = KernelDeformation::kSmallStrain;
       DetectorState state;
       const auto b = detect(cloud.view(), test_grid(), config, state);
@@ -251,8 +272,8 @@ TEST(StaticShapes, AffinelyDeformedRectangleKeepsFlatFaces) {
       const Stats& faces = r.faces;
       std::printf(
           "sheared   %-5s %-8s loops %zu  faces mean %.4f h max %.4f h  corners max %.4f h\n",
-          placement_name(placement), improved ? "improved" : "thesis", b.contours.size(),
-          faces.mean, faces.max, r.corner.max);
+          placement_name(placement), variant_name(variant), b.contours.size(), faces.mean,
+          faces.max, r.corner.max);
       if (improved) {
         EXPECT_EQ(b.contours.size(), 1u);
         EXPECT_GT(faces.count, 20);
