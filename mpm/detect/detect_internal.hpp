@@ -66,18 +66,19 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
 }
 
 /// The neighbours of the kernel shapes regularised by the neighbours
-/// (ImprovedConfig::neighbour_shape): a cloud (kept by reference) and its bins.
+/// (ImprovedConfig::neighbour_shape): a cloud (its spans; the arrays must outlive the search) and
+/// its bins.
 class NeighbourSearch {
  public:
   /// window_reach (m): no smaller than a0 times the largest stretch of the particles' F whose
-  /// windows are searched (the bins are half of it).
+  /// windows are searched (the bins are a third of it).
   NeighbourSearch(const ParticleCloud& cloud, double window_reach);
   ~NeighbourSearch();
   const ParticleCloud& cloud() const { return cloud_; }
   const ParticleBins& bins() const { return *bins_; }
 
  private:
-  const ParticleCloud& cloud_;
+  ParticleCloud cloud_;  ///< (spans: the arrays must outlive the search)
   std::unique_ptr<ParticleBins> bins_;
 };
 

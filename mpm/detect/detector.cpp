@@ -167,8 +167,8 @@ ImprovedConfig parse_improved(const JsonView& v) {
   c.neighbour_shape = v.number_or("neighbour_shape", c.neighbour_shape);
   if (v.has("neighbour_shape")) {
     v.at("neighbour_shape")
-        .require(c.neighbour_shape >= 0.0 && c.neighbour_shape < 1.0,
-                 "must be in [0, 1) (0 = off)");
+        .require(c.neighbour_shape >= 0.0 && c.neighbour_shape <= 0.9,
+                 "must be in [0, 0.9] (0 = off)");
   }
   return c;
 }

@@ -149,14 +149,16 @@ struct ImprovedConfig {
   /// between roller sides) then has no boundary along it and its contour ends on the edge. No
   /// effect on a body clear of the edges (by more than a spacing) or cut by them.
   bool mirror_grid_edges = true;
-  /// Kernel shape regularised by the neighbours, beta in [0, 1) (0 = off, the shape F S0 alone):
-  /// S S^T = a0^2 F [(1 - beta) I + beta M / m1] F^T, M the second moment of the neighbours'
-  /// offsets pulled back by F^-1 in the particle's own kernel window (along each principal axis,
-  /// the fuller side's), m1 its value for a window full of material. Deep in a body and at a free
-  /// surface M = m1 I (the shape stays F S0); in a body thinner than the window the kernel
-  /// flattens across it (a one-particle filament: beta 0.7 joins it into one loop of the right
-  /// width, beta 0 leaves a guard island per particle). Costs a neighbour search for each particle
-  /// of the narrow band (README of mpm/detect).
+  /// Kernel shape regularised by the neighbours, beta in [0, 0.9] (0 = off, the shape F S0 alone):
+  /// S S^T = a0^2 F [(1 - beta) I + beta A] F^T. A has the principal axes of the second moment
+  /// of the neighbours' offsets pulled back by F^-1 in the particle's own kernel window and, along
+  /// each, min(1, 2 m / m1): m the fuller side's moment, m1 a full window's. Deep in a body and at
+  /// a free surface A = I (the shape stays F S0); across a body thinner than about half the
+  /// window the kernel narrows, never widens (a filament one particle thick: beta 0.7 joins it
+  /// into one loop of its width, beta 0 leaves a guard island per particle). The guards narrow
+  /// with their kernels, so the automatic refinement's cap becomes
+  /// max_refinement / sqrt(1 - beta). Costs a neighbour search for each particle of the narrow
+  /// band (README of mpm/detect).
   double neighbour_shape = 0.0;
 };
 

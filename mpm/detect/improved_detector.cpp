@@ -339,6 +339,45 @@ std::vector<char> dilate(const std::vector<char>& in, int n_x, int n_y, int ring
       [rings](int last, int target) { return last >= target - rings; });
 }
 
+// The particles of the cloud in the grid cells within `reach` (m) of a cell holding one of the
+// band's particles (a particle outside the grid counts in the nearest cell; the particles outside
+// the grid are all taken), run by run from the survey: every particle within `reach` of a band
+// particle is among them.
+struct NeighbourCloud {
+  std::vector<Vec2> position;
+  std::vector<double> volume;
+};
+
+NeighbourCloud neighbours_of_band(const ParticleCloud& cloud, const Grid& grid,
+                                  const CloudSurvey& survey, const ParticleCloud& band,
+                                  double reach) {
+  const CellLattice l = cell_lattice(grid);
+  std::vector<char> holds(static_cast<std::size_t>(l.n_x) * l.n_y, 0);
+  const auto index = [](double offset, double inverse_size, int n) {
+    const double c = std::floor(offset * inverse_size);
+    return static_cast<int>(std::clamp(c, 0.0, n - 1.0));
+  };
+  for (const Vec2& x : band.position) {
+    const int i = index(x.x() - l.origin_x, l.inverse_size, l.n_x);
+    const int j = index(x.y() - l.origin_y, l.inverse_size, l.n_y);
+    holds[static_cast<std::size_t>(j) * l.n_x + i] = 1;
+  }
+  const int rings = std::max(1, static_cast<int>(std::ceil(reach / grid.cell_size)));
+  const std::vector<char> near = dilate(holds, l.n_x, l.n_y, rings);
+  NeighbourCloud out;
+  for (const Runs& runs : survey.runs) {
+    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
+      const int c = runs.cell[r];
+      if (c >= 0 && !near[static_cast<std::size_t>(c)]) continue;
+      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) {
+        out.position.push_back(cloud.position[p]);
+        out.volume.push_back(cloud.volume[p]);
+      }
+    }
+  }
+  return out;
+}
+
 // Wall-clock laps of the improved detector's parts (DetectionTimings::FieldParts).
 class Laps {
  public:
@@ -661,7 +700,11 @@ int pass_refinement(const ImprovedConfig& config, int pass, const ImprovedField&
   const int refinement = std::isfinite(axis)
                              ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
                              : 4;
-  return std::clamp(std::max(refinement, 4), 1, std::max(1, config.max_refinement));
+  // Kernels shaped by the neighbours narrow their guards by up to sqrt(1 - beta) across: the cap
+  // grows as much, so that it covers the guards of F as it does without the option.
+  const int cap = static_cast<int>(
+      std::ceil(std::max(1, config.max_refinement) / std::sqrt(1.0 - config.neighbour_shape)));
+  return std::clamp(std::max(refinement, 4), 1, cap);
 }
 
 // The field max(phi, guard) on the nodes of the grid refined r times, each evaluated on first use
@@ -1131,10 +1174,16 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   const std::span<const char> interior_by_volume =
       band ? std::span<const char>(band->interior_by_volume) : std::span<const char>();
   lap(parts.band);
-  //    The kernels of the field's particles shaped by their neighbours among all particles.
+  //    The kernels of the field's particles shaped by their neighbours: for the band, those in
+  //    the cells within a kernel reach of its particles' (the sums do not depend on which other
+  //    particles the search holds).
   std::vector<Mat2> shaped;
   if (config.neighbour_shape > 0.0) {
-    const NeighbourSearch search(cloud, kernel_reach);
+    NeighbourCloud near;
+    if (band) near = neighbours_of_band(cloud, grid, survey, field_cloud, kernel_reach);
+    const NeighbourSearch search(
+        band ? ParticleCloud{near.position, near.volume, {}, cloud.initial_spacing} : cloud,
+        kernel_reach);
     shaped = neighbour_shaped_deformation(search, field_cloud, config);
     field_cloud.deformation_gradient = shaped;
   }

@@ -44,7 +44,7 @@ double neighbour_moment_of_unit_window(KernelProfile profile) {
 }
 
 NeighbourSearch::NeighbourSearch(const ParticleCloud& cloud, double window_reach)
-    : cloud_(cloud), bins_(std::make_unique<ParticleBins>(cloud.position, 0.5 * window_reach)) {}
+    : cloud_(cloud), bins_(std::make_unique<ParticleBins>(cloud.position, window_reach / 3.0)) {}
 
 NeighbourSearch::~NeighbourSearch() = default;
 
@@ -60,7 +60,7 @@ WindowMoment neighbour_window_moment(const NeighbourSearch& search, const Improv
   // One buffer per thread, kept between particles.
   thread_local std::vector<Neighbour> near;
   near.clear();
-  double m00 = 0.0, m01 = 0.0, m11 = 0.0;
+  double largest_volume = 0.0;
   const ParticleBins& bins = search.bins();
   bins.for_each_slot_in_box(x - Vec2(half_x, half_y), x + Vec2(half_x, half_y), [&](int slot) {
     const auto j = static_cast<std::size_t>(bins.particle_at(slot));
@@ -68,16 +68,30 @@ WindowMoment neighbour_window_moment(const NeighbourSearch& search, const Improv
     const double q = u.squaredNorm();
     if (!(q < 1.0)) return;
     double w = cloud.volume[j];
+    largest_volume = std::max(largest_volume, w);
     for (int e = 0; e < k; ++e) w *= 1.0 - q;
     near.push_back({u, w});
-    m00 += w * u.x() * u.x();
-    m01 += w * u.x() * u.y();
-    m11 += w * u.y() * u.y();
   });
+  // The sums are sums of integers, each term rounded to a multiple of a unit set by the window's
+  // largest volume and number of neighbours (so that no sum can exceed 2^62 units: every term is
+  // at most that volume): they do not depend on the order the bins visit the neighbours in, nor
+  // on which bins hold them.
+  int exponent = 0;
+  std::frexp(largest_volume * static_cast<double>(near.size()), &exponent);
+  // (Powers of two: the products are exact, as std::ldexp would be.)
+  const double scale = std::ldexp(1.0, 62 - exponent), unit = std::ldexp(1.0, exponent - 62);
+  const auto units = [scale](double term) { return std::llrint(term * scale); };
+  const auto value = [unit](long long sum) { return static_cast<double>(sum) * unit; };
+  long long m00 = 0, m01 = 0, m11 = 0;
+  for (const Neighbour& n : near) {
+    m00 += units(n.w * n.u.x() * n.u.x());
+    m01 += units(n.w * n.u.x() * n.u.y());
+    m11 += units(n.w * n.u.y() * n.u.y());
+  }
   // The principal axes of the whole window's moment (x and y when it is diagonal).
   WindowMoment result;
-  if (m01 != 0.0) {
-    const double angle = 0.5 * std::atan2(2.0 * m01, m00 - m11);
+  if (m01 != 0) {
+    const double angle = 0.5 * std::atan2(2.0 * value(m01), value(m00) - value(m11));
     result.axis[0] = Vec2(std::cos(angle), std::sin(angle));
     result.axis[1] = Vec2(-result.axis[0].y(), result.axis[0].x());
   }
@@ -87,24 +101,24 @@ WindowMoment neighbour_window_moment(const NeighbourSearch& search, const Improv
   // so that both sides have weight.
   for (int a = 0; a < 2; ++a) {
     const Vec2& e = result.axis[a];
-    double i_plus = 0.0, w_plus = 0.0, i_minus = 0.0, w_minus = 0.0;
+    long long i_plus = 0, w_plus = 0, i_minus = 0, w_minus = 0;
     for (const Neighbour& n : near) {
       const double c = e.dot(n.u);
-      const double i = n.w * c * c;
       if (c > 1e-9) {
-        i_plus += i;
-        w_plus += n.w;
+        i_plus += units(n.w * c * c);
+        w_plus += units(n.w);
       } else if (c < -1e-9) {
-        i_minus += i;
-        w_minus += n.w;
+        i_minus += units(n.w * c * c);
+        w_minus += units(n.w);
       } else {
-        i_plus += 0.5 * i;
-        w_plus += 0.5 * n.w;
-        i_minus += 0.5 * i;
-        w_minus += 0.5 * n.w;
+        const long long i = units(0.5 * n.w * c * c), w = units(0.5 * n.w);
+        i_plus += i;
+        w_plus += w;
+        i_minus += i;
+        w_minus += w;
       }
     }
-    result.moment[a] = std::max(i_plus / w_plus, i_minus / w_minus);
+    result.moment[a] = std::max(value(i_plus) / value(w_plus), value(i_minus) / value(w_minus));
   }
   return result;
 }

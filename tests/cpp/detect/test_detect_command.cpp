@@ -146,7 +146,7 @@ TEST(DetectCommand, BadInputNamesFileLineAndColumn) {
   expect_error("bad_config", "x,y,volume\n1,2,0.1\n", R"({"improved": {"levle": 0.5}})",
                "c.json: /improved/levle: unknown key");
   expect_error("bad_shape", "x,y,volume\n1,2,0.1\n", R"({"improved": {"neighbour_shape": 1}})",
-               "c.json: /improved/neighbour_shape: must be in [0, 1) (0 = off)");
+               "c.json: /improved/neighbour_shape: must be in [0, 0.9] (0 = off)");
   expect_error("bad_grid", "x,y,volume\n1,2,0.1\n",
                R"({"grid": {"origin": [0, 0], "cell_size": -1, "n_cells": [4, 4]}})",
                "c.json: /grid/cell_size");

@@ -106,9 +106,11 @@ TEST(Determinism, NarrowBandEqualsFullField) {
 // The number of random cases (seeds first .. first + n - 1) whose improved boundary from
 // `second(case)` differs from that of the case as it is; prints each.
 template <class Second>
-int cases_that_differ(std::uint64_t first, int n, const char* what, Second second) {
+int cases_that_differ(std::uint64_t first, int n, const char* what, Second second,
+                      double neighbour_shape = 0.0) {
   DetectorConfig config;
   config.method = DetectorMethod::kImproved;
+  config.improved.neighbour_shape = neighbour_shape;
   int mismatches = 0;
   for (std::uint64_t seed = first; seed < first + n; ++seed) {
     const auto rc = random_case(seed);
@@ -124,7 +126,7 @@ int cases_that_differ(std::uint64_t first, int n, const char* what, Second secon
 
 // The improved detector's kernel sums are integer sums of rounded terms (vector_loops.hpp): the
 // order of the particles does not change the field, so a shuffled cloud gives bitwise the same
-// boundary.
+// boundary. So are the sums of the kernel shapes from the neighbours (neighbour_shape.cpp).
 TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
   const auto shuffled = [](const RandomCase& rc, const DetectorConfig& config) {
     OwnedCloud c = rc.cloud;
@@ -142,6 +144,9 @@ TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheParticleOrder) {
     return detect(c.view(), rc.grid, config, state);
   };
   EXPECT_EQ(cases_that_differ(200000, 300, "shuffled cloud differs", shuffled), 0);
+  EXPECT_EQ(
+      cases_that_differ(200000, 300, "shuffled cloud differs (neighbour_shape 0.7)", shuffled, 0.7),
+      0);
 }
 
 // The vectorised loops (kernel sums, the sweep over the cloud) run with the widest instruction
