@@ -82,8 +82,8 @@ class NeighbourSearch {
   std::unique_ptr<ParticleBins> bins_;
 };
 
-/// Kernel shapes regularised by the neighbours (ImprovedConfig::neighbour_shape = beta in (0, 1)):
-/// for each of `particles`, all of them in the search's cloud, the symmetric F' with
+/// Kernel shapes regularised by the neighbours (ImprovedConfig::neighbour_shape, beta in
+/// (0, 0.9]): for each of `particles`, all of them in the search's cloud, the symmetric F' with
 /// F' F'^T = F [(1 - beta) I + beta A] F^T, where A has the principal axes e_i of
 /// neighbour_window_moment() and eigenvalues min(1, m_i / (m1 / 2)), m1 from
 /// neighbour_moment_of_unit_window(): the kernel narrows across a body thinner than about half
