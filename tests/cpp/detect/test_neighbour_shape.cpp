@@ -1,14 +1,14 @@
 // The improved detector's kernels shaped by the neighbours (ImprovedConfig::neighbour_shape):
-// the window moments against lattice sums done here by hand, the shapes on an affine block, a
-// filament one particle thick, the static shapes of issue 3 and the contour invariants on the
-// random clouds with the option on.
+// the window moments against lattice sums done here by hand, the shapes on an affine block and a
+// filament one particle thick. The static shapes of issue 3 (test_static_shapes.cpp), the contour
+// invariants on the random clouds (test_invariants.cpp) and the particle order
+// (test_determinism.cpp) are checked with the option on too.
 #include <gtest/gtest.h>
 #include <omp.h>
 
 #include <cstdio>
 
 #include "mpm/detect/detect_internal.hpp"
-#include "mpm/detect/particle_bins.hpp"
 #include "random_clouds.hpp"
 
 namespace pfm::test {
