@@ -339,45 +339,6 @@ std::vector<char> dilate(const std::vector<char>& in, int n_x, int n_y, int ring
       [rings](int last, int target) { return last >= target - rings; });
 }
 
-// The particles of the cloud in the grid cells within `reach` (m) of a cell holding one of the
-// band's particles (a particle outside the grid counts in the nearest cell; the particles outside
-// the grid are all taken), run by run from the survey: every particle within `reach` of a band
-// particle is among them.
-struct NeighbourCloud {
-  std::vector<Vec2> position;
-  std::vector<double> volume;
-};
-
-NeighbourCloud neighbours_of_band(const ParticleCloud& cloud, const Grid& grid,
-                                  const CloudSurvey& survey, const ParticleCloud& band,
-                                  double reach) {
-  const CellLattice l = cell_lattice(grid);
-  std::vector<char> holds(static_cast<std::size_t>(l.n_x) * l.n_y, 0);
-  const auto index = [](double offset, double inverse_size, int n) {
-    const double c = std::floor(offset * inverse_size);
-    return static_cast<int>(std::clamp(c, 0.0, n - 1.0));
-  };
-  for (const Vec2& x : band.position) {
-    const int i = index(x.x() - l.origin_x, l.inverse_size, l.n_x);
-    const int j = index(x.y() - l.origin_y, l.inverse_size, l.n_y);
-    holds[static_cast<std::size_t>(j) * l.n_x + i] = 1;
-  }
-  const int rings = std::max(1, static_cast<int>(std::ceil(reach / grid.cell_size)));
-  const std::vector<char> near = dilate(holds, l.n_x, l.n_y, rings);
-  NeighbourCloud out;
-  for (const Runs& runs : survey.runs) {
-    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
-      const int c = runs.cell[r];
-      if (c >= 0 && !near[static_cast<std::size_t>(c)]) continue;
-      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) {
-        out.position.push_back(cloud.position[p]);
-        out.volume.push_back(cloud.volume[p]);
-      }
-    }
-  }
-  return out;
-}
-
 // Wall-clock laps of the improved detector's parts (DetectionTimings::FieldParts).
 class Laps {
  public:
@@ -396,6 +357,7 @@ class Laps {
 // contacts of the whole cloud, and copies of the particles within reach of the other cells.
 struct Band {
   std::vector<char> interior_by_volume;  ///< per grid cell
+  std::vector<char> needed;              ///< per grid cell: its particles are in the band
   ImprovedField::WallContacts contacts;  ///< of every particle, not only the band's
   std::vector<Vec2> position;            ///< m
   std::vector<double> volume;            ///< m^2
@@ -497,8 +459,10 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   // could alias a vector's own pointer, which would then be read again at every cell.)
   const bool every_particle_may_touch = cloud.initial_spacing > h;
   band.interior_by_volume.assign(static_cast<std::size_t>(ncx) * ncy, 0);
+  band.needed.assign(band.interior_by_volume.size(), 0);
   std::vector<char> code(band.interior_by_volume.size() + 1, 3);
   char* const interior_out = band.interior_by_volume.data();
+  char* const needed_out = band.needed.data();
   char* const code_out = code.data() + 1;
   const char* const interior_in = padded_interior.data();
   const char* const needed_in = padded_needed.data();
@@ -506,6 +470,7 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     const int j = static_cast<int>(row);
     const std::size_t padded = (row + pad) * px + pad;
     std::copy_n(interior_in + padded, ncx, interior_out + row * ncx);
+    std::copy_n(needed_in + padded, ncx, needed_out + row * ncx);
     for (int i = 0; i < ncx; ++i) {
       const bool edge =
           every_particle_may_touch || i == 0 || j == 0 || i == ncx - 1 || j == ncy - 1;
@@ -559,6 +524,32 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     if (deformed) band.deformation[k] = cloud.deformation_gradient[p];
   });
   return band;
+}
+
+// The particles of the cloud in the grid cells within `reach` (m) of the band's cells, and those
+// outside the grid (which the band takes all of), run by run from the survey: every particle
+// within `reach` of a band particle is among them.
+struct NeighbourCloud {
+  std::vector<Vec2> position;
+  std::vector<double> volume;
+};
+
+NeighbourCloud neighbours_of_band(const ParticleCloud& cloud, const Grid& grid,
+                                  const CloudSurvey& survey, const Band& band, double reach) {
+  const int rings = std::max(1, static_cast<int>(std::ceil(reach / grid.cell_size)));
+  const std::vector<char> near = dilate(band.needed, grid.n_cells_x, grid.n_cells_y, rings);
+  NeighbourCloud out;
+  for (const Runs& runs : survey.runs) {
+    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
+      const int c = runs.cell[r];
+      if (c >= 0 && !near[static_cast<std::size_t>(c)]) continue;
+      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) {
+        out.position.push_back(cloud.position[p]);
+        out.volume.push_back(cloud.volume[p]);
+      }
+    }
+  }
+  return out;
 }
 
 // The coarse screening of the grid cells (narrow band, step 1), per grid cell.
@@ -1170,7 +1161,6 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   ParticleCloud field_cloud =
       band ? ParticleCloud{band->position, band->volume, band->deformation, cloud.initial_spacing}
            : cloud;
-  field_cloud.step_survey = nullptr;
   const std::span<const char> interior_by_volume =
       band ? std::span<const char>(band->interior_by_volume) : std::span<const char>();
   lap(parts.band);
@@ -1180,7 +1170,7 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   std::vector<Mat2> shaped;
   if (config.neighbour_shape > 0.0) {
     NeighbourCloud near;
-    if (band) near = neighbours_of_band(cloud, grid, survey, field_cloud, kernel_reach);
+    if (band) near = neighbours_of_band(cloud, grid, survey, *band, kernel_reach);
     const NeighbourSearch search(
         band ? ParticleCloud{near.position, near.volume, {}, cloud.initial_spacing} : cloud,
         kernel_reach);
