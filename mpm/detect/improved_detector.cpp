@@ -170,19 +170,13 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
     while (p < end && cell[p] == cell[p - 1]) ++p;
   }
   if (p == end) return runs;
-  std::size_t count = 1;  // p and every change of cell after it
-  for (std::size_t q = p + 1; q < end; ++q) count += cell[q] != cell[q - 1] ? 1 : 0;
+  runs.start.resize(end - p + 1);  // room for every index; shrunk to the runs found
+  std::uint32_t* start = runs.start.data();
+  start[0] = static_cast<std::uint32_t>(p);
+  const std::size_t count = 1 + cell_changes(cell, p + 1, end, start + 1);
   runs.start.resize(count + 1);
   runs.cell.resize(count);
   runs.volume.resize(count);
-  // Each index is written at the next free place, which only a run start keeps (no branch).
-  std::uint32_t* start = runs.start.data();
-  start[0] = static_cast<std::uint32_t>(p);
-  std::size_t k = 1;
-  for (std::size_t q = p + 1; q < end; ++q) {
-    start[k] = static_cast<std::uint32_t>(q);
-    k += cell[q] != cell[q - 1] ? 1 : 0;
-  }
   std::size_t last = end;  // the last run goes on while its cell does
   while (last < n && cell[last] == cell[end - 1]) ++last;
   start[count] = static_cast<std::uint32_t>(last);

@@ -5,6 +5,10 @@
 #include <cstring>
 #include <limits>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 namespace pfm::detail {
 
 namespace {
@@ -167,6 +171,27 @@ VolumeTotals volumes_plain(const double* v, const double* f, std::size_t n) {
   return volume_sweep(v, f, n);
 }
 
+// cell_changes() from index q on, k indices found so far: each index is written at the next free
+// place, which only a change keeps (no branch; the place is within the room for end - begin).
+std::size_t changes_from(const int* cell, std::size_t q, std::size_t end, std::uint32_t* out,
+                         std::size_t k) {
+  for (; q < end; ++q) {
+    out[k] = static_cast<std::uint32_t>(q);
+    k += cell[q] != cell[q - 1] ? 1 : 0;
+  }
+  return k;
+}
+
+// The changes among W cells whose bit is set in `mask` (bit i: cell q + i), appended to out.
+[[gnu::always_inline]] inline std::size_t append_changes(unsigned mask, std::size_t q,
+                                                         std::uint32_t* out, std::size_t k) {
+  while (mask != 0) {
+    out[k++] = static_cast<std::uint32_t>(q + static_cast<std::size_t>(__builtin_ctz(mask)));
+    mask &= mask - 1;
+  }
+  return k;
+}
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PFM_VECTOR_LOOPS_X86 1
 // Fused multiply-adds would round differently from the plain version: the file is compiled
@@ -187,7 +212,44 @@ template <bool Cells>
   return volume_sweep(v, f, n);
 }
 
+// Four cells at a time in SSE2, which every x86-64 processor has.
+std::size_t changes_sse2(const int* cell, std::size_t begin, std::size_t end, std::uint32_t* out) {
+  std::size_t q = begin, k = 0;
+  for (; q + 4 <= end; q += 4) {
+    const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(cell + q));
+    const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(cell + q - 1));
+    const unsigned same =
+        static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(a, b))));
+    k = append_changes(~same & 0xFu, q, out, k);
+  }
+  return changes_from(cell, q, end, out, k);
+}
+
+[[gnu::target("avx2")]] std::size_t changes_avx2(const int* cell, std::size_t begin,
+                                                 std::size_t end, std::uint32_t* out) {
+  std::size_t q = begin, k = 0;
+  for (; q + 8 <= end; q += 8) {
+    const __m256i a = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cell + q));
+    const __m256i b = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cell + q - 1));
+    const unsigned same =
+        static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b))));
+    k = append_changes(~same & 0xFFu, q, out, k);
+  }
+  return changes_from(cell, q, end, out, k);
+}
+
 #define PFM_AVX512 "avx512f,avx512dq,avx512vl"
+[[gnu::target(PFM_AVX512)]] std::size_t changes_avx512(const int* cell, std::size_t begin,
+                                                       std::size_t end, std::uint32_t* out) {
+  std::size_t q = begin, k = 0;
+  for (; q + 16 <= end; q += 16) {
+    const __m512i a = _mm512_loadu_si512(cell + q);
+    const __m512i b = _mm512_loadu_si512(cell + q - 1);
+    k = append_changes(_mm512_cmpneq_epi32_mask(a, b), q, out, k);
+  }
+  return changes_from(cell, q, end, out, k);
+}
+
 template <int E>
 [[gnu::target(PFM_AVX512)]] std::uint64_t sum_avx512(const KernelColumns& c, const int* begin,
                                                      const int* end, int n_ranges, double px,
@@ -280,6 +342,16 @@ VolumeTotals sweep_volumes(const double* volume, const double* deformation, std:
   if (lanes_in_use == VectorLanes::kAvx2) return volumes_avx2(volume, deformation, n);
 #endif
   return volumes_plain(volume, deformation, n);
+}
+
+std::size_t cell_changes(const int* cell, std::size_t begin, std::size_t end, std::uint32_t* out) {
+#ifdef PFM_VECTOR_LOOPS_X86
+  if (lanes_in_use == VectorLanes::kAvx512) return changes_avx512(cell, begin, end, out);
+  if (lanes_in_use == VectorLanes::kAvx2) return changes_avx2(cell, begin, end, out);
+  return changes_sse2(cell, begin, end, out);
+#else
+  return changes_from(cell, begin, end, out, 0);
+#endif
 }
 
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,

@@ -1,6 +1,7 @@
-// The improved detector's loops that run in vector registers: the kernel sums and the one sweep
-// over every particle of the cloud. Each is compiled for plain x86-64, AVX2 and AVX-512, chosen
-// at run time; all give the same bits (plain IEEE operations, no fused multiply-add).
+// The improved detector's loops that run in vector registers: the kernel sums, the one sweep
+// over every particle of the cloud and the search for the runs of particles in one cell. Each is
+// compiled for plain x86-64, AVX2 and AVX-512, chosen at run time; all give the same bits (plain
+// IEEE operations, no fused multiply-add).
 //
 // Kernel sums, phi(x) = sum_k w_k (1 - q_k(x))_+^E, four or eight slots at a time: each term is
 // rounded to an integer multiple of 2^-s (s fixed per detection by the largest kernel weight,
@@ -76,6 +77,12 @@ VolumeTotals sweep_volumes(const double* volume, const double* deformation, std:
 /// Both sweeps.
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
                         std::size_t n, const CellLattice& lattice, int* cell);
+
+/// The indices q of [begin, end), begin >= 1, where cell[q] != cell[q - 1] (a new run of
+/// particles in one cell starts), in increasing order, written to `out` (room for end - begin
+/// indices); returns how many. The cells are compared 16, 8 or 4 at a time, and every instruction
+/// set gives the same indices.
+std::size_t cell_changes(const int* cell, std::size_t begin, std::size_t end, std::uint32_t* out);
 
 /// The instruction sets these loops are compiled for: plain x86-64 (two lanes of SSE2 where four
 /// are written), AVX2 (four lanes) and AVX-512 (eight lanes in the kernel sums). All give the

@@ -462,6 +462,45 @@ TEST(Survey, LargestStretchEqualsTheMaximumOverEveryParticle) {
   EXPECT_EQ(cases, 28 * (static_cast<int>(detail::widest_vector_lanes()) + 1));
 }
 
+// The starts of the runs of particles in one cell, found 16, 8 or 4 cells at a time, against a
+// comparison of each cell with the one before: runs of 1 to 40 particles, one long run, the
+// cells of a shuffled cloud (a new run almost everywhere), every start and end of the range
+// around the vector widths, on every instruction set the processor has.
+TEST(Survey, CellChangesAreEveryIndexWhereTheCellChanges) {
+  std::mt19937_64 rng(11);
+  int compared = 0;
+  for (const int kind : {0, 1, 2}) {
+    std::vector<int> cell;
+    int c = 0;
+    while (cell.size() < 300) {
+      const int length = kind == 0 ? 1 + static_cast<int>(rng() % 40) : kind == 1 ? 300 : 1;
+      const int next = kind == 2 ? static_cast<int>(rng() % 7) - 1 : c++;
+      for (int k = 0; k < length; ++k) cell.push_back(next);
+    }
+    for (std::size_t begin = 1; begin < 40; ++begin) {
+      for (const std::size_t end :
+           {begin, begin + 1, begin + 15, begin + 16, begin + 17, std::size_t{250}, cell.size()}) {
+        std::vector<std::uint32_t> expected;
+        for (std::size_t q = begin; q < end; ++q) {
+          if (cell[q] != cell[q - 1]) expected.push_back(static_cast<std::uint32_t>(q));
+        }
+        for (const auto lanes : {detail::VectorLanes::kPlain, detail::VectorLanes::kAvx2,
+                                 detail::VectorLanes::kAvx512}) {
+          if (lanes > detail::widest_vector_lanes()) continue;
+          detail::set_vector_lanes(lanes);
+          std::vector<std::uint32_t> found(end - begin);
+          found.resize(detail::cell_changes(cell.data(), begin, end, found.data()));
+          EXPECT_EQ(found, expected) << "kind " << kind << ", range [" << begin << ", " << end
+                                     << "), lanes " << static_cast<int>(lanes);
+          ++compared;
+        }
+        detail::set_vector_lanes(detail::widest_vector_lanes());
+      }
+    }
+  }
+  EXPECT_EQ(compared, 3 * 39 * 7 * (static_cast<int>(detail::widest_vector_lanes()) + 1));
+}
+
 TEST(RootFinder, BrentNeedsAtMostTenEvaluationsForOneMillionthOfACell) {
   const auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(2, 2), Vec2(6, 6),
                                    [](const Vec2& x) { return (x - Vec2(4, 4)).norm() < 1.8; });
