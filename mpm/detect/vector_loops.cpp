@@ -182,7 +182,7 @@ std::size_t changes_from(const int* cell, std::size_t q, std::size_t end, std::u
   return k;
 }
 
-// The changes among W cells whose bit is set in `mask` (bit i: cell q + i), appended to out.
+// The changes whose bit is set in `mask` (bit i: cell q + i), appended to out from place k.
 [[gnu::always_inline]] inline std::size_t append_changes(unsigned mask, std::size_t q,
                                                          std::uint32_t* out, std::size_t k) {
   while (mask != 0) {
