@@ -9,8 +9,8 @@ CASE ?= cases/bearing_block.json
 OUT ?= results/bearing_block
 
 # Debian packages the build, the tests and the studies need. Debian names the package of a Python
-# module after the interpreter's name without its minor version (/usr/bin/python3 and
-# /usr/bin/python3.11 both give python3-<module>); Python itself always runs as $(PYTHON).
+# module after the interpreter's file name without its minor version, followed by a dash and the
+# module (DEB_PYTHON_PREFIX, from $(PYTHON)); Python itself always runs as $(PYTHON).
 DEB_PYTHON_PREFIX := $(basename $(notdir $(PYTHON)))-
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypothesis jinja2 h5py \
   meshio gmsh dolfinx distributed
