@@ -300,6 +300,7 @@ MPM_INTEGRATION_KEYS = (
     "split_at_cell_edges",
     "scale_eq_6_15",
     "redistribute_lost_load",
+    "min_node_mass_fraction",
 )
 
 
@@ -390,6 +391,15 @@ def _read_load(ld, file, p, ignored):
     _int(ld, "gauss_points", file, p, 5, 1, 20)
     for key in ("split_at_cell_edges", "scale_eq_6_15", "redistribute_lost_load"):
         _bool(ld, key, file, p, False)
+    _number(
+        ld,
+        "min_node_mass_fraction",
+        file,
+        p,
+        0.01,
+        check=lambda v: 0 <= v < 1,
+        what="must be in [0, 1) (a fraction of a full cell's mass)",
+    )
     for key in MPM_INTEGRATION_KEYS:
         if key in ld:
             ignored.append(
@@ -704,10 +714,21 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         loads.append(_read_load(ld, file, f"/loads/{k}", ignored))
 
     solver = root.get("solver", {})
-    _expect_object(solver, file, "/solver", {"scheme", "shape_function", "damping"})
+    _expect_object(
+        solver, file, "/solver", {"scheme", "shape_function", "damping", "pic_fraction"}
+    )
     _choice(solver, "scheme", file, "/solver", ("musl", "usl"))
     _choice(solver, "shape_function", file, "/solver", ("linear", "gimp"))
-    for key in ("scheme", "shape_function"):
+    _number(
+        solver,
+        "pic_fraction",
+        file,
+        "/solver",
+        default=0.0,
+        check=lambda v: 0 <= v <= 1,
+        what="must be in [0, 1] (0 = FLIP, 1 = PIC)",
+    )
+    for key in ("scheme", "shape_function", "pic_fraction"):
         if key in solver:
             ignored.append(f"/solver/{key}: MPM only")
     damping = _number(

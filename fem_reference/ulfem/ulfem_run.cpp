@@ -227,11 +227,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
                       {"remap", st.remap},
                       {"stress", st.stress}}}};
   run["outputs"] = outputs;
-  const EnergyBalance e = solver.energy();
-  run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
-                              {"external_work", e.external_work},
-                              {"internal_work", e.internal_work},
-                              {"damping_work", e.damping_work}};
+  run["summary"]["energy"] = energy_summary(solver.energy());
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }

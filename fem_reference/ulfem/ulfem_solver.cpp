@@ -92,7 +92,6 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   nodes_.velocity.assign(n_nodes, Vec2::Zero());
   nodes_.acceleration.assign(n_nodes, Vec2::Zero());
   nodes_.fixed.assign(n_nodes, kFixNone);
-  velocity_before_update_.assign(n_nodes, Vec2::Zero());
   remapped_velocity_.assign(n_nodes, Vec2::Zero());
   const std::array<Vec2, 4> slots = point_slots();
   for (std::size_t k = 0; k < 4; ++k) {
@@ -124,7 +123,9 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   }
   counters_.dt = base_dt_;
   counters_.damping = case_.solver.damping;
-  internal_work_increment_.assign(particles_.size(), 0.0);
+  point_energy_.assign(particles_.size(), {});
+  for (const MaterialRecord& m : case_.materials)
+    material_constants_.push_back(material_constants(m.model));
 }
 
 void UlFemSolver::set_dt(double dt) {
@@ -194,7 +195,7 @@ void UlFemSolver::build_boundary_edges() {
     boundary_edges_.push_back({edge[0], edge[1]});
 }
 
-void UlFemSolver::compute_geometry() {
+void UlFemSolver::compute_geometry(bool account_energy) {
   const std::size_t n_elements = mesh_.n_elements();
   long inverted = -1;
   double min_length = std::numeric_limits<double>::infinity();
@@ -240,8 +241,19 @@ void UlFemSolver::compute_geometry() {
                           " s (step " + std::to_string(counters_.step) + ")");
   }
   min_element_length_ = min_length;
-  // Current volumes of the material points: det J x weight (1).
-  for (std::size_t p = 0; p < particles_.size(); ++p) particles_.volume[p] = det_jacobian_[p];
+  // Current volumes of the material points: det J x weight (1). After a step's move the
+  // elastic energy V psi changes by (V' - V) psi at the updated stress (the ledger's
+  // volume_work; the stress update works at the volume of the start of the step).
+  double volume_work = 0.0;
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    if (account_energy) {
+      const auto mi = static_cast<std::size_t>(particles_.material[p]);
+      volume_work += (det_jacobian_[p] - particles_.volume[p]) *
+                     elastic_energy_density(material_constants_[mi], particles_.stress[p]);
+    }
+    particles_.volume[p] = det_jacobian_[p];
+  }
+  counters_.energy.volume_work += volume_work;
 }
 
 std::string UlFemSolver::describe_element(std::size_t element, const Vec2& x) const {
@@ -473,60 +485,44 @@ void UlFemSolver::apply_loads() {
 }
 
 void UlFemSolver::update_nodes() {
-  // The arithmetic of MpmSolver::update_grid, node by node.
+  // The node update of the MPM's grid (energy_ledger.hpp), in node order.
   const std::size_t n_nodes = nodes_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
-  const double alpha = counters_.damping;
-  const double dt = counters_.dt;
+  const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // as external_forces
+  NodeEnergy step;
   for (std::size_t n = 0; n < n_nodes; ++n) {
     const double m = nodes_.mass[n];
     if (m <= tiny) {
-      velocity_before_update_[n] = Vec2::Zero();
       nodes_.velocity[n] = Vec2::Zero();
       nodes_.acceleration[n] = Vec2::Zero();
       continue;
     }
-    Vec2 v = nodes_.momentum[n] / m;
-    const Vec2 f = nodes_.internal_force[n] + nodes_.external_force[n];
-    // Local (Cundall) damping: a force opposing the velocity, proportional to the unbalanced
-    // force, per direction.
-    Vec2 damping_force = Vec2::Zero();
-    for (int d = 0; d < 2; ++d) {
-      const double sign = v[d] > 0.0 ? 1.0 : (v[d] < 0.0 ? -1.0 : 0.0);
-      damping_force[d] = -alpha * std::abs(f[d]) * sign;
-    }
-    Vec2 a = (f + damping_force) / m;
-    const unsigned fixed = nodes_.fixed[n];
-    if (fixed & kFixX) a.x() = v.x() = 0.0;
-    if (fixed & kFixY) a.y() = v.y() = 0.0;
-    velocity_before_update_[n] = v;
-    nodes_.acceleration[n] = a;
-    nodes_.velocity[n] = v + a * dt;
+    update_node(m, nodes_.momentum[n], nodes_.internal_force[n], nodes_.external_force[n],
+                m * gravity, nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY, counters_.damping,
+                counters_.dt, nodes_.velocity[n], nodes_.acceleration[n], step);
   }
-  double external = 0.0, damping = 0.0;
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    if (nodes_.mass[n] <= tiny) continue;
-    const Vec2 mid = 0.5 * (velocity_before_update_[n] + nodes_.velocity[n]);
-    external += nodes_.external_force[n].dot(mid) * dt;
-    const Vec2 f = nodes_.internal_force[n] + nodes_.external_force[n];
-    damping += (nodes_.acceleration[n] * nodes_.mass[n] - f).dot(mid) * dt;
-  }
-  counters_.external_work += external;
-  counters_.damping_work += damping;
+  counters_.energy.add_grid_update(step);
+  grid_kinetic_after_ = step.kinetic_after;
 }
 
 void UlFemSolver::nodes_to_particles() {
   const std::size_t n_elements = mesh_.n_elements();
   const double dt = counters_.dt;
+  const double pic_fraction = case_.solver.pic_fraction;
 #pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
   for (std::size_t e = 0; e < n_elements; ++e) {
     for (std::size_t k = 0; k < 4; ++k) {
-      Vec2 a = Vec2::Zero();
+      Vec2 a = Vec2::Zero(), v = Vec2::Zero();
       for (std::size_t n = 0; n < 4; ++n) {
-        a += shape_value_[k][static_cast<Eigen::Index>(n)] *
-             nodes_.acceleration[static_cast<std::size_t>(mesh_.element_nodes[e][n])];
+        const auto node = static_cast<std::size_t>(mesh_.element_nodes[e][n]);
+        const double weight = shape_value_[k][static_cast<Eigen::Index>(n)];
+        a += weight * nodes_.acceleration[node];
+        v += weight * nodes_.velocity[node];
       }
-      particles_.velocity[4 * e + k] += dt * a;  // FLIP, as the MPM
+      // FLIP, blended with PIC by pic_fraction, as the MPM.
+      Vec2& vp = particles_.velocity[4 * e + k];
+      const Vec2 flip = vp + dt * a;
+      vp = pic_fraction == 0.0 ? flip : (1.0 - pic_fraction) * flip + pic_fraction * v;
     }
   }
 }
@@ -552,23 +548,25 @@ void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
       }
       const Strain de = strain_increment(l, dt);
       Stress& sig = particles_.stress[p];
+      const Stress before = sig;
       jaumann_rotate(l, dt, sig);
       const Stress rotated = sig;
+      const auto mi = static_cast<std::size_t>(particles_.material[p]);
       std::visit([&](const auto& model) { model.update(de, sig, particles_.state[p]); },
-                 materials[static_cast<std::size_t>(particles_.material[p])].model);
-      const double volume_before = particles_.volume[p];
+                 materials[mi].model);
       particles_.deformation_gradient[p] =
           update_deformation_gradient(l, dt, particles_.deformation_gradient[p]);
-      const double volume_after =
-          particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
-      const Stress mid = 0.5 * (rotated + sig);
-      internal_work_increment_[p] = 0.5 * (volume_before + volume_after) *
-                                    (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
+      // At the volume of the start of the step: the mesh moves after this (move_mesh, whose
+      // geometry update books the volume change).
+      const double volume = particles_.volume[p];
+      point_energy_[p] = PointEnergy{};
+      add_stress_update_energy(material_constants_[mi], before, rotated, sig, de, volume, volume,
+                               point_energy_[p]);
     }
   }
-  double work = 0.0;
-  for (double w : internal_work_increment_) work += w;
-  counters_.internal_work += work;
+  PointEnergy step;
+  for (const PointEnergy& e : point_energy_) step.add(e);
+  counters_.energy.add_stress_update(step);
 }
 
 void UlFemSolver::move_mesh() {
@@ -587,7 +585,7 @@ void UlFemSolver::move_mesh() {
       particles_.position[4 * e + k] = x;
     }
   }
-  compute_geometry();  // throws SimulationError on an inverted element
+  compute_geometry(true);  // throws SimulationError on an inverted element
 }
 
 void UlFemSolver::displace_nodes(const std::vector<Vec2>& displacement) {
@@ -626,6 +624,9 @@ void UlFemSolver::check_particles() {
     max_speed = std::max(max_speed, particles_.velocity[p].norm());
   }
   max_particle_speed_ = max_speed;
+  const double kinetic = particle_kinetic_energy();
+  counters_.energy.transfer_to_particles += kinetic - grid_kinetic_after_;
+  counters_.energy.particle_kinetic = kinetic;
   if (bad >= 0) {
     const auto p = static_cast<std::size_t>(bad);
     throw SimulationError("non-finite value (NaN or inf) at material point " + std::to_string(p) +
@@ -643,15 +644,23 @@ void UlFemSolver::check_particles() {
   }
 }
 
+double UlFemSolver::particle_kinetic_energy() const {
+  double kinetic = 0.0;
+  for (std::size_t p = 0; p < particles_.size(); ++p)
+    kinetic += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
+  return kinetic;
+}
+
 EnergyBalance UlFemSolver::energy() const {
   EnergyBalance e;
+  e.kinetic_energy = particle_kinetic_energy();
   for (std::size_t p = 0; p < particles_.size(); ++p) {
-    e.kinetic_energy += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
     e.momentum += particles_.mass[p] * particles_.velocity[p];
+    const auto mi = static_cast<std::size_t>(particles_.material[p]);
+    e.elastic_energy += particles_.volume[p] *
+                        elastic_energy_density(material_constants_[mi], particles_.stress[p]);
   }
-  e.external_work = counters_.external_work;
-  e.internal_work = counters_.internal_work;
-  e.damping_work = counters_.damping_work;
+  e.ledger = counters_.energy;
   return e;
 }
 
@@ -665,8 +674,13 @@ void UlFemSolver::initialise_stress() {
   // As MpmSolver::initialise_stress; after gravity loading the nodes' reference positions are
   // reset with the particles'.
   const bool gravity_loaded = pfm::initialise_stress(
-      case_, particles_, counters_, [this] { step(); }, [this] { return energy().kinetic_energy; });
+      case_, particles_, counters_, [this] { step(); },
+      [this] { return particle_kinetic_energy(); });
   if (gravity_loaded) node_reference_ = node_position_;
+  // The ledger starts from the state reached: its kinetic and elastic energy.
+  const EnergyBalance e = energy();
+  counters_.energy.initial_energy = e.kinetic_energy + e.elastic_energy;
+  counters_.energy.particle_kinetic = e.kinetic_energy;
 }
 
 }  // namespace pfm::ulfem

@@ -9,7 +9,7 @@
 //                        grad N_I(x_p) on the current geometry
 //   external_forces      gravity m_I g, the case's loads on the current boundary edges
 //   update_nodes         local (Cundall) damping, acceleration, velocity, constraints
-//                        (the same arithmetic as MpmSolver::update_grid)
+//                        (update_node() of mpm/solver/energy_ledger.hpp, as the MPM's grid)
 //   nodes_to_particles   particle velocity (FLIP)
 //   remap_momentum       MUSL only: nodal velocity from the updated particle momentum
 //   update_stress        velocity gradient, Jaumann rotation, constitutive update, F
@@ -89,6 +89,7 @@ struct EdgeLoadDiagnostics {
   Vec2 target = Vec2::Zero();    ///< exact resultant of the loaded edge parts
   Vec2 applied = Vec2::Zero();   ///< sum of the nodal forces (= target to round-off)
   Vec2 lost = Vec2::Zero();      ///< always 0: every mesh node has mass
+  double lost_moment = 0.0;      ///< always 0
   Vec2 off_grid = Vec2::Zero();  ///< always 0
   int loaded_nodes = 0;          ///< nodes receiving a non-zero load force
   int lost_nodes = 0;            ///< always 0
@@ -157,7 +158,9 @@ class UlFemSolver {
   void build_boundary_edges();
   void apply_loads();
   bool shadowed(double x, double y) const;
-  void compute_geometry();
+  /// Gradients, det J, volumes and the smallest element length on the current mesh; with
+  /// account_energy the volume change goes into the energy ledger.
+  void compute_geometry(bool account_energy = false);
   void particles_to_nodes(bool momentum_only);
   void external_forces();
   void update_nodes();
@@ -166,6 +169,7 @@ class UlFemSolver {
   void move_mesh();
   void check_particles();
   double gravity_factor(double t) const;
+  double particle_kinetic_energy() const;
   std::string describe_element(std::size_t element, const Vec2& x) const;
 
   Case case_;
@@ -193,8 +197,9 @@ class UlFemSolver {
   double min_element_length_ = 0.0;  ///< current smallest area / longest edge, m
   StageTimes times_;  ///< locate = geometry, particles_to_grid = particles_to_nodes, ...
   ExternalForceHook hook_;
-  std::vector<double> internal_work_increment_;
-  std::vector<Vec2> velocity_before_update_;
+  std::vector<MaterialConstants> material_constants_;  ///< per case material
+  std::vector<PointEnergy> point_energy_;              ///< per point, scratch of update_stress
+  double grid_kinetic_after_ = 0.0;                    ///< nodal kinetic energy after update_nodes
   std::vector<Vec2> remapped_velocity_;
 };
 

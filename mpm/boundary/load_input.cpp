@@ -7,7 +7,8 @@ namespace pfm::boundary {
 BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
   entry.expect_object({"apply_on", "type", "pressure", "traction", "x_range", "faces", "curve",
                        "integration", "gauss_points", "split_at_cell_edges", "scale_eq_6_15",
-                       "redistribute_lost_load", "interval", "time_function"});
+                       "redistribute_lost_load", "min_node_mass_fraction", "interval",
+                       "time_function"});
   entry.at("apply_on").as_choice({"detected_boundary"});
   BoundaryLoadSpec spec;
   const std::string type =
@@ -56,7 +57,12 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
   };
   spec.quadrature.split_at_cell_edges = bool_or("split_at_cell_edges", !thesis);
   spec.quadrature.scale_eq_6_15 = bool_or("scale_eq_6_15", false);
-  spec.redistribute_lost_load = bool_or("redistribute_lost_load", false);
+  spec.redistribute_lost_load = bool_or("redistribute_lost_load", true);
+  if (const auto fraction = entry.find("min_node_mass_fraction")) {
+    spec.min_node_mass_fraction = fraction->as_number();
+    fraction->require(spec.min_node_mass_fraction >= 0.0 && spec.min_node_mass_fraction < 1.0,
+                      "must be in [0, 1) (a fraction of a full cell's mass)");
+  }
   spec.interval = entry.choice_or("interval", {"fixed", "material"}, "fixed") == "fixed"
                       ? LoadInterval::kFixed
                       : LoadInterval::kMaterial;

@@ -258,8 +258,8 @@ namespace {
 // Moves forces[lost] to the nearest nodes with mass (scheme in surface_load.hpp).
 // on_receive(node) is called for every node that receives a share.
 template <class OnReceive>
-bool move_lost_force(const Grid& grid, std::span<const double> node_mass, std::span<Vec2> forces,
-                     int lost_node, OnReceive&& on_receive) {
+bool move_lost_force(const Grid& grid, std::span<const double> node_mass, double min_node_mass,
+                     std::span<Vec2> forces, int lost_node, OnReceive&& on_receive) {
   const int nx = grid.n_nodes_x(), ny = grid.n_nodes_y();
   const int li = lost_node % nx, lj = lost_node / nx;
   const Vec2 lost_force = forces[lost_node];
@@ -268,7 +268,7 @@ bool move_lost_force(const Grid& grid, std::span<const double> node_mass, std::s
     for (int j = std::max(0, lj - radius); j <= std::min(ny - 1, lj + radius); ++j) {
       for (int i = std::max(0, li - radius); i <= std::min(nx - 1, li + radius); ++i) {
         const int node = grid.node_index(i, j);
-        if (node_mass[node] > 0.0) visit(node, grid.node_position(i, j));
+        if (node_mass[node] > min_node_mass) visit(node, grid.node_position(i, j));
       }
     }
   };
@@ -368,15 +368,16 @@ bool BoundaryLoadIntegrator::shadowed(const std::vector<CompositeBezier>& curves
 }
 
 int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
-                             std::span<Vec2> forces) {
+                             std::span<Vec2> forces, double min_node_mass) {
   const auto n = static_cast<std::size_t>(grid.n_nodes());
   if (node_mass.size() != n || forces.size() != n) {
     throw std::invalid_argument("redistribute_lost_forces: sizes != number of grid nodes");
   }
   int moved = 0;
   for (std::size_t node = 0; node < n; ++node) {
-    if (node_mass[node] > 0.0 || forces[node] == Vec2::Zero()) continue;
-    if (move_lost_force(grid, node_mass, forces, static_cast<int>(node), [](int) {})) ++moved;
+    if (node_mass[node] > min_node_mass || forces[node] == Vec2::Zero()) continue;
+    if (move_lost_force(grid, node_mass, min_node_mass, forces, static_cast<int>(node), [](int) {}))
+      ++moved;
   }
   return moved;
 }
@@ -480,7 +481,7 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
     const Vec2 x = grid_.node_position(node % grid_.n_nodes_x(), node / grid_.n_nodes_x());
     result.total_force += f;
     result.total_moment += cross(x, f);
-    if (!node_mass.empty() && node_mass[node] <= 0.0 && f != Vec2::Zero()) {
+    if (!node_mass.empty() && node_mass[node] <= spec.min_node_mass && f != Vec2::Zero()) {
       result.lost_force += f;
       result.lost_moment += cross(x, f);
       ++result.n_lost_nodes;
@@ -490,13 +491,14 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
     const std::size_t n_touched = touched_.size();
     for (std::size_t k = 0; k < n_touched; ++k) {
       const int node = touched_[k];
-      if (node_mass[node] > 0.0 || accumulated_[node] == Vec2::Zero()) continue;
-      move_lost_force(grid_, node_mass, accumulated_, node, [this](int receiver) {
-        if (!touched_flag_[receiver]) {
-          touched_flag_[receiver] = 1;
-          touched_.push_back(receiver);
-        }
-      });
+      if (node_mass[node] > spec.min_node_mass || accumulated_[node] == Vec2::Zero()) continue;
+      move_lost_force(grid_, node_mass, spec.min_node_mass, accumulated_, node,
+                      [this](int receiver) {
+                        if (!touched_flag_[receiver]) {
+                          touched_flag_[receiver] = 1;
+                          touched_.push_back(receiver);
+                        }
+                      });
     }
     result.redistributed = true;
   }

@@ -39,10 +39,12 @@
 // The solver builds the curves with make_composite_beziers(contours, spec.curve) and passes
 // its time function's value as load_factor (t = load_factor x the full load of the spec).
 //
-// Lost load (thesis 6.2): nodal forces on nodes with zero mass act on nothing. The result
-// reports their sum and moment. With redistribute_lost_load, each lost nodal force f_L at
-// x_L is moved to the set S of nearest nodes with mass (all massive nodes within the smallest
-// Chebyshev node distance r >= 1 from the lost node that holds at least two of them) as the
+// Lost load (thesis 6.2): nodal forces on nodes without mass act on nothing, and on nodes of
+// tiny mass they fling the node. A node is "lost" when its mass is <= min_node_mass (by
+// default 0.01 of a full cell's mass). The result reports the lost forces' sum and moment.
+// With redistribute_lost_load (the default), each lost nodal force f_L at x_L is moved to the
+// set S of nearest nodes of more mass (all such nodes within the smallest Chebyshev node
+// distance r >= 1 from the lost node that holds at least two of them) as the
 // least-squares-smallest set of forces with the same resultant and the same moment:
 //   g_J = f_L / |S| + mu (-r_J,y, r_J,x),  r_J = x_J - c,  c = centroid of S,
 //   mu = ((x_L - c) x f_L) / sum_J |r_J|^2,
@@ -91,7 +93,21 @@ struct BoundaryLoadSpec {
   LoadedFaces faces = LoadedFaces::kTop;
   CurveKind curve = CurveKind::kLinear;  ///< how the solver builds the curves from contours
   QuadratureOptions quadrature;
-  bool redistribute_lost_load = false;
+  /// Move the force on nodes of too little mass (min_node_mass) to the nearest nodes with
+  /// enough, conserving force and moment (the header comment); off: such forces stay where
+  /// they are (the thesis: forces on nodes without mass act on nothing).
+  bool redistribute_lost_load = true;
+  /// The part of the mass of a full cell (the densest material's rho h^2) below which a node
+  /// is too light to carry a load: a force f on a node of mass m accelerates it by f / m, and a
+  /// node that a body barely reaches would be flung, and the load's work on it would be lost in
+  /// the next projection (the energy ledger's transfer_to_grid, mpm/solver/energy_ledger.hpp).
+  /// The default catches the nodes that a surface barely reaches; a larger fraction moves
+  /// loads off nodes that carry them well, away from the boundary, and the stress next to the
+  /// boundary suffers (tests/cpp/solver/test_boundary_coupling.cpp, the free square).
+  double min_node_mass_fraction = 0.01;
+  /// t: the threshold itself, min_node_mass_fraction x the mass of a full cell (set by the
+  /// solver; 0 = only nodes without mass are lost).
+  double min_node_mass = 0.0;
   LoadInterval interval = LoadInterval::kFixed;
 
   /// The traction law at load factor lambda (t = lambda x the full load).
@@ -109,12 +125,13 @@ struct BoundaryLoadResult {
   /// part: normal_scale (.) (Delta y, -Delta x) + fixed_traction x length): the target that
   /// total_force + off_grid_force must equal.
   Vec2 exact_force = Vec2::Zero();
-  double total_moment = 0.0;           ///< kN m/m about (0, 0): sum x_I x f_I (counter-clockwise +)
-  Vec2 lost_force = Vec2::Zero();      ///< kN/m: part on nodes with zero mass (before moving it)
-  double lost_moment = 0.0;            ///< kN m/m about (0, 0) of lost_force
+  double total_moment = 0.0;  ///< kN m/m about (0, 0): sum x_I x f_I (counter-clockwise +)
+  Vec2 lost_force =
+      Vec2::Zero();          ///< kN/m: part on nodes of mass <= min_node_mass (before moving it)
+  double lost_moment = 0.0;  ///< kN m/m about (0, 0) of lost_force
   Vec2 off_grid_force = Vec2::Zero();  ///< kN/m: part on nodes outside the grid (dropped)
   int n_loaded_nodes = 0;              ///< nodes receiving a nonzero force (after redistribution)
-  int n_lost_nodes = 0;                ///< zero-mass nodes that received a nonzero force
+  int n_lost_nodes = 0;  ///< nodes of mass <= min_node_mass that received a nonzero force
   bool redistributed = false;
   std::vector<NodalForce> nodal_forces;  ///< filled when asked for (plots), sorted by node
 };
@@ -127,7 +144,8 @@ class BoundaryLoadIntegrator {
 
   /// Adds the load of `spec` at `load_factor` (the solver's time function, 1 = full load)
   /// acting on `curves` to node_force_out (size grid.n_nodes(), kN/m). node_mass (t, size
-  /// grid.n_nodes() or empty = every node has mass) decides which nodes lose their load.
+  /// grid.n_nodes() or empty = every node has mass) decides which nodes lose their load: those
+  /// of mass <= spec.min_node_mass.
   BoundaryLoadResult integrate(const std::vector<CompositeBezier>& curves,
                                const BoundaryLoadSpec& spec, double load_factor,
                                std::span<const double> node_mass, std::span<Vec2> node_force_out,
@@ -188,12 +206,12 @@ std::vector<Vec2> segment_nodal_forces(const Grid& grid, const BezierSegment& se
 /// fixed_traction x length (eq. 6.13 for the vertical pressure).
 Vec2 exact_total_force(const BezierSegment& segment, const TractionLaw& law);
 
-/// Moves forces on zero-mass nodes to the nearest nodes with mass (scheme in the header
-/// comment). `forces` and `node_mass` have size grid.n_nodes(). Returns the number of
-/// lost nodes that could be moved (all, unless fewer than two nodes have mass; with exactly
-/// one massive node the force goes there and the moment is not conserved).
+/// Moves forces on nodes of mass <= min_node_mass to the nearest nodes of more mass (scheme in
+/// the header comment). `forces` and `node_mass` have size grid.n_nodes(). Returns the number
+/// of lost nodes that could be moved (all, unless fewer than two nodes have enough mass; with
+/// exactly one such node the force goes there and the moment is not conserved).
 int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
-                             std::span<Vec2> forces);
+                             std::span<Vec2> forces, double min_node_mass = 0.0);
 
 /// High-order reference for tests and the quadrature study: the nodal forces of one segment
 /// by adaptive Gauss-Legendre over the whole segment (no cell splitting), with the hat

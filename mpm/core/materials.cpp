@@ -89,6 +89,8 @@ MaterialConstants hooke_constants(const ElasticParameters& elastic) {
   MaterialConstants k;
   k.lambda = elastic.lame_lambda();
   k.mu = elastic.shear_modulus();
+  k.compliance = 1.0 / elastic.youngs_modulus;
+  k.compliance_coupling = -elastic.poisson_ratio / elastic.youngs_modulus;
   return k;
 }
 

@@ -73,6 +73,10 @@ struct MaterialConstants {
   double sin_phi = 0.0;  ///< sin(friction angle)
   double cos_phi = 1.0;  ///< cos(friction angle)
   double sin_psi = 0.0;  ///< sin(dilation angle)
+  // Compliance of the same Hooke's law (the energy ledger's elastic energy): 1 / E and -nu / E,
+  // 1/kPa.
+  double compliance = 0.0;
+  double compliance_coupling = 0.0;
 };
 
 /// Stress increment of Hooke's law for a plane-strain strain increment.
@@ -85,6 +89,25 @@ inline Stress elastic_stress_increment(const MaterialConstants& constants, const
   const double volumetric = d[kXX] + d[kYY] + d[kZZ];
   return Stress(lambda * volumetric + 2.0 * mu * d[kXX], lambda * volumetric + 2.0 * mu * d[kYY],
                 mu * d[kXY], lambda * volumetric + 2.0 * mu * d[kZZ]);
+}
+
+/// Elastic strain energy per unit volume psi = 1/2 sigma : C^-1 : sigma of the full 3D stress
+/// (sigma_zz included), kJ/m^3 = kPa:
+///   psi = [sxx^2 + syy^2 + szz^2 - 2 nu (sxx syy + syy szz + szz sxx)] / (2 E) + sxy^2 / (2 mu).
+/// psi is quadratic, so psi(b) - psi(a) = 1/2 (a + b) : C^-1 (b - a) exactly: the energy
+/// ledger's elastic energy changes by the stress power of the elastic part of each increment.
+inline double elastic_energy_density(const MaterialConstants& c, const Stress& s) {
+  const double normal = s[kXX] * s[kXX] + s[kYY] * s[kYY] + s[kZZ] * s[kZZ];
+  const double coupling = s[kXX] * s[kYY] + s[kYY] * s[kZZ] + s[kZZ] * s[kXX];
+  return 0.5 * (c.compliance * normal + 2.0 * c.compliance_coupling * coupling) +
+         0.5 * s[kXY] * s[kXY] / c.mu;
+}
+
+/// Elastic strain of a stress (increment): C^-1 s, as (xx, yy, gamma_xy, zz).
+inline Strain elastic_compliance(const MaterialConstants& c, const Stress& s) {
+  return Strain(c.compliance * s[kXX] + c.compliance_coupling * (s[kYY] + s[kZZ]),
+                c.compliance * s[kYY] + c.compliance_coupling * (s[kXX] + s[kZZ]), s[kXY] / c.mu,
+                c.compliance * s[kZZ] + c.compliance_coupling * (s[kXX] + s[kYY]));
 }
 
 /// The planes of the principal-stress-space return, in the ordered frame s1 >= s2 >= s3 of the

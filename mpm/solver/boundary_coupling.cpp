@@ -45,6 +45,14 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
 
 void BoundaryCoupling::attach(MpmSolver& solver) {
   solver_ = &solver;
+  // The mass of a full cell: the densest particle's density x h^2 (t per m).
+  const Particles& particles = solver.particles();
+  double density = 0.0;
+  for (std::size_t p = 0; p < particles.size(); ++p)
+    density = std::max(density, particles.mass[p] / particles.initial_volume[p]);
+  const double h = case_.grid.cell_size;
+  for (SurfaceLoad& load : loads_)
+    load.spec.min_node_mass = load.spec.min_node_mass_fraction * density * h * h;
   if (!detection_enabled()) return;
   // The improved detector, detecting at every step, takes the cells and totals of the particles
   // from the step (at a step without a detection the step's sweep would be lost: it costs about
@@ -157,6 +165,7 @@ void BoundaryCoupling::apply_loads(double time, const GridState& grid_state,
     diagnostics_.target += result.exact_force;
     diagnostics_.applied += result.total_force;
     diagnostics_.lost += result.lost_force;
+    diagnostics_.lost_moment += result.lost_moment;
     diagnostics_.off_grid += result.off_grid_force;
     diagnostics_.loaded_nodes += result.n_loaded_nodes;
     diagnostics_.lost_nodes += result.n_lost_nodes;

@@ -16,8 +16,10 @@
 //
 // Diagnostics per step and load (kN/m): target = the exact resultant of the load on the loaded
 // parts of the curves; applied = the sum of the nodal forces on the grid; lost = the part on
-// nodes without mass (moved to nodes with mass when redistribute_lost_load is set; reported
-// before moving). applied + off-grid = target to round-off.
+// nodes too light to carry it (mass <= min_node_mass_fraction x a full cell's, the densest
+// particle's density x h^2; moved to heavier nodes unless redistribute_lost_load is off;
+// reported before moving), with its moment about (0, 0). applied + off-grid = target to
+// round-off.
 #pragma once
 
 #include <array>
@@ -39,6 +41,7 @@ struct SurfaceLoadDiagnostics {
   Vec2 target = Vec2::Zero();
   Vec2 applied = Vec2::Zero();
   Vec2 lost = Vec2::Zero();
+  double lost_moment = 0.0;  ///< kN m/m about (0, 0) of `lost`
   Vec2 off_grid = Vec2::Zero();
   int loaded_nodes = 0;
   int lost_nodes = 0;

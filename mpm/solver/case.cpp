@@ -416,7 +416,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   }
 
   if (const auto s = root.find("solver")) {
-    s->expect_object({"scheme", "shape_function", "damping"});
+    s->expect_object({"scheme", "shape_function", "damping", "pic_fraction"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
     c.solver.shape_function = s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
@@ -426,6 +426,12 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     if (s->has("damping")) {
       s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
                                "must be in [0, 1)");
+    }
+    c.solver.pic_fraction = s->number_or("pic_fraction", 0.0);
+    if (s->has("pic_fraction")) {
+      s->at("pic_fraction")
+          .require(c.solver.pic_fraction >= 0.0 && c.solver.pic_fraction <= 1.0,
+                   "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
   }
 

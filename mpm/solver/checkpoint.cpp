@@ -216,4 +216,19 @@ void get_particles(const CheckpointFile& file, Particles& p) {
   }
 }
 
+void put_energy_ledger(CheckpointFile& file, const EnergyLedger& ledger) {
+  EnergyLedger copy = ledger;
+  const auto fields = copy.fields();
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    file.put("solver/energy/" + std::string(EnergyLedger::kNames[k]), *fields[k]);
+}
+
+EnergyLedger get_energy_ledger(const CheckpointFile& file) {
+  EnergyLedger ledger;
+  const auto fields = ledger.fields();
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    *fields[k] = file.scalar("solver/energy/" + std::string(EnergyLedger::kNames[k]));
+  return ledger;
+}
+
 }  // namespace pfm

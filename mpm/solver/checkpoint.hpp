@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
@@ -45,6 +46,11 @@ class CheckpointFile {
 void put_particles(CheckpointFile& file, const Particles& particles);
 /// Restores every particle field; InputError if a field is missing or its length differs.
 void get_particles(const CheckpointFile& file, Particles& particles);
+
+/// The energy ledger under "solver/energy/<term>" (EnergyLedger::kNames).
+void put_energy_ledger(CheckpointFile& file, const EnergyLedger& ledger);
+/// Restores it; InputError naming the dataset when a term is missing.
+EnergyLedger get_energy_ledger(const CheckpointFile& file);
 
 /// Flattens arrays of Eigen fixed-size vectors/matrices (column-major) and back.
 template <typename T>

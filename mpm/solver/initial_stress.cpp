@@ -48,7 +48,7 @@ bool initialise_stress(const Case& c, Particles& particles, SolverCounters& coun
   counters.initial_stress_steps = counters.step;
   counters.time = 0.0;
   counters.step = 0;
-  counters.external_work = counters.internal_work = counters.damping_work = 0.0;
+  counters.energy = EnergyLedger{};
   return true;
 }
 

@@ -5,6 +5,7 @@
 #include <functional>
 
 #include "mpm/solver/case.hpp"
+#include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
@@ -19,7 +20,7 @@ struct SolverCounters {
   bool loads_active = true;       ///< surface loads applied (off during gravity loading)
   bool gravity_full = false;      ///< gravity at its full value from the start (no ramp)
   long initial_stress_steps = 0;  ///< steps of the gravity loading (0 for zero and K0)
-  double external_work = 0.0, internal_work = 0.0, damping_work = 0.0;  ///< kJ (per m thickness)
+  EnergyLedger energy;            ///< the energy ledger since time 0 (energy_ledger.hpp)
 };
 
 /// The initial stress procedure of the case (shared by the MPM and the UL-FEM). Zero: nothing.
@@ -28,8 +29,8 @@ struct SolverCounters {
 /// (`kinetic_energy()`) falls below spec.kinetic_energy_ratio x its peak (after at least 10
 /// steps; SimulationError when spec.max_time passes first); then the damping and the loads are
 /// restored, the velocities zeroed, the reference positions set to the current ones, and time,
-/// step and works reset (initial_stress_steps keeps the count). Returns true after gravity
-/// loading: the caller resets what else measures displacement.
+/// step and the energy ledger reset (initial_stress_steps keeps the count). Returns true after
+/// gravity loading: the caller resets what else measures displacement.
 bool initialise_stress(const Case& c, Particles& particles, SolverCounters& counters,
                        const std::function<void()>& step,
                        const std::function<double()>& kinetic_energy);

@@ -59,7 +59,7 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   grid_.velocity.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.acceleration.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.fixed.assign(static_cast<std::size_t>(n_nodes), kFixNone);
-  node_work_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, Vec2::Zero());
+  node_energy_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, {});
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   build_constraints();
@@ -80,7 +80,8 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   }
   counters_.damping = case_.solver.damping;
   build_top_node_loads();
-  internal_work_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, 0.0);
+  point_energy_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, {});
+  kinetic_blocks_.assign(point_energy_blocks_.size(), 0.0);
   for (const MaterialRecord& m : case_.materials) {
     material_constants_.push_back(material_constants(m.model));
   }
@@ -113,7 +114,7 @@ void MpmSolver::set_step_survey(bool on) {
   positions_surveyed_ = volumes_surveyed_ = false;
   survey_cell_.assign(on ? particles_.size() : 0, -1);
   chunk_positions_.assign(on ? static_cast<std::size_t>(n_chunks_) : 0, {});
-  block_volumes_.assign(on ? internal_work_blocks_.size() : 0, {});
+  block_volumes_.assign(on ? point_energy_blocks_.size() : 0, {});
 }
 
 const StepSurvey* MpmSolver::step_survey() {
@@ -549,6 +550,7 @@ void MpmSolver::update_grid() {
   const double tiny = 1e-12 * particles_.mass.front();
   const double alpha = counters_.damping;
   const double dt = counters_.dt;
+  const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // as particles_to_grid
   const double* mass = grid_.mass.data();
   const Vec2* momentum = grid_.momentum.data();
   const Vec2* internal = grid_.internal_force.data();
@@ -556,12 +558,12 @@ void MpmSolver::update_grid() {
   const unsigned* fixed = grid_.fixed.data();
   Vec2* velocity = grid_.velocity.data();
   Vec2* acceleration = grid_.acceleration.data();
-  Vec2* node_work = node_work_.data();
-  const std::size_t n_blocks = node_work_.size();
+  NodeEnergy* node_energy = node_energy_.data();
+  const std::size_t n_blocks = node_energy_.size();
 #pragma omp parallel for schedule(dynamic, 1) if (parallel_)
   for (std::size_t k = 0; k < n_blocks; ++k) {
-    // Work of the external and damping forces over the step, per block of nodes.
-    double external_work = 0.0, damping_work = 0.0;
+    // The ledger terms of the grid update, per block of nodes (energy_ledger.hpp).
+    NodeEnergy block;
     for (std::size_t n = k * kSumBlock; n < std::min(n_nodes, (k + 1) * kSumBlock); ++n) {
       const double m = mass[n];
       if (m <= tiny) {
@@ -569,29 +571,17 @@ void MpmSolver::update_grid() {
         acceleration[n].setZero();
         continue;
       }
-      Vec2 v = momentum[n] / m;
-      const Vec2 f = internal[n] + external[n];
-      // Local (Cundall) damping: a force opposing the velocity, proportional to the unbalanced
-      // force, per direction.
-      auto sign = [](double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); };
-      const Vec2 damping_force(-alpha * std::abs(f.x()) * sign(v.x()),
-                               -alpha * std::abs(f.y()) * sign(v.y()));
-      Vec2 a = (f + damping_force) / m;
-      if (fixed[n] & kFixX) a.x() = v.x() = 0.0;
-      if (fixed[n] & kFixY) a.y() = v.y() = 0.0;
-      acceleration[n] = a;
-      const Vec2 v_new = v + a * dt;
-      velocity[n] = v_new;
-      const Vec2 mid = 0.5 * (v + v_new);
-      external_work += external[n].dot(mid) * dt;
-      damping_work += (a * m - f).dot(mid) * dt;  // damping force (zero where fixed)
+      update_node(m, momentum[n], internal[n], external[n], m * gravity, fixed[n] & kFixX,
+                  fixed[n] & kFixY, alpha, dt, velocity[n], acceleration[n], block);
     }
-    node_work[k] = Vec2(external_work, damping_work);
+    node_energy[k] = block;
   }
-  for (std::size_t k = 0; k < n_blocks; ++k) {
-    counters_.external_work += node_work[k].x();
-    counters_.damping_work += node_work[k].y();
-  }
+  NodeEnergy step;
+  for (std::size_t k = 0; k < n_blocks; ++k) step.add(node_energy[k]);
+  if (kinetic_stale_) counters_.energy.particle_kinetic = particle_kinetic_energy();
+  kinetic_stale_ = false;
+  counters_.energy.add_grid_update(step);
+  grid_kinetic_after_ = step.kinetic_after;
 }
 
 template <int W, bool kScatterMomentum>
@@ -599,6 +589,7 @@ void MpmSolver::grid_to_particles() {
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
   const double dt = counters_.dt;
+  const double pic_fraction = case_.solver.pic_fraction;
   const int n_bands = n_bands_;
   const StencilReader<W> stencil = stencil_reader<W>();
   const Vec2* acceleration = grid_.acceleration.data();
@@ -625,7 +616,9 @@ void MpmSolver::grid_to_particles() {
         v += weight * velocity[node];
       }
     }
-    const Vec2 vp = particle_velocity[p] + dt * a;  // FLIP
+    // FLIP, blended with PIC by pic_fraction.
+    const Vec2 flip = particle_velocity[p] + dt * a;
+    const Vec2 vp = pic_fraction == 0.0 ? flip : (1.0 - pic_fraction) * flip + pic_fraction * v;
     const Vec2 xp = particle_position[p] + dt * v;
     particle_velocity[p] = vp;
     particle_position[p] = xp;
@@ -695,11 +688,14 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   double* particle_volume = particles_.volume.data();
   const double* initial_volume = particles_.initial_volume.data();
   const int* particle_material = particles_.material.data();
-  double* work_blocks = internal_work_blocks_.data();
+  PointEnergy* energy_blocks = point_energy_blocks_.data();
+  double* kinetic_blocks = kinetic_blocks_.data();
+  const Vec2* particle_velocity = particles_.velocity.data();
+  const double* particle_mass = particles_.mass.data();
   const bool surveying = surveying_;
   detail::VolumeTotals* volume_blocks = block_volumes_.data();
   long bad = -1;
-  const std::size_t n_blocks = internal_work_blocks_.size();
+  const std::size_t n_blocks = point_energy_blocks_.size();
   remap_seconds_ = 0.0;
 #pragma omp parallel reduction(max : bad) if (parallel_)
   {
@@ -719,7 +715,10 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
     }
 #pragma omp for schedule(dynamic, 1) nowait
     for (std::size_t k = 0; k < n_blocks; ++k) {
-      double block_work = 0.0;  // stress power over the step, per block of particles
+      // The ledger terms of the stress update and the particles' kinetic energy after the step,
+      // per block of particles.
+      PointEnergy block;
+      double kinetic = 0.0;
       for (std::size_t p = k * kSumBlock; p < std::min(n, (k + 1) * kSumBlock); ++p) {
         const Shape<W> f = stencil(p);
         // Velocity gradient L(i, j) = d v_i / d x_j by columns: (L00, L10) and (L01, L11).
@@ -736,7 +735,8 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
         Mat2 l;
         l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
         const Strain de = strain_increment(l, dt);
-        Stress sig = particle_stress[p];  // a local copy: no store-to-load stalls
+        const Stress before = particle_stress[p];
+        Stress sig = before;  // a local copy: no store-to-load stalls
         jaumann_rotate(l, dt, sig);
         const Stress rotated = sig;
         const auto mi = static_cast<std::size_t>(particle_material[p]);
@@ -754,13 +754,13 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
         particle_deformation[p] = deformation;
         const double volume = deformation.determinant() * initial_volume[p];
         particle_volume[p] = volume;
-        const Stress mid = 0.5 * (rotated + sig);
-        const double work = 0.5 * (volume_before + volume) *
-                            (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
-        block_work += work;
+        const double work = add_stress_update_energy(constants[mi], before, rotated, sig, de,
+                                                     volume_before, volume, block);
         if (!std::isfinite(work)) bad = std::max(bad, static_cast<long>(p));
+        kinetic += 0.5 * particle_mass[p] * particle_velocity[p].squaredNorm();
       }
-      work_blocks[k] = block_work;
+      energy_blocks[k] = block;
+      kinetic_blocks[k] = kinetic;
       // The step survey's sweep over the volumes and F just written.
       if (surveying) {
         const std::size_t b = k * kSumBlock;
@@ -771,7 +771,16 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   }
   volumes_surveyed_ = surveying_;
   bad_particle_ = std::max(bad_particle_, bad);
-  for (std::size_t k = 0; k < n_blocks; ++k) counters_.internal_work += work_blocks[k];
+  PointEnergy step;
+  double kinetic = 0.0;
+  for (std::size_t k = 0; k < n_blocks; ++k) {
+    step.add(energy_blocks[k]);
+    kinetic += kinetic_blocks[k];
+  }
+  EnergyLedger& e = counters_.energy;
+  e.add_stress_update(step);
+  e.transfer_to_particles += kinetic - grid_kinetic_after_;
+  e.particle_kinetic = kinetic;
 }
 
 void MpmSolver::check_particles() {
@@ -791,21 +800,40 @@ void MpmSolver::check_particles() {
   }
 }
 
+double MpmSolver::particle_kinetic_energy() const {
+  // By the blocks of update_stress, in the same order: bitwise its ledger's particle_kinetic.
+  const std::size_t n = particles_.size();
+  double kinetic = 0.0;
+  for (std::size_t b = 0; b < n; b += kSumBlock) {
+    double block = 0.0;
+    for (std::size_t p = b; p < std::min(n, b + kSumBlock); ++p)
+      block += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
+    kinetic += block;
+  }
+  return kinetic;
+}
+
 EnergyBalance MpmSolver::energy() const {
   EnergyBalance e;
+  e.kinetic_energy = particle_kinetic_energy();
   for (std::size_t p = 0; p < particles_.size(); ++p) {
-    e.kinetic_energy += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
     e.momentum += particles_.mass[p] * particles_.velocity[p];
+    const auto mi = static_cast<std::size_t>(particles_.material[p]);
+    e.elastic_energy += particles_.volume[p] *
+                        elastic_energy_density(material_constants_[mi], particles_.stress[p]);
   }
-  e.external_work = counters_.external_work;
-  e.internal_work = counters_.internal_work;
-  e.damping_work = counters_.damping_work;
+  e.ledger = counters_.energy;
   return e;
 }
 
 void MpmSolver::initialise_stress() {
   pfm::initialise_stress(
-      case_, particles_, counters_, [this] { step(); }, [this] { return energy().kinetic_energy; });
+      case_, particles_, counters_, [this] { step(); },
+      [this] { return particle_kinetic_energy(); });
+  // The ledger starts from the state reached: its kinetic and elastic energy.
+  const EnergyBalance e = energy();
+  counters_.energy.initial_energy = e.kinetic_energy + e.elastic_energy;
+  counters_.energy.particle_kinetic = e.kinetic_energy;
 }
 
 void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_velocity) {

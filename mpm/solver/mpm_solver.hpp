@@ -35,6 +35,7 @@
 
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
+#include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/initial_stress.hpp"
 #include "mpm/solver/particles.hpp"
 
@@ -67,15 +68,6 @@ struct StageTimes {
     return locate + particles_to_grid + external_forces + update_grid + grid_to_particles + remap +
            stress;
   }
-};
-
-/// Energies and momentum for timeseries.csv.
-struct EnergyBalance {
-  double kinetic_energy = 0.0;   ///< kJ (per m thickness)
-  double external_work = 0.0;    ///< kJ, accumulated work of gravity and surface loads
-  double internal_work = 0.0;    ///< kJ, accumulated stress power (strain energy + dissipation)
-  double damping_work = 0.0;     ///< kJ, accumulated work of the damping forces (<= 0)
-  Vec2 momentum = Vec2::Zero();  ///< t m/s
 };
 
 /// Extra external forces added to the grid each step (the boundary-traction stage hooks in
@@ -116,6 +108,7 @@ class MpmSolver {
   /// then taken anew.
   Particles& mutable_particles() {
     positions_surveyed_ = volumes_surveyed_ = false;
+    kinetic_stale_ = true;
     return particles_;
   }
   /// What this step has found of the particles for a detection at its external-force hook: each
@@ -131,6 +124,8 @@ class MpmSolver {
   const GridState& grid_state() const { return grid_; }
   const Case& case_spec() const { return case_; }
   const StageTimes& stage_times() const { return times_; }
+  /// Kinetic and elastic energy of the particles now and the energy ledger since time 0
+  /// (mpm/solver/energy_ledger.hpp).
   EnergyBalance energy() const;
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
@@ -175,6 +170,7 @@ class MpmSolver {
   void build_constraints();
   void build_top_node_loads();
   double gravity_factor(double t) const;
+  double particle_kinetic_energy() const;
 
   Case case_;
   Particles particles_;
@@ -206,11 +202,14 @@ class MpmSolver {
   std::vector<int> band_start_;     ///< n_bands + 1 offsets into sorted_
   std::vector<int> sorted_;         ///< particle ids binned by band, ascending within a band
   std::vector<MaterialConstants> material_constants_;  ///< per case material
-  std::vector<double> internal_work_blocks_;  ///< stress power of a step per particle block
-  std::vector<Vec2> node_work_;               ///< (external, damping) work of a step per node block
-  std::vector<Vec2> remapped_velocity_;       ///< MUSL: nodal velocity from updated particles
-  std::vector<Vec2> remapped_momentum_;       ///< MUSL: nodal momentum of updated particles
-  double remap_seconds_ = 0.0;                ///< MUSL: time of the remap in update_stress
+  std::vector<PointEnergy> point_energy_blocks_;  ///< stress-update ledger terms per particle block
+  std::vector<double> kinetic_blocks_;            ///< particle kinetic energy per particle block
+  std::vector<NodeEnergy> node_energy_;           ///< grid-update ledger terms per node block
+  double grid_kinetic_after_ = 0.0;               ///< nodal kinetic energy after the grid update
+  bool kinetic_stale_ = true;            ///< the ledger's particle_kinetic is to be taken anew
+  std::vector<Vec2> remapped_velocity_;  ///< MUSL: nodal velocity from updated particles
+  std::vector<Vec2> remapped_momentum_;  ///< MUSL: nodal momentum of updated particles
+  double remap_seconds_ = 0.0;           ///< MUSL: time of the remap in update_stress
   bool parallel_ = true;  ///< run the stages on all threads (false for tiny problems)
   // step_survey(): the detector's sweeps (detail::sweep_positions(), sweep_volumes()) by the
   // chunks of locate_particles and the blocks of update_stress, over particles they have just

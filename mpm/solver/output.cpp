@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -21,9 +22,28 @@ TimeSeriesTable::TimeSeriesTable(bool with_loads) : with_loads_(with_loads) {
   text_ << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
   if (with_loads_) {
     text_ << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
-             "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes";
+             "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes,"
+             "load_lost_moment";
   }
-  text_ << '\n';
+  text_ << ",elastic_energy,plastic_dissipation,gravity_work,load_work,constraint_work,"
+           "transfer_to_grid,transfer_to_particles,internal_force_work,rotation_work,volume_work,"
+           "energy_error\n";
+}
+
+nlohmann::json energy_summary(const EnergyBalance& e) {
+  nlohmann::json out = {{"kinetic", e.kinetic_energy},
+                        {"elastic_energy", e.elastic_energy},
+                        {"external_work", e.external_work()},
+                        {"internal_work", e.internal_work()}};
+  EnergyLedger ledger = e.ledger;
+  const auto fields = ledger.fields();
+  for (std::size_t k = 0; k < fields.size(); ++k)
+    out[std::string(EnergyLedger::kNames[k])] = *fields[k];
+  out["energy_error"] = e.energy_error();
+  out["largest_term"] = e.largest_term();
+  out["relative_error"] =
+      e.largest_term() > 0.0 ? std::abs(e.energy_error()) / e.largest_term() : 0.0;
+  return out;
 }
 
 void TimeSeriesTable::restore(const std::string& text) {

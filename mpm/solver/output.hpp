@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
@@ -19,26 +20,35 @@ void write_file_atomically(const std::string& path, const std::string& text);
 std::string format_exact(double v);
 
 /// timeseries.csv, held in memory: time, kinetic_energy, external_work, internal_work,
-/// damping_work, momentum_x, momentum_y, and with surface loads the resultants of the loads
-/// (load_target, load_applied, load_lost, load_off_grid, each _fx and _fy) and the numbers of
-/// loaded and lost nodes. The same columns for the MPM and the UL-FEM runs.
+/// damping_work, momentum_x, momentum_y; with surface loads the resultants of the loads
+/// (load_target, load_applied, load_lost, load_off_grid, each _fx and _fy), the numbers of
+/// loaded and lost nodes and the lost moment (load_lost_moment, kN m/m about (0, 0)); then the
+/// energy ledger (mpm/solver/energy_ledger.hpp): elastic_energy, plastic_dissipation, gravity_work,
+/// load_work, constraint_work, transfer_to_grid, transfer_to_particles, internal_force_work,
+/// rotation_work, volume_work and energy_error (internal_work is the ledger's stress_power,
+/// external_work gravity_work + load_work). The same columns for the MPM and the UL-FEM runs.
 class TimeSeriesTable {
  public:
   explicit TimeSeriesTable(bool with_loads);
-  /// One line. `e`: kinetic_energy, external_work, internal_work, damping_work and momentum;
-  /// `loads` (read only with the load columns): target, applied, lost, off_grid, loaded_nodes
-  /// and lost_nodes.
-  template <class Energy, class Loads>
-  void record(double time, const Energy& e, const Loads& loads) {
+  /// One line. `loads` (read only with the load columns): target, applied, lost, off_grid,
+  /// loaded_nodes and lost_nodes.
+  template <class Loads>
+  void record(double time, const EnergyBalance& e, const Loads& loads) {
     text_ << format_exact(time) << ',' << format_exact(e.kinetic_energy) << ','
-          << format_exact(e.external_work) << ',' << format_exact(e.internal_work) << ','
-          << format_exact(e.damping_work) << ',' << format_exact(e.momentum.x()) << ','
+          << format_exact(e.external_work()) << ',' << format_exact(e.internal_work()) << ','
+          << format_exact(e.damping_work()) << ',' << format_exact(e.momentum.x()) << ','
           << format_exact(e.momentum.y());
     if (with_loads_) {
       for (const auto& f : {loads.target, loads.applied, loads.lost, loads.off_grid})
         text_ << ',' << format_exact(f.x()) << ',' << format_exact(f.y());
-      text_ << ',' << loads.loaded_nodes << ',' << loads.lost_nodes;
+      text_ << ',' << loads.loaded_nodes << ',' << loads.lost_nodes << ','
+            << format_exact(loads.lost_moment);
     }
+    const EnergyLedger& l = e.ledger;
+    for (const double v : {e.elastic_energy, l.plastic_dissipation, l.gravity_work, l.load_work,
+                           l.constraint_work, l.transfer_to_grid, l.transfer_to_particles,
+                           l.internal_force_work, l.rotation_work, l.volume_work, e.energy_error()})
+      text_ << ',' << format_exact(v);
     text_ << '\n';
   }
   std::string text() const { return text_.str(); }
@@ -107,6 +117,10 @@ class BoundarySeriesWriter {
 
 /// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body and
 /// the deformation gradient F11,F12,F21,F22).
+/// run.json's summary.energy: every energy and ledger term (kJ/m), energy_error, the largest
+/// term and their ratio.
+nlohmann::json energy_summary(const EnergyBalance& e);
+
 std::string particles_csv(const Particles& particles);
 
 }  // namespace pfm

@@ -118,9 +118,7 @@ int run_case(const Case& c, const RunOptions& options) {
     file.put("solver/loads_active", n.loads_active ? 1.0 : 0.0);
     file.put("solver/gravity_full", n.gravity_full ? 1.0 : 0.0);
     file.put("solver/initial_stress_steps", static_cast<double>(n.initial_stress_steps));
-    file.put("solver/external_work", n.external_work);
-    file.put("solver/internal_work", n.internal_work);
-    file.put("solver/damping_work", n.damping_work);
+    put_energy_ledger(file, n.energy);
     coupling.save(file);
     file.put("run/next_output", next_output);
     file.put("run/next_series", next_series);
@@ -146,9 +144,7 @@ int run_case(const Case& c, const RunOptions& options) {
     n.loads_active = file.scalar("solver/loads_active") != 0.0;
     n.gravity_full = file.scalar("solver/gravity_full") != 0.0;
     n.initial_stress_steps = static_cast<long>(file.scalar("solver/initial_stress_steps"));
-    n.external_work = file.scalar("solver/external_work");
-    n.internal_work = file.scalar("solver/internal_work");
-    n.damping_work = file.scalar("solver/damping_work");
+    n.energy = get_energy_ledger(file);
     solver.restore(n);
     coupling.attach(solver);
     coupling.restore(file);
@@ -297,11 +293,7 @@ int run_case(const Case& c, const RunOptions& options) {
     if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
   }
   run["outputs"] = outputs;
-  const EnergyBalance e = solver.energy();
-  run["summary"]["energy"] = {{"kinetic", e.kinetic_energy},
-                              {"external_work", e.external_work},
-                              {"internal_work", e.internal_work},
-                              {"damping_work", e.damping_work}};
+  run["summary"]["energy"] = energy_summary(solver.energy());
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }

@@ -36,7 +36,8 @@ TEST(BoundaryLoadInput, ThesisLoadWithDefaults) {
   EXPECT_EQ(spec.quadrature.gauss_points, 5);
   EXPECT_TRUE(spec.quadrature.split_at_cell_edges);
   EXPECT_FALSE(spec.quadrature.scale_eq_6_15);
-  EXPECT_FALSE(spec.redistribute_lost_load);
+  EXPECT_TRUE(spec.redistribute_lost_load);
+  EXPECT_EQ(spec.min_node_mass_fraction, 0.01);
   EXPECT_EQ(spec.interval, LoadInterval::kFixed);
   const TractionLaw law = spec.traction_law(0.5);
   EXPECT_EQ(law.normal_scale, Vec2(0.0, -50.0));
@@ -46,7 +47,8 @@ TEST(BoundaryLoadInput, EveryKeySet) {
   const BoundaryLoadSpec spec = parse(R"({"loads": [{"type": "follower_pressure",
       "apply_on": "detected_boundary", "pressure": -20, "faces": "upward",
       "curve": "cubic", "integration": "thesis", "gauss_points": 7, "scale_eq_6_15": true,
-      "redistribute_lost_load": true, "interval": "material"}]})");
+      "redistribute_lost_load": false, "min_node_mass_fraction": 0.25,
+      "interval": "material"}]})");
   EXPECT_EQ(spec.type, BoundaryLoadType::kFollowerPressure);
   EXPECT_FALSE(spec.x_range.has_value());
   EXPECT_EQ(spec.faces, LoadedFaces::kUpward);
@@ -55,7 +57,8 @@ TEST(BoundaryLoadInput, EveryKeySet) {
   EXPECT_FALSE(spec.quadrature.split_at_cell_edges);  // thesis default: no splitting
   EXPECT_EQ(spec.quadrature.gauss_points, 7);
   EXPECT_TRUE(spec.quadrature.scale_eq_6_15);
-  EXPECT_TRUE(spec.redistribute_lost_load);
+  EXPECT_FALSE(spec.redistribute_lost_load);
+  EXPECT_EQ(spec.min_node_mass_fraction, 0.25);
   EXPECT_EQ(spec.interval, LoadInterval::kMaterial);
   const BoundaryLoadSpec traction = parse(R"({"loads": [{"type": "traction",
       "apply_on": "detected_boundary", "traction": [1.5, -2], "curve": "catmull_rom",
@@ -81,6 +84,10 @@ TEST(BoundaryLoadInput, BadInputNamesTheJsonPointer) {
             std::string::npos);
   EXPECT_NE(error_of(head + R"("type": "vertical_pressure", "pressure": 1, "x_range": [2, 1]}]})")
                 .find("/loads/0/x_range: must be [x0, x1]"),
+            std::string::npos);
+  EXPECT_NE(error_of(head + R"("type": "traction", "traction": [1, 2],
+                                "min_node_mass_fraction": 1}]})")
+                .find("/loads/0/min_node_mass_fraction: must be in [0, 1)"),
             std::string::npos);
   EXPECT_NE(error_of(head + R"("type": "traction", "traction": [1, 2], "gauss_points": 0}]})")
                 .find("/loads/0/gauss_points"),

@@ -71,7 +71,8 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
   ASSERT_EQ(run["outputs"].size(), 5u);
   EXPECT_EQ(run["outputs"][4]["boundary"], fs::path(boundaries.back()).filename().string());
 
-  // timeseries.csv: the MPM's columns, then its load diagnostics; target = applied =
+  // timeseries.csv: the MPM's columns, then its load diagnostics and its energy ledger, which
+  // closes (energy_error, the last column); target = applied =
   // (0, -q B) = (0, -200) kN/m on the flat top, nothing lost.
   {
     std::ifstream in(dir + "/timeseries.csv");
@@ -80,12 +81,15 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
     EXPECT_EQ(header,
               "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y,"
               "load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
-              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes");
+              "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes,"
+              "load_lost_moment,elastic_energy,plastic_dissipation,gravity_work,load_work,"
+              "constraint_work,transfer_to_grid,transfer_to_particles,internal_force_work,"
+              "rotation_work,volume_work,energy_error");
     while (std::getline(in, line)) last = line;
     std::vector<double> v;
     std::istringstream row(last);
     for (std::string cell; std::getline(row, cell, ',');) v.push_back(std::stod(cell));
-    ASSERT_EQ(v.size(), 17u);
+    ASSERT_EQ(v.size(), 29u);
     std::printf(
         "[ulfem run] last timeseries row: target (%g, %g), applied (%g, %g), lost (%g, %g), "
         "%g loaded nodes\n",
@@ -93,6 +97,7 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
     EXPECT_NEAR(v[8], -200.0, 1e-9);
     EXPECT_NEAR(v[10], v[8], 1e-12 * 200.0);
     EXPECT_EQ(v[11], 0.0);
+    EXPECT_LE(std::abs(v[28]), 1e-9 * std::abs(v[2]));
     EXPECT_EQ(v[12], 0.0);
     EXPECT_EQ(v[16], 0.0);
     EXPECT_GE(v[15], 3.0);

@@ -137,7 +137,7 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
   while (solver.time() < 10.0 * period) {
     solver.step();
     const EnergyBalance e = solver.energy();
-    const double total = e.kinetic_energy + e.internal_work;
+    const double total = e.kinetic_energy + e.internal_work();
     worst = std::max(worst, std::abs(total - e0) / e0);
     min_ke = std::min(min_ke, e.kinetic_energy);
     if (solver.time() <= period) {

@@ -1,0 +1,225 @@
+// The energy ledger of the explicit step, shared by the MPM and the updated-Lagrangian FEM.
+//
+// Every term is measured where it happens, in kJ per m thickness, accumulated from time 0 (the
+// state after the initial stress procedure). One step of either solver (MUSL or USL) is:
+//
+//   particles -> nodes   nodal momentum p_I = sum_p N_Ip m_p v_p; the kinetic energy of the
+//                        nodes, sum_I |p_I|^2 / (2 m_I) over the nodes with mass, minus that of
+//                        the particles before the step is `transfer_to_grid` (<= 0: the
+//                        projection loses the kinetic energy of the velocity field it cannot
+//                        represent; momentum on nodes without mass is lost too);
+//   constraints          the fixed velocity components are set to zero: `constraint_work` =
+//                        -sum m_I v_I,fixed^2 / 2 (<= 0); the reaction force then does no work;
+//   grid update          v_I' = v_I + dt a_I; exactly 1/2 m (|v'|^2 - |v|^2) = m a . v_mid dt
+//                        with v_mid = (v + v') / 2, split by force: `internal_force_work` =
+//                        sum f_int,I . v_mid dt, `gravity_work` = sum m_I g . v_mid dt,
+//                        `load_work` = sum f_load,I . v_mid dt (the surface loads: their nodal
+//                        forces times the velocities of the step they act in), `damping_work`
+//                        (local damping, <= 0);
+//   nodes -> particles   FLIP: v_p' = v_p + dt sum_I N_Ip a_I; the particles' kinetic energy
+//                        after it minus the nodes' after the grid update is
+//                        `transfer_to_particles` (either sign);
+//   stress update        per point, with the rotated (Jaumann) stress s_r, the updated s_1, the
+//                        strain increment de and the volumes V_0, V_1 (V_m their mean):
+//                        `stress_power` P = V_m (s_r + s_1) / 2 : de (the internal_work of the
+//                        time series), `plastic_dissipation` D = V_m (s_r + s_1) / 2 : de_p
+//                        with de_p = de - C^-1 (s_1 - s_r); the elastic energy V psi(s)
+//                        (materials.hpp) then changes by exactly P - D + `rotation_work` +
+//                        `volume_work`, rotation_work = V_m (psi(s_r) - psi(s_0)) (the
+//                        first-order Jaumann update does not conserve psi) and volume_work =
+//                        (V_1 - V_0) (psi(s_0) + psi(s_1)) / 2 (psi is per current volume).
+//
+// Summed, the kinetic and the elastic energy obey, to rounding, the identity
+//   kinetic + elastic + plastic_dissipation = initial_energy + gravity_work + load_work
+//     + damping_work + constraint_work + transfer_to_grid + transfer_to_particles
+//     + internal_force_work + stress_power + rotation_work + volume_work,
+// whose left minus right side is `energy_error`. internal_force_work + stress_power is the
+// explicit scheme's own term: the internal forces act with the stress at the start of the step
+// on the grid velocities v_mid, the stress update works with the mid-step stress on the
+// velocities it is given (the remapped ones in MUSL); for a leapfrog step it is
+// -V ds : de / 2 per point, which oscillates about zero.
+//
+// Units: kJ/m (kN m per m thickness).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string_view>
+
+#include "mpm/core/materials.hpp"
+#include "mpm/core/types.hpp"
+
+namespace pfm {
+
+/// The accumulated terms of the ledger (kJ/m), and what the next step needs of the last.
+struct EnergyLedger {
+  double initial_energy = 0.0;    ///< kinetic + elastic energy at time 0
+  double particle_kinetic = 0.0;  ///< kinetic energy of the particles after the last step
+  double gravity_work = 0.0;
+  double load_work = 0.0;
+  double damping_work = 0.0;
+  double constraint_work = 0.0;
+  double transfer_to_grid = 0.0;
+  double transfer_to_particles = 0.0;
+  double internal_force_work = 0.0;
+  double stress_power = 0.0;
+  double plastic_dissipation = 0.0;
+  double rotation_work = 0.0;
+  double volume_work = 0.0;
+
+  /// The accumulated terms by name (checkpoints; names as in timeseries.csv).
+  static constexpr std::array<std::string_view, 13> kNames = {
+      "initial_energy",      "particle_kinetic", "gravity_work",        "load_work",
+      "damping_work",        "constraint_work",  "transfer_to_grid",    "transfer_to_particles",
+      "internal_force_work", "stress_power",     "plastic_dissipation", "rotation_work",
+      "volume_work"};
+  std::array<double*, 13> fields() {
+    return {&initial_energy,      &particle_kinetic, &gravity_work,        &load_work,
+            &damping_work,        &constraint_work,  &transfer_to_grid,    &transfer_to_particles,
+            &internal_force_work, &stress_power,     &plastic_dissipation, &rotation_work,
+            &volume_work};
+  }
+  /// Books a grid update's node terms (summed over nodes); the particles' kinetic energy
+  /// before the step is particle_kinetic.
+  void add_grid_update(const struct NodeEnergy& step);
+  /// Books a stress update's point terms (summed over points).
+  void add_stress_update(const struct PointEnergy& step);
+  /// Work of gravity and the surface loads.
+  double external_work() const { return gravity_work + load_work; }
+  /// Every input to the kinetic and elastic energy since time 0, initial energy included.
+  double supplied() const {
+    return initial_energy + gravity_work + load_work + damping_work + constraint_work +
+           transfer_to_grid + transfer_to_particles + internal_force_work + stress_power +
+           rotation_work + volume_work;
+  }
+};
+
+/// The energy terms of one node's update (kJ/m), summed over nodes by the solvers.
+struct NodeEnergy {
+  double kinetic_before = 0.0;  ///< |p|^2 / (2 m), before the constraints
+  double kinetic_after = 0.0;   ///< m |v'|^2 / 2
+  double constraint = 0.0;
+  double gravity = 0.0;
+  double load = 0.0;
+  double damping = 0.0;
+  double internal = 0.0;
+  void add(const NodeEnergy& o) {
+    kinetic_before += o.kinetic_before;
+    kinetic_after += o.kinetic_after;
+    constraint += o.constraint;
+    gravity += o.gravity;
+    load += o.load;
+    damping += o.damping;
+    internal += o.internal;
+  }
+};
+
+/// The explicit update of one node with mass m > 0 (thesis eq. 3.24): velocity v = p / m, local
+/// (Cundall) damping per direction, a force opposing the velocity proportional to the
+/// unbalanced force, -alpha |f_d| sign(v_d); a = (f + f_damping) / m; fixed components of v and
+/// a set to zero; v' = v + a dt. `external` holds gravity and the loads; `gravity_y` is its
+/// gravity part (m g, vertical). Adds the node's ledger terms to `e`.
+inline void update_node(double m, const Vec2& momentum, const Vec2& internal, const Vec2& external,
+                        double gravity_y, unsigned fixed_x, unsigned fixed_y, double alpha,
+                        double dt, Vec2& velocity, Vec2& acceleration, NodeEnergy& e) {
+  Vec2 v = momentum / m;
+  e.kinetic_before += 0.5 * m * v.squaredNorm();
+  const Vec2 f = internal + external;
+  auto sign = [](double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); };
+  const Vec2 damping_force(-alpha * std::abs(f.x()) * sign(v.x()),
+                           -alpha * std::abs(f.y()) * sign(v.y()));
+  Vec2 a = (f + damping_force) / m;
+  if (fixed_x) {
+    e.constraint -= 0.5 * m * v.x() * v.x();
+    a.x() = v.x() = 0.0;
+  }
+  if (fixed_y) {
+    e.constraint -= 0.5 * m * v.y() * v.y();
+    a.y() = v.y() = 0.0;
+  }
+  acceleration = a;
+  const Vec2 v_new = v + a * dt;
+  velocity = v_new;
+  e.kinetic_after += 0.5 * m * v_new.squaredNorm();
+  const Vec2 mid = 0.5 * (v + v_new);
+  const Vec2 gravity(0.0, gravity_y);
+  e.gravity += gravity.dot(mid) * dt;
+  e.load += (external - gravity).dot(mid) * dt;
+  e.internal += internal.dot(mid) * dt;
+  e.damping += (a * m - f).dot(mid) * dt;  // the damping force (zero where fixed)
+}
+
+/// The energy terms of one point's stress update (kJ/m), summed over points by the solvers.
+struct PointEnergy {
+  double stress_power = 0.0;
+  double plastic_dissipation = 0.0;
+  double rotation = 0.0;
+  double volume = 0.0;
+  void add(const PointEnergy& o) {
+    stress_power += o.stress_power;
+    plastic_dissipation += o.plastic_dissipation;
+    rotation += o.rotation;
+    volume += o.volume;
+  }
+};
+
+/// The ledger terms of one stress update: stress s_0 before, s_r after the Jaumann rotation, s_1
+/// after the constitutive update with strain increment de (xx, yy, gamma_xy, zz = 0); volume
+/// V_0 before, V_1 after (see the header comment). Returns the stress power, which is also added
+/// to `e`.
+inline double add_stress_update_energy(const MaterialConstants& c, const Stress& s0,
+                                       const Stress& rotated, const Stress& s1, const Strain& de,
+                                       double v0, double v1, PointEnergy& e) {
+  const Stress mid = 0.5 * (rotated + s1);
+  const double v_mid = 0.5 * (v0 + v1);
+  const double power = v_mid * (mid[kXX] * de[kXX] + mid[kYY] * de[kYY] + mid[kXY] * de[kXY]);
+  const Strain plastic = de - elastic_compliance(c, s1 - rotated);
+  const double psi0 = elastic_energy_density(c, s0);
+  const double psi1 = elastic_energy_density(c, s1);
+  e.stress_power += power;
+  e.plastic_dissipation += v_mid * mid.dot(plastic);
+  e.rotation += v_mid * (elastic_energy_density(c, rotated) - psi0);
+  e.volume += (v1 - v0) * 0.5 * (psi0 + psi1);
+  return power;
+}
+
+inline void EnergyLedger::add_grid_update(const NodeEnergy& step) {
+  transfer_to_grid += step.kinetic_before - particle_kinetic;
+  constraint_work += step.constraint;
+  gravity_work += step.gravity;
+  load_work += step.load;
+  damping_work += step.damping;
+  internal_force_work += step.internal;
+}
+
+inline void EnergyLedger::add_stress_update(const PointEnergy& step) {
+  stress_power += step.stress_power;
+  plastic_dissipation += step.plastic_dissipation;
+  rotation_work += step.rotation;
+  volume_work += step.volume;
+}
+
+/// What the time series and run.json report: the ledger with the energies of the state.
+struct EnergyBalance {
+  double kinetic_energy = 0.0;   ///< kJ/m, of the particles
+  double elastic_energy = 0.0;   ///< kJ/m, sum V_p psi(sigma_p)
+  Vec2 momentum = Vec2::Zero();  ///< t m/s per m
+  EnergyLedger ledger;
+  double external_work() const { return ledger.external_work(); }
+  double internal_work() const { return ledger.stress_power; }
+  double damping_work() const { return ledger.damping_work; }
+  /// kinetic + elastic + plastic dissipation - everything supplied (zero to rounding).
+  double energy_error() const {
+    return kinetic_energy + elastic_energy + ledger.plastic_dissipation - ledger.supplied();
+  }
+  /// The largest magnitude among the energies and ledger terms (the scale of energy_error).
+  double largest_term() const {
+    double largest = std::max({std::abs(kinetic_energy), std::abs(elastic_energy)});
+    EnergyLedger copy = ledger;
+    for (double* f : copy.fields()) largest = std::max(largest, std::abs(*f));
+    return largest;
+  }
+};
+
+}  // namespace pfm

@@ -1,0 +1,180 @@
+// The energy ledger (mpm/solver/energy_ledger.hpp): each term is exact for its stage, and the
+// identity kinetic + elastic + dissipation = initial + supplied closes to rounding over whole
+// runs of both solvers, MUSL and USL, elastic and plastic.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "fem_reference/ulfem/ulfem_solver.hpp"
+#include "mpm/core/kinematics.hpp"
+#include "mpm/solver/boundary_coupling.hpp"
+#include "mpm/solver/case.hpp"
+#include "mpm/solver/energy_ledger.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+
+namespace pfm {
+namespace {
+
+// One node: the change of its kinetic energy over the update equals the work of its forces,
+// gravity, loads, internal and damping, after the constraint has taken its share.
+TEST(EnergyLedger, NodeUpdateSplitsItsKineticEnergyChangeByForce) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 1000; ++trial) {
+    const double m = 0.1 + std::abs(u(random));
+    const Vec2 p(u(random), u(random)), f_int(u(random), u(random)), f_ext(u(random), u(random));
+    const double gravity_y = -std::abs(u(random));
+    const unsigned fx = trial % 4 == 1, fy = trial % 4 == 2;
+    NodeEnergy e;
+    Vec2 v, a;
+    update_node(m, p, f_int, Vec2(f_ext.x(), f_ext.y() + gravity_y), gravity_y, fx, fy,
+                0.05 * (trial % 3), 0.01, v, a, e);
+    const double change = e.kinetic_after - (e.kinetic_before + e.constraint);
+    const double work = e.gravity + e.load + e.internal + e.damping;
+    EXPECT_NEAR(change, work, 1e-15 * (1.0 + e.kinetic_after + e.kinetic_before));
+    EXPECT_LE(e.constraint, 0.0);
+  }
+}
+
+// One point: V1 psi(s1) - V0 psi(s0) = P - D + rotation + volume, through a yielding Tresca
+// update with rotation and a change of volume; D >= 0 when it yields, D = 0 when elastic.
+TEST(EnergyLedger, StressUpdateTermsAddUpToTheElasticEnergyChange) {
+  Tresca model;
+  model.elastic = {1000.0, 0.3};
+  model.cohesion = {{0.0, 0.1}, {10.0, 5.0}};
+  const MaterialConstants c = model.constants();
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int yielded = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    Stress s0(-20.0 + 5 * u(random), -30.0 + 5 * u(random), 3.0 * u(random), -25.0);
+    PointState state;
+    Mat2 l;
+    l << u(random), u(random), u(random), u(random);
+    const double dt = 0.002 * (1 + trial % 5);
+    const Strain de = strain_increment(l, dt);
+    Stress s = s0;
+    jaumann_rotate(l, dt, s);
+    const Stress rotated = s;
+    const ReturnInfo info = model.update_with_info(de, s, state);
+    const double v0 = 0.25, v1 = v0 * (1.0 + dt * (l(0, 0) + l(1, 1)));
+    PointEnergy e;
+    const double power = add_stress_update_energy(c, s0, rotated, s, de, v0, v1, e);
+    EXPECT_EQ(power, e.stress_power);
+    const double change = v1 * elastic_energy_density(c, s) - v0 * elastic_energy_density(c, s0);
+    EXPECT_NEAR(change, e.stress_power - e.plastic_dissipation + e.rotation + e.volume,
+                1e-13 * v0 * elastic_energy_density(c, s0));
+    if (info.n_active > 0) {
+      ++yielded;
+      EXPECT_GT(e.plastic_dissipation, 0.0);
+    } else {
+      EXPECT_NEAR(e.plastic_dissipation, 0.0, 1e-14 * v0 * elastic_energy_density(c, s0));
+    }
+  }
+  EXPECT_GT(yielded, 20);
+}
+
+// The energy density of a uniaxial plane-strain state: psi = s : eps / 2 with eps = C^-1 s.
+TEST(EnergyLedger, ElasticEnergyDensityIsHalfStressTimesStrain) {
+  LinearElastic model;
+  model.elastic = {2000.0, 0.25};
+  const MaterialConstants c = model.constants();
+  const Strain eps(-0.01, 0.003, 0.002, 0.0);
+  Stress s = Stress::Zero();
+  PointState state;
+  model.update(eps, s, state);
+  EXPECT_NEAR(elastic_energy_density(c, s), 0.5 * s.dot(eps), 1e-14 * s.norm() * eps.norm());
+}
+
+nlohmann::json elastic_block(const std::string& scheme, double damping) {
+  // The bearing block's soil made elastic, gravity at once, 0.25 m cells, 2 x 2 points per cell.
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "grid": {"origin": [0, 0], "cell_size": 0.25, "n_cells": [60, 30]},
+    "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 1000.0,
+                   "poisson_ratio": 0.15, "unit_weight": 20.0}],
+    "bodies": [{"name": "block", "material": "soil", "rectangle": [[0, 0], [15, 5]]}],
+    "boundary_conditions": [{"where": "bottom", "fix": "xy"}, {"where": "left", "fix": "x"},
+                            {"where": "right", "fix": "x"}],
+    "time": {"end_time": 1.0, "cfl": 0.5}
+  })");
+  j["solver"] = {{"scheme", scheme}, {"damping", damping}};
+  return j;
+}
+
+struct Closure {
+  double worst = 0.0;    ///< largest |energy_error| / largest term over the steps
+  double largest = 0.0;  ///< the largest term at the end
+};
+
+template <class Solver>
+Closure run_and_check(Solver& solver, int n_steps) {
+  Closure closure;
+  for (int k = 0; k < n_steps; ++k) {
+    solver.step();
+    const EnergyBalance e = solver.energy();
+    closure.worst = std::max(closure.worst, std::abs(e.energy_error()) / e.largest_term());
+    closure.largest = e.largest_term();
+  }
+  return closure;
+}
+
+TEST(EnergyLedger, ClosesOnTheUndampedElasticBlockMuslAndUsl) {
+  for (const std::string scheme : {"musl", "usl"}) {
+    const Case c = parse_case(elastic_block(scheme, 0.0), "elastic_block");
+    MpmSolver solver(c);
+    solver.initialise_stress();
+    // USL on this block goes unstable after about 110 steps (the 0.125 m block of the issue
+    // after about 240, as in cb-geo/mpm): stop before.
+    const Closure closure = run_and_check(solver, scheme == "usl" ? 90 : 400);
+    const EnergyBalance e = solver.energy();
+    std::printf(
+        "%s elastic block: worst |error| / largest term %.2e; gravity %.2f, kinetic %.2f, "
+        "elastic %.2f, transfers %.2f + %.2f, internal force %.2f + stress power %.2f kJ/m\n",
+        scheme.c_str(), closure.worst, e.ledger.gravity_work, e.kinetic_energy, e.elastic_energy,
+        e.ledger.transfer_to_grid, e.ledger.transfer_to_particles, e.ledger.internal_force_work,
+        e.ledger.stress_power);
+    EXPECT_LE(closure.worst, 1e-9);
+    EXPECT_GT(e.ledger.gravity_work, 1.0);
+  }
+}
+
+TEST(EnergyLedger, ClosesOnTheUlFemDampedAndUndamped) {
+  for (const double damping : {0.0, 0.1}) {
+    const Case c = parse_case(elastic_block("musl", damping), "elastic_block");
+    ulfem::UlFemSolver solver(c);
+    solver.initialise_stress();
+    const Closure closure = run_and_check(solver, 300);
+    const EnergyBalance e = solver.energy();
+    std::printf("UL-FEM elastic block, damping %.1f: worst |error| / largest term %.2e\n", damping,
+                closure.worst);
+    EXPECT_LE(closure.worst, 1e-9);
+    // No cell crossing on a mesh that moves with the material: the transfers are those of the
+    // consistent-to-lumped projection only, and the scheme's own term stays small.
+    EXPECT_LE(std::abs(e.ledger.internal_force_work + e.ledger.stress_power),
+              0.05 * e.ledger.gravity_work);
+  }
+}
+
+// Through failure: the softening Tresca block of cases/bearing_block_k0.json under its load on
+// the detected top, K0 start (initial elastic energy), damped.
+TEST(EnergyLedger, ClosesThroughFailureUnderADetectedBoundaryLoad) {
+  const Case c = read_case("cases/bearing_block_k0.json");
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  solver.initialise_stress();
+  coupling.attach(solver);
+  EXPECT_GT(solver.energy().ledger.initial_energy, 0.0);
+  const Closure closure = run_and_check(solver, 150);
+  const EnergyBalance e = solver.energy();
+  std::printf("bearing block K0, 150 steps: worst |error| / largest term %.2e, dissipation %.2f\n",
+              closure.worst, e.ledger.plastic_dissipation);
+  EXPECT_LE(closure.worst, 1e-9);
+  EXPECT_GT(e.ledger.plastic_dissipation, 0.0);
+  EXPECT_GT(e.ledger.load_work, 0.0);
+}
+
+}  // namespace
+}  // namespace pfm
