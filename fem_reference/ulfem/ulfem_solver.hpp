@@ -10,7 +10,7 @@
 //   external_forces      gravity m_I g, the case's loads on the current boundary edges
 //   update_nodes         local (Cundall) damping, acceleration, velocity, constraints
 //                        (update_node() of mpm/solver/energy_ledger.hpp, as the MPM's grid)
-//   nodes_to_particles   particle velocity (FLIP)
+//   nodes_to_particles   particle velocity (FLIP, blended with PIC by solver.pic_fraction)
 //   remap_momentum       MUSL only: nodal velocity from the updated particle momentum
 //   update_stress        velocity gradient, Jaumann rotation, constitutive update, F
 //   move_mesh            x_I += dt v_I; material points stay at their natural coordinates,

@@ -52,49 +52,6 @@
 
 namespace pfm {
 
-/// The accumulated terms of the ledger (kJ/m), and what the next step needs of the last.
-struct EnergyLedger {
-  double initial_energy = 0.0;    ///< kinetic + elastic energy at time 0
-  double particle_kinetic = 0.0;  ///< kinetic energy of the particles after the last step
-  double gravity_work = 0.0;
-  double load_work = 0.0;
-  double damping_work = 0.0;
-  double constraint_work = 0.0;
-  double transfer_to_grid = 0.0;
-  double transfer_to_particles = 0.0;
-  double internal_force_work = 0.0;
-  double stress_power = 0.0;
-  double plastic_dissipation = 0.0;
-  double rotation_work = 0.0;
-  double volume_work = 0.0;
-
-  /// The accumulated terms by name (checkpoints; names as in timeseries.csv).
-  static constexpr std::array<std::string_view, 13> kNames = {
-      "initial_energy",      "particle_kinetic", "gravity_work",        "load_work",
-      "damping_work",        "constraint_work",  "transfer_to_grid",    "transfer_to_particles",
-      "internal_force_work", "stress_power",     "plastic_dissipation", "rotation_work",
-      "volume_work"};
-  std::array<double*, 13> fields() {
-    return {&initial_energy,      &particle_kinetic, &gravity_work,        &load_work,
-            &damping_work,        &constraint_work,  &transfer_to_grid,    &transfer_to_particles,
-            &internal_force_work, &stress_power,     &plastic_dissipation, &rotation_work,
-            &volume_work};
-  }
-  /// Books a grid update's node terms (summed over nodes); the particles' kinetic energy
-  /// before the step is particle_kinetic.
-  void add_grid_update(const struct NodeEnergy& step);
-  /// Books a stress update's point terms (summed over points).
-  void add_stress_update(const struct PointEnergy& step);
-  /// Work of gravity and the surface loads.
-  double external_work() const { return gravity_work + load_work; }
-  /// Every input to the kinetic and elastic energy since time 0, initial energy included.
-  double supplied() const {
-    return initial_energy + gravity_work + load_work + damping_work + constraint_work +
-           transfer_to_grid + transfer_to_particles + internal_force_work + stress_power +
-           rotation_work + volume_work;
-  }
-};
-
 /// The energy terms of one node's update (kJ/m), summed over nodes by the solvers.
 struct NodeEnergy {
   double kinetic_before = 0.0;  ///< |p|^2 / (2 m), before the constraints
@@ -183,6 +140,49 @@ inline double add_stress_update_energy(const MaterialConstants& c, const Stress&
   e.volume += (v1 - v0) * 0.5 * (psi0 + psi1);
   return power;
 }
+
+/// The accumulated terms of the ledger (kJ/m), and what the next step needs of the last.
+struct EnergyLedger {
+  double initial_energy = 0.0;    ///< kinetic + elastic energy at time 0
+  double particle_kinetic = 0.0;  ///< kinetic energy of the particles after the last step
+  double gravity_work = 0.0;
+  double load_work = 0.0;
+  double damping_work = 0.0;
+  double constraint_work = 0.0;
+  double transfer_to_grid = 0.0;
+  double transfer_to_particles = 0.0;
+  double internal_force_work = 0.0;
+  double stress_power = 0.0;
+  double plastic_dissipation = 0.0;
+  double rotation_work = 0.0;
+  double volume_work = 0.0;
+
+  /// The accumulated terms by name (checkpoints; names as in timeseries.csv).
+  static constexpr std::array<std::string_view, 13> kNames = {
+      "initial_energy",      "particle_kinetic", "gravity_work",        "load_work",
+      "damping_work",        "constraint_work",  "transfer_to_grid",    "transfer_to_particles",
+      "internal_force_work", "stress_power",     "plastic_dissipation", "rotation_work",
+      "volume_work"};
+  std::array<double*, 13> fields() {
+    return {&initial_energy,      &particle_kinetic, &gravity_work,        &load_work,
+            &damping_work,        &constraint_work,  &transfer_to_grid,    &transfer_to_particles,
+            &internal_force_work, &stress_power,     &plastic_dissipation, &rotation_work,
+            &volume_work};
+  }
+  /// Books a grid update's node terms (summed over nodes); the particles' kinetic energy
+  /// before the step is particle_kinetic.
+  void add_grid_update(const NodeEnergy& step);
+  /// Books a stress update's point terms (summed over points).
+  void add_stress_update(const PointEnergy& step);
+  /// Work of gravity and the surface loads.
+  double external_work() const { return gravity_work + load_work; }
+  /// Every input to the kinetic and elastic energy since time 0, initial energy included.
+  double supplied() const {
+    return initial_energy + gravity_work + load_work + damping_work + constraint_work +
+           transfer_to_grid + transfer_to_particles + internal_force_work + stress_power +
+           rotation_work + volume_work;
+  }
+};
 
 inline void EnergyLedger::add_grid_update(const NodeEnergy& step) {
   transfer_to_grid += step.kinetic_before - particle_kinetic;

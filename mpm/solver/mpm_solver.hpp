@@ -5,7 +5,8 @@
 //   particles_to_grid     nodal mass, momentum and internal force  (+ body force)
 //   external_forces       surface loads on the grid (grid-aligned, or on the detected boundary)
 //   update_grid           local damping, acceleration, velocity, velocity constraints
-//   grid_to_particles     particle velocity (FLIP) and position
+//   grid_to_particles     particle velocity (FLIP, blended with PIC by solver.pic_fraction)
+//                         and position
 //   remap_momentum        MUSL only: nodal velocity from the updated particle momentum
 //   update_stress         velocity gradient, Jaumann rotation, constitutive update, F, volume
 //
