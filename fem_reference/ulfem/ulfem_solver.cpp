@@ -616,15 +616,15 @@ void UlFemSolver::update_stress_from_node_velocity(const std::vector<Vec2>& node
 void UlFemSolver::check_particles() {
   const std::size_t n = particles_.size();
   long bad = -1;
-  double max_speed = 0.0;
+  double max_speed = 0.0, kinetic = 0.0;  // kinetic: in particle_kinetic_energy()'s order
   for (std::size_t p = 0; p < n; ++p) {
     const bool finite = particles_.position[p].allFinite() && particles_.velocity[p].allFinite() &&
                         particles_.stress[p].allFinite();
     if (!finite) bad = std::max(bad, static_cast<long>(p));
     max_speed = std::max(max_speed, particles_.velocity[p].norm());
+    kinetic += 0.5 * particles_.mass[p] * particles_.velocity[p].squaredNorm();
   }
   max_particle_speed_ = max_speed;
-  const double kinetic = particle_kinetic_energy();
   counters_.energy.transfer_to_particles += kinetic - grid_kinetic_after_;
   counters_.energy.particle_kinetic = kinetic;
   if (bad >= 0) {
