@@ -44,7 +44,7 @@ own error from the solver's.
 Reproduce: ``make study-boundary`` = ``/usr/bin/python3 -m studies boundary [--quick]``
 (quick: slope and block from K0, thesis and improved PFM, t = 0 and 0.625 s). Needs
 ``pfm-mpm`` (``run`` with a detection block, ``run --solver ulfem`` or ``pfm-ulfem``,
-``detect``), ``cases/slope.json`` and ``cases/bearing_block.json``. Writes
+``detect``), ``cases/thesis55_slope_dynamic_zero_start.json`` and ``cases/thesis62_bearing_dynamic_zero_start.json``. Writes
 ``boundary_errors.csv/.md`` (one row per case, detector, measure, time, region),
 ``summary.csv/.md`` (overall max and RMS in h), ``traction.csv/.md``, ``detectors.csv/.md``
 (which detectors ran) and ``overlay_<case>_t<time>.png``.
@@ -122,13 +122,13 @@ class BoundaryCase:
     overrides: dict = field(default_factory=dict)
 
 
+SLOPE = "thesis55_slope_dynamic_zero_start"  # the thesis cases, chapter 5 and 6.2
+BLOCK = "thesis62_bearing_dynamic_zero_start"
 CASES = [
-    BoundaryCase("slope_k0", "slope", "slope", {"initial_stress": K0_START}),
-    BoundaryCase("slope_gravity", "slope", "slope", {"initial_stress": GRAVITY_START}),
-    BoundaryCase("block_k0", "bearing_block", "block", {"initial_stress": K0_START}),
-    BoundaryCase(
-        "block_gravity", "bearing_block", "block", {"initial_stress": GRAVITY_START}
-    ),
+    BoundaryCase("slope_k0", SLOPE, "slope", {"initial_stress": K0_START}),
+    BoundaryCase("slope_gravity", SLOPE, "slope", {"initial_stress": GRAVITY_START}),
+    BoundaryCase("block_k0", BLOCK, "block", {"initial_stress": K0_START}),
+    BoundaryCase("block_gravity", BLOCK, "block", {"initial_stress": GRAVITY_START}),
 ]
 assert [c.name for c in CASES] == [name for name, _ in BOUNDARY_CASES]
 QUICK_CASES = ("slope_k0", "block_k0")

@@ -26,7 +26,7 @@ Why: an error that does not fall with h points at a bug or at a floor (for the b
 difference between the MPM and the FEM motion of softening soil, which does not vanish).
 
 Reproduce: ``make study-convergence`` = ``/usr/bin/python3 -m studies convergence [--quick]``.
-Needs ``pfm-mpm`` (``run``, ``run --solver ulfem``, ``detect``), ``cases/slope.json`` and
+Needs ``pfm-mpm`` (``run``, ``run --solver ulfem``, ``detect``), ``cases/thesis55_slope_dynamic_zero_start.json`` and
 ``fem_reference/dolfinx_model``; writes ``rates.csv/.md`` and ``convergence.png``.
 """
 
@@ -129,7 +129,7 @@ def bearing_case() -> dict:
 
 
 def slope_case() -> dict:
-    slope, _ = base_case("slope")
+    slope, _ = base_case("thesis55_slope_dynamic_zero_start")
     # Detection only at the outputs: the slope carries no load, so the boundary does not act
     # on the motion, and detecting every step on 200k points would dominate the cost.
     return derive(
@@ -157,7 +157,7 @@ def _dolfinx(case: dict) -> str:
 def run(context) -> StudyOutcome:
     context.tools.append(tool_path("pfm-mpm"))
     sizes = QUICK_CELL_SIZES if context.quick else CELL_SIZES
-    _, slope_path = base_case("slope")
+    _, slope_path = base_case("thesis55_slope_dynamic_zero_start")
     context.case_files.append(slope_path)
     bearing, slope = bearing_case(), slope_case()
     tasks, keys = [], []

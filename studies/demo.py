@@ -1,17 +1,31 @@
-"""``make run``: the bearing block with boundary detection and traction, compared with the FEM.
+"""``make run``: a strip load on a clay layer, applied on the boundary the detector finds, with
+the MPM, the updated-Lagrangian FEM and dolfinx's static answer.
 
-Runs ``CASE`` (default ``cases/bearing_block.json``: q_v on the detected boundary, improved
-detector every step) to ``--end-time`` (default 1.25 s, the thesis's last comparison time) with
-the MPM and with the updated-Lagrangian FEM (``pfm-mpm run --solver ulfem``), then at every
-output time compares the MPM's detected boundary with the FEM's exact mesh boundary (mean, RMS,
-max over the free surface, studies.boundary's measure) and the settlement under the load
-centre, and reads the traction diagnostics (applied against target force, force lost on nodes
-of empty cells). Writes ``OUT/mpm/``, ``OUT/ulfem/`` (the solvers' outputs), and
-``OUT/report.md``, ``OUT/index.html``, ``OUT/comparison.csv``, ``OUT/overlay.png``,
-``OUT/comparison.png``; prints where the report is.
+Runs ``CASE`` (default ``cases/bearing_quasi_static.json``: K0 start, the load ramped on the
+detected boundary, damped to rest) to its end time with
 
-    /usr/bin/python3 -m studies demo [--case cases/bearing_block.json]
-                                     [--out results/bearing_block] [--end-time 1.25]
+* the MPM (``pfm-mpm run``), whose load acts on the boundary it detects every step;
+* the updated-Lagrangian FEM (``pfm-mpm run --solver ulfem``): the same points, stresses and
+  explicit step on a mesh that moves with the body, so its boundary is exact;
+* the dolfinx model in static mode (``python -m fem_reference.dolfinx_model``): P2 triangles of
+  half the grid's cell size, small strain, the load in ``REFERENCE_STEPS`` increments, Newton.
+
+It compares the settlement of the surface under the load centre at the end (the MPM within
+``SETTLEMENT_LIMITS["mpm"]`` and the UL-FEM within ``SETTLEMENT_LIMITS["ulfem"]`` of dolfinx),
+whether both explicit runs came to rest (kinetic energy / external work at the end below
+``REST_LIMIT``), whether any MPM point jitters in place (studies.common.measures.jitter_counts
+between consecutive outputs: none may), and at every output the detected boundary against the UL-FEM's mesh boundary
+(mean, RMS and max distance over the free surface, studies.boundary's measure).
+
+Writes into ``OUT``: ``mpm/``, ``ulfem/``, ``dolfinx/`` (the three runs), ``case.json``,
+``verdict.json`` (the figures and the checks), ``history.csv`` (settlement and boundary distance
+at every output), ``report.md`` and ``index.html``, the figures ``load_settlement.png``,
+``plastic_zone.png``, ``boundary_distance.png``, ``energy.png``, and ``provenance.json``.
+Exit 0 when the runs completed (the verdict is in the report), 2 on bad input or a missing tool,
+1 when a run failed.
+
+    /usr/bin/python3 -m studies demo [--case cases/bearing_quasi_static.json]
+                                     [--out results/bearing_quasi_static] [--end-time T]
 """
 
 from __future__ import annotations
@@ -26,15 +40,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from studies.boundary import (
-    EDGE_BAND_CELLS,
-    TIME_TOLERANCE,
-    regions_of,
-    traction_errors,
-)
+from studies.boundary import EDGE_BAND_CELLS, TIME_TOLERANCE, regions_of
 from studies.common.cases import cell_size, derive
-from studies.common.measures import surface_settlement_extrapolated
+from studies.common.measures import (
+    JITTER_SPEED,
+    JITTER_TRAVEL,
+    jitter_counts,
+    surface_settlement_extrapolated,
+)
 from studies.common.outputs import (
+    final_particles,
     read_boundary,
     read_index,
     read_particles,
@@ -44,117 +59,439 @@ from studies.common.outputs import (
     run_status,
 )
 from studies.common.paths import PrerequisiteMissing, mpm_executable, repo_root
-from studies.common.runner import mpm_has_solver_option, tool_path
-from studies.common.tables import markdown_table
+from studies.common.provenance import utc_now, write_provenance
+from studies.common.runner import DOLFINX_MODULE
+from studies.common.tables import format_value, markdown_table
 from studies.metrics import boundary_distance, grid_edge_band
 
+# Relative settlement error against dolfinx, and kinetic energy / external work at the end.
+SETTLEMENT_LIMITS = {"mpm": 0.03, "ulfem": 0.02}
+REST_LIMIT = 1e-4
+REFERENCE_STEPS = 20
+SOLVER_NAMES = {"mpm": "MPM (detected boundary)", "ulfem": "UL-FEM"}
 
-def run_solver(case_file: Path, out: Path, solver: str) -> int:
-    executable = mpm_executable()
-    if solver == "ulfem" and not mpm_has_solver_option(executable):
-        command = [str(tool_path("pfm-ulfem")), str(case_file), str(out)]
-    else:
-        command = [str(executable), "run", str(case_file), "--out", str(out), "--quiet"]
-        if solver != "mpm":
-            command += ["--solver", solver]
+
+class RunFailed(Exception):
+    pass
+
+
+def run_explicit(case_file: Path, out: Path, solver: str) -> int:
+    command = [
+        str(mpm_executable()),
+        "run",
+        str(case_file),
+        "--out",
+        str(out),
+        "--quiet",
+    ]
+    if solver != "mpm":
+        command += ["--solver", solver]
     print(f"demo: {' '.join(command)}", flush=True)
-    done = subprocess.run(command)
-    if done.returncode not in (0, 3):
-        raise SystemExit(f"demo: {solver} run failed with exit code {done.returncode}")
+    code = subprocess.run(command).returncode
+    if code not in (0, 3):
+        raise RunFailed(f"{solver} run failed with exit code {code}")
+    return code
+
+
+def run_reference(case_file: Path, out: Path, h: float) -> int:
+    """dolfinx static run; exit 0 (full load), 3 (Newton failed first) or 4 (no initial
+    equilibrium), see fem_reference/README.md."""
+    command = [
+        sys.executable,
+        "-m",
+        DOLFINX_MODULE,
+        str(case_file),
+        "--out",
+        str(out),
+        "--steps",
+        str(REFERENCE_STEPS),
+        "--element-size",
+        f"{h / 2:g}",
+        "--no-fields",
+    ]
+    print(f"demo: {' '.join(command)}", flush=True)
+    done = subprocess.run(command, cwd=repo_root(), stdout=subprocess.DEVNULL)
+    if done.returncode not in (0, 3, 4):
+        raise RunFailed(f"dolfinx run failed with exit code {done.returncode}")
     return done.returncode
 
 
-def compare(case: dict, mpm_out: Path, fem_out: Path) -> pd.DataFrame:
+def load_factor(load: dict, time: float) -> float:
+    """The load's time function at `time` (constant 1, or a linear ramp to 1)."""
+    function = load.get("time_function", {"type": "constant"})
+    if function.get("type") == "ramp":
+        return min(time / function["ramp_time"], 1.0)
+    return 1.0
+
+
+def load_centre(case: dict) -> tuple[float, float]:
+    """x of the first load's centre and the initial surface height (the body's top)."""
+    load = case["loads"][0]
+    body = case["bodies"][0]
+    top = (
+        body["rectangle"][1][1]
+        if "rectangle" in body
+        else max(y for _, y in body["polygon"])
+    )
+    return 0.5 * sum(load["x_range"]), top
+
+
+def settlement(particles: pd.DataFrame, case: dict) -> float:
+    x, top = load_centre(case)
+    return surface_settlement_extrapolated(particles, x, top, cell_size(case))
+
+
+def history(case: dict, mpm_out: Path, fem_out: Path) -> pd.DataFrame:
+    """At every UL-FEM output: the load, the settlement of both solvers and the distance of
+    the detected boundary to the UL-FEM boundary over the free surface."""
     h = cell_size(case)
     kind = "slope" if "polygon" in case["bodies"][0] else "block"
     regions = regions_of(case, kind, h)
     ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
-    load = case["loads"][0] if case.get("loads") else None
+    load = case["loads"][0]
     mpm_b, fem_b = read_index(mpm_out, "boundary"), read_index(fem_out, "boundary")
-    mpm_p, fem_p = read_index(mpm_out, "particles"), read_index(fem_out, "particles")
+    particles = {
+        s: read_index(o, "particles") for s, o in (("mpm", mpm_out), ("ulfem", fem_out))
+    }
     rows = []
     for row in fem_b.itertuples(index=False):
         mine = row_at_time(mpm_b, row.time, TIME_TOLERANCE)
         if mine is None:
             continue
-        result = boundary_distance(
+        distance = boundary_distance(
             read_boundary(mine["file"]),
             read_boundary(row.file),
             h=h,
             regions=regions,
             ignore=ignore,
-        )
+        ).overall
         entry = {
             "time_s": row.time,
-            "mean_m": result.overall.mean,
-            "rms_m": result.overall.rms,
-            "max_m": result.overall.max,
+            "load_kPa": load["pressure"] * load_factor(load, row.time),
         }
-        if "loaded_strip" in result.regions:
-            entry["loaded_strip_max_m"] = result.regions["loaded_strip"].max
-        if load is not None and kind == "block":
-            x = 0.5 * sum(load["x_range"])
-            top = case["bodies"][0]["rectangle"][1][1]
-            for name, index in (("mpm", mpm_p), ("fem", fem_p)):
-                frame = row_at_time(index, row.time, TIME_TOLERANCE)
-                entry[f"settlement_{name}_m"] = settlement(frame, x, top, h)
+        for solver, index in particles.items():
+            frame = row_at_time(index, row.time, TIME_TOLERANCE)
+            entry[f"settlement_{solver}_m"] = (
+                settlement(read_particles(frame["file"]), case)
+                if frame is not None
+                else np.nan
+            )
+        entry.update(
+            {
+                "distance_mean_m": distance.mean,
+                "distance_rms_m": distance.rms,
+                "distance_max_m": distance.max,
+            }
+        )
         rows.append(entry)
     return pd.DataFrame(rows)
 
 
-def settlement(frame, x: float, top: float, h: float) -> float:
-    """Surface settlement at x from a particle output row (NaN without points there)."""
-    if frame is None:
-        return np.nan
-    try:
-        return surface_settlement_extrapolated(read_particles(frame["file"]), x, top, h)
-    except ValueError:
-        return np.nan
+def verdict(case: dict, outs: dict, reference_code: int) -> dict:
+    """The figures the page reports and the checks made on them."""
+    load = case["loads"][0]
+    result = {"load_kPa": load["pressure"], "reference": {"exit_code": reference_code}}
+    curve = None
+    if reference_code == 0:
+        curve = pd.read_csv(outs["dolfinx"] / "load_settlement.csv")
+        result["reference"]["settlement_m"] = float(curve["settlement"].iloc[-1])
+    checks = []
+    for solver in ("mpm", "ulfem"):
+        series = read_timeseries(outs[solver])
+        last = series.iloc[-1]
+        entry = {
+            "final_time_s": float(last["time"]),
+            "settlement_m": settlement(final_particles(outs[solver]), case),
+            "kinetic_over_external_work": float(
+                last["kinetic_energy"] / abs(last["external_work"])
+            ),
+            "energy_error_relative": float(
+                read_summary(outs[solver])["energy"]["relative_error"]
+            ),
+        }
+        checks.append(
+            {
+                "what": f"{SOLVER_NAMES[solver]} at rest: kinetic energy / external work",
+                "value": entry["kinetic_over_external_work"],
+                "limit": REST_LIMIT,
+                "passed": bool(entry["kinetic_over_external_work"] <= REST_LIMIT),
+            }
+        )
+        if curve is not None:
+            reference = result["reference"]["settlement_m"]
+            entry["settlement_error_relative"] = entry["settlement_m"] / reference - 1.0
+            checks.append(
+                {
+                    "what": f"{SOLVER_NAMES[solver]} settlement against dolfinx (relative)",
+                    "value": entry["settlement_error_relative"],
+                    "limit": SETTLEMENT_LIMITS[solver],
+                    "passed": bool(
+                        abs(entry["settlement_error_relative"])
+                        <= SETTLEMENT_LIMITS[solver]
+                    ),
+                }
+            )
+        result[solver] = entry
+    frames = read_index(outs["mpm"], "particles")
+    counts = jitter_counts(
+        [read_particles(f) for f in frames["file"]], list(frames["time"])
+    )
+    result["mpm"]["jitter_largest_count"] = max(counts, default=0)
+    checks.append(
+        {
+            "what": f"MPM points faster than {JITTER_SPEED:g} m/s that move less than "
+            f"{JITTER_TRAVEL:g} x speed x the interval between outputs (largest count)",
+            "value": result["mpm"]["jitter_largest_count"],
+            "limit": 0,
+            "passed": result["mpm"]["jitter_largest_count"] == 0,
+        }
+    )
+    result["checks"] = checks
+    result["passed"] = bool(curve is not None and all(c["passed"] for c in checks))
+    return result
 
 
-def figures(case, mpm_out: Path, fem_out: Path, table: pd.DataFrame, out: Path) -> list:
+def energy_ledger(axis, series: pd.DataFrame, title: str):
+    """The energy ledger of a run against time (timeseries.csv columns, kJ/m): what gravity
+    and the loads supply, where it goes (stored, dissipated), and the scheme's own terms.
+    """
+    t = series["time"]
+    elastic_change = series["elastic_energy"] - series["elastic_energy"].iloc[0]
+    lines = [
+        ("gravity work", series["gravity_work"], "-"),
+        ("load work", series["load_work"], "-"),
+        ("elastic energy change", elastic_change, "--"),
+        ("kinetic energy", series["kinetic_energy"], "--"),
+        ("plastic dissipation", series["plastic_dissipation"], "--"),
+        ("damping (removed)", -series["damping_work"], "--"),
+        (
+            "transfers, particles <-> grid",
+            series["transfer_to_grid"] + series["transfer_to_particles"],
+            ":",
+        ),
+        (
+            "scheme: internal force work + stress power",
+            series["internal_force_work"] + series["internal_work"],
+            ":",
+        ),
+        (
+            "constraints, rotation, volume",
+            series["constraint_work"] + series["rotation_work"] + series["volume_work"],
+            ":",
+        ),
+    ]
+    for label, values, style in lines:
+        axis.plot(t, values, style, label=label)
+    axis.set_xlabel("time t [s]")
+    axis.set_ylabel("energy [kJ/m]")
+    worst = float(series["energy_error"].abs().max())
+    axis.set_title(f"{title}: largest |energy error| {worst:.2g} kJ/m", fontsize=9)
+    axis.legend(fontsize=7)
+
+
+def figures(case: dict, outs: dict, table: pd.DataFrame, out: Path) -> list:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     made = []
-    times = list(table["time_s"])
-    chosen = [times[0], times[len(times) // 2], times[-1]] if len(times) >= 3 else times
-    figure, axes = plt.subplots(
-        len(chosen), 1, figsize=(9, 2.6 * len(chosen)), squeeze=False
+
+    def save(figure, name: str, title: str):
+        figure.tight_layout()
+        figure.savefig(out / name, dpi=110)
+        plt.close(figure)
+        made.append((name, title))
+
+    figure, axis = plt.subplots(figsize=(6.5, 4.2))
+    for solver, style in (("mpm", "o"), ("ulfem", "s")):
+        axis.plot(
+            table[f"settlement_{solver}_m"],
+            table["load_kPa"],
+            style,
+            markersize=3,
+            label=f"{SOLVER_NAMES[solver]}, at the outputs",
+        )
+    curve_file = outs["dolfinx"] / "load_settlement.csv"
+    if curve_file.is_file():
+        curve = pd.read_csv(curve_file)
+        axis.plot(curve["settlement"], curve["load"], "k-", label="dolfinx P2, static")
+    axis.set_xlabel("settlement under the load centre [m]")
+    axis.set_ylabel("pressure q [kPa]")
+    axis.legend(fontsize=8)
+    save(figure, "load_settlement.png", "Load against settlement under the load centre")
+
+    particles = final_particles(outs["mpm"])
+    figure, axis = plt.subplots(figsize=(10, 4.2))
+    points = axis.scatter(
+        particles["x"], particles["y"], c=particles["eps_p"], s=6, cmap="viridis"
     )
-    for axis, time in zip(axes[:, 0], chosen):
-        for label, run, style in (
-            ("UL-FEM", fem_out, {"color": "black", "linewidth": 2}),
-            ("MPM (detected)", mpm_out, {"color": "tab:red", "linewidth": 1}),
-        ):
-            row = row_at_time(read_index(run, "boundary"), time, TIME_TOLERANCE)
-            for i, loop in enumerate(read_boundary(row["file"])):
-                p = (
-                    np.vstack([loop.points, loop.points[:1]])
-                    if loop.closed
-                    else loop.points
-                )
-                axis.plot(p[:, 0], p[:, 1], label=label if i == 0 else None, **style)
-        axis.set_aspect("equal")
-        axis.set_title(f"t = {time:.3g} s", fontsize=9)
-        axis.legend(fontsize=7, loc="lower left")
-    figure.tight_layout()
-    figure.savefig(out / "overlay.png", dpi=100)
-    plt.close(figure)
-    made.append(("overlay.png", "Detected (MPM) and exact (UL-FEM) boundaries"))
-    figure, axis = plt.subplots(figsize=(6, 3.5))
-    for column in ("mean_m", "rms_m", "max_m"):
-        axis.plot(table["time_s"], table[column], "o-", label=column)
-    axis.set_xlabel("t [s]")
-    axis.set_ylabel("distance to the UL-FEM boundary [m]")
-    axis.legend(fontsize=7)
-    figure.tight_layout()
-    figure.savefig(out / "comparison.png", dpi=100)
-    plt.close(figure)
-    made.append(("comparison.png", "Boundary distance against time"))
+    figure.colorbar(points, ax=axis, label="MPM equivalent plastic strain [-]")
+    styles = [
+        (
+            "UL-FEM boundary",
+            read_boundary_at_end(outs["ulfem"]),
+            {"color": "black", "linewidth": 2},
+        ),
+        (
+            "detected boundary (MPM)",
+            read_boundary_at_end(outs["mpm"]),
+            {"color": "tab:red", "linewidth": 1},
+        ),
+    ]
+    for label, loops, style in styles:
+        for i, loop in enumerate(loops):
+            p = (
+                np.vstack([loop.points, loop.points[:1]])
+                if loop.closed
+                else loop.points
+            )
+            axis.plot(p[:, 0], p[:, 1], label=label if i == 0 else None, **style)
+    axis.set_aspect("equal")
+    axis.set_xlabel("x [m]")
+    axis.set_ylabel("y [m]")
+    axis.set_title(f"t = {table['time_s'].iloc[-1]:.3g} s (true scale)", fontsize=9)
+    axis.legend(fontsize=7, loc="lower left")
+    save(figure, "plastic_zone.png", "Plastic zone and boundaries at the end")
+
+    figure, axis = plt.subplots(figsize=(6.5, 3.8))
+    for column, label in (
+        ("distance_mean_m", "mean"),
+        ("distance_rms_m", "RMS"),
+        ("distance_max_m", "max"),
+    ):
+        axis.plot(table["time_s"], table[column], "o-", markersize=3, label=label)
+    axis.set_xlabel("time t [s]")
+    axis.set_ylabel("detected to UL-FEM boundary [m]")
+    axis.legend(fontsize=8)
+    save(
+        figure, "boundary_distance.png", "Detected boundary against the UL-FEM boundary"
+    )
+
+    figure, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
+    for axis, solver in zip(axes, ("mpm", "ulfem")):
+        energy_ledger(axis, read_timeseries(outs[solver]), SOLVER_NAMES[solver])
+    save(figure, "energy.png", "Energy ledger of both explicit runs")
     return made
+
+
+def read_boundary_at_end(out: Path):
+    return read_boundary(read_index(out, "boundary").iloc[-1]["file"])
+
+
+def describe(case: dict, result: dict, summary: dict) -> list:
+    """The page's words: what is compared, then the verdict."""
+    load = case["loads"][0]
+    x0, x1 = load["x_range"]
+    material = case["materials"][0]
+    mpm, fem = result["mpm"], result["ulfem"]
+    words = [
+        f"A pressure q = {load['pressure']:g} kPa acts downwards on the surface between "
+        f"x = {x0:g} and {x1:g} m of a {material['model']} soil "
+        f"(E = {material['youngs_modulus']:g} kPa, nu = {material['poisson_ratio']:g}). "
+        "The MPM applies it on the boundary it detects from its material points at every "
+        "step; the UL-FEM, with the same points and explicit step on a mesh that moves with "
+        "the body, applies it on its exact mesh boundary; dolfinx solves the static problem "
+        f"with P2 triangles of {cell_size(case) / 2:g} m in {REFERENCE_STEPS} load steps "
+        "(small strain).",
+        "",
+        f"Compared: the settlement of the surface under the load centre (x = "
+        f"{0.5 * (x0 + x1):g} m) at the end, t = {mpm['final_time_s']:.3g} s; whether both "
+        "explicit runs have come to rest; whether any MPM point oscillates in place (fast but "
+        "not moving, between two outputs); and, at every output, the distance of the detected "
+        "boundary to the UL-FEM boundary over the free surface.",
+        "",
+        f"MPM: {summary['n_particles']} points, {summary['n_steps']} steps, "
+        f"{summary['wall_time_s']:.2f} s wall, detection "
+        f"{summary.get('detection', {}).get('seconds_per_call', 0.0) * 1e3:.3g} ms per call. "
+        f"Energy ledger closure (largest |error| / largest term): MPM "
+        f"{mpm['energy_error_relative']:.2g}, UL-FEM {fem['energy_error_relative']:.2g}.",
+        "",
+    ]
+    reference = result["reference"]
+    if "settlement_m" in reference:
+        words.append(
+            f"**Settlement:** dolfinx {reference['settlement_m']:.5g} m, MPM "
+            f"{mpm['settlement_m']:.5g} m ({100 * mpm['settlement_error_relative']:+.2f} %), "
+            f"UL-FEM {fem['settlement_m']:.5g} m "
+            f"({100 * fem['settlement_error_relative']:+.2f} %)."
+        )
+    else:
+        words.append(
+            f"**No static reference:** the dolfinx run stopped with exit code "
+            f"{reference['exit_code']} (3: Newton failed before the full load, 4: no "
+            f"equilibrium under gravity; fem_reference/README.md). Settlement: MPM "
+            f"{mpm['settlement_m']:.5g} m, UL-FEM {fem['settlement_m']:.5g} m."
+        )
+    words.append("")
+    for check in result["checks"]:
+        mark = "PASS" if check["passed"] else "FAIL"
+        words.append(
+            f"- {mark}: {check['what']} = {format_value(check['value'])} "
+            f"(limit {format_value(check['limit'])})"
+        )
+    words += [
+        "",
+        "**Verdict: "
+        + (
+            "the detected-boundary load gives the static answer within the limits.**"
+            if result["passed"]
+            else "not within the limits above.**"
+        ),
+    ]
+    return words
+
+
+def write_pages(case: dict, words: list, table: pd.DataFrame, made: list, out: Path):
+    shown = table.iloc[:: max(1, len(table) // 10)]
+    if shown.index[-1] != table.index[-1]:
+        shown = pd.concat([shown, table.iloc[[-1]]])
+    title = case.get("title", "pfm-mpm run")
+    lines = [
+        f"# {title}",
+        "",
+        "## What is compared, and the verdict",
+        "",
+        *words,
+        "",
+        "## Settlement and boundary distance at the outputs",
+        "",
+        "(every output in history.csv)",
+        "",
+        markdown_table(shown),
+        "## Figures",
+        "",
+    ]
+    lines += [f"![{t}]({f})" for f, t in made]
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+    body = [
+        f"<h1>{html.escape(title)}</h1>",
+        "<h2>What is compared, and the verdict</h2>",
+    ]
+    items = []
+    for line in words:
+        text = html.escape(line).replace("**", "")
+        if line.startswith("- "):
+            items.append(f"<li>{text[2:]}</li>")
+            continue
+        if items:
+            body.append("<ul>" + "".join(items) + "</ul>")
+            items = []
+        if line:
+            body.append(f"<p>{text}</p>")
+    if items:
+        body.append("<ul>" + "".join(items) + "</ul>")
+    body += [
+        "<h2>Settlement and boundary distance at the outputs</h2>",
+        shown.to_html(index=False, float_format=lambda v: f"{v:.4g}"),
+    ]
+    body += [f'<h3>{html.escape(t)}</h3><img src="{f}">' for f, t in made]
+    (out / "index.html").write_text(
+        "<!doctype html><html><head><meta charset='utf-8'>"
+        f"<title>{html.escape(title)}</title></head><body>"
+        + "\n".join(body)
+        + "</body></html>\n"
+    )
 
 
 def main(argv=None) -> int:
@@ -164,89 +501,73 @@ def main(argv=None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
-        "--case", type=Path, default=repo_root() / "cases" / "bearing_block.json"
+        "--case", type=Path, default=repo_root() / "cases" / "bearing_quasi_static.json"
     )
     parser.add_argument(
-        "--out", type=Path, default=repo_root() / "results" / "bearing_block"
+        "--out", type=Path, default=repo_root() / "results" / "bearing_quasi_static"
     )
-    parser.add_argument("--end-time", type=float, default=1.25)
+    parser.add_argument(
+        "--end-time", type=float, help="stop earlier than the case's end"
+    )
     args = parser.parse_args(argv)
+    started = utc_now()
     try:
         mpm_executable()
     except PrerequisiteMissing as missing:
         print(f"demo: needs {missing.needs}", file=sys.stderr)
         return 2
-    case = json.loads(args.case.read_text())
-    case = derive(
-        case, {"time": {"end_time": min(args.end_time, case["time"]["end_time"])}}
-    )
+    try:
+        case = json.loads(args.case.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        print(f"demo: {args.case}: {error}", file=sys.stderr)
+        return 2
+    if not case.get("loads"):
+        print(
+            f"demo: {args.case}: /loads: the demo needs a load (none given)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.end_time is not None:
+        case = derive(
+            case, {"time": {"end_time": min(args.end_time, case["time"]["end_time"])}}
+        )
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     case_file = out / "case.json"
     case_file.write_text(json.dumps(case, indent=2) + "\n")
-    codes = {s: run_solver(case_file, out / s, s) for s in ("mpm", "ulfem")}
-    table = compare(case, out / "mpm", out / "ulfem")
-    table.to_csv(out / "comparison.csv", index=False, float_format="%.10g")
-    made = figures(case, out / "mpm", out / "ulfem", table, out)
-    summary = read_summary(out / "mpm")
-    detection = summary.get("detection", {})
-    lines = [
-        f"# {case.get('title', args.case.name)}",
-        "",
-        f"Case `{args.case}` to t = {case['time']['end_time']:g} s. MPM: "
-        f"{summary['n_particles']} points, {summary['n_steps']} steps, "
-        f"{summary['wall_time_s']:.2f} s wall; detection {detection.get('calls', 0)} calls, "
-        f"{detection.get('seconds_per_call', 0.0):.4f} s per call.",
-        "",
-    ]
+    outs = {name: out / name for name in ("mpm", "ulfem", "dolfinx")}
+    try:
+        codes = {s: run_explicit(case_file, outs[s], s) for s in ("mpm", "ulfem")}
+        reference_code = run_reference(case_file, outs["dolfinx"], cell_size(case))
+    except RunFailed as failed:
+        print(f"demo: {failed}", file=sys.stderr)
+        return 1
     for solver, code in codes.items():
         if code != 0:
-            status = run_status(out / solver)
-            lines.append(
-                f"**{solver} stopped at t = {status['final_time_s']:.4g} s:** "
-                f"{status['error']}"
+            status = run_status(outs[solver])
+            print(
+                f"demo: {solver} stopped at t = {status['final_time_s']:.4g} s: "
+                f"{status['error']}",
+                file=sys.stderr,
             )
-    lines += [
-        "",
-        "## Detected boundary (MPM) against the exact UL-FEM boundary",
-        "",
-        "Free surface only (the boundary within 1.5 h of the grid edges is left out).",
-        "",
-        markdown_table(table),
-    ]
-    if case.get("loads"):
-        series = read_timeseries(out / "mpm")
-        errors = traction_errors(series, case["loads"][0])
-        lines += [
-            "## Traction on the detected boundary",
-            "",
-            markdown_table(pd.DataFrame([errors])),
-        ]
-    lines += ["## Figures", ""] + [f"![{t}]({f})" for f, t in made]
-    (out / "report.md").write_text("\n".join(lines) + "\n")
-    body = [
-        "<h1>" + html.escape(lines[0][2:]) + "</h1>",
-        "<p>" + html.escape(lines[2]) + "</p>",
-        "<h2>Detected boundary (MPM) against the exact UL-FEM boundary</h2>",
-        table.to_html(index=False, float_format=lambda v: f"{v:.4g}"),
-    ]
-    if case.get("loads"):
-        body += [
-            "<h2>Traction on the detected boundary</h2>",
-            pd.DataFrame([errors]).to_html(
-                index=False, float_format=lambda v: f"{v:.4g}"
-            ),
-        ]
-    body += [f'<h3>{html.escape(t)}</h3><img src="{f}">' for f, t in made]
-    (out / "index.html").write_text(
-        "<!doctype html><html><head><meta charset='utf-8'>"
-        "<title>pfm-mpm run</title></head><body>" + "\n".join(body) + "</body></html>\n"
+            return 1
+    table = history(case, outs["mpm"], outs["ulfem"])
+    table.to_csv(out / "history.csv", index=False, float_format="%.10g")
+    result = verdict(case, outs, reference_code)
+    (out / "verdict.json").write_text(json.dumps(result, indent=2) + "\n")
+    made = figures(case, outs, table, out)
+    words = describe(case, result, read_summary(outs["mpm"]))
+    write_pages(case, words, table, made, out)
+    write_provenance(
+        out,
+        "demo",
+        started,
+        case_files=[args.case, case_file],
+        tools=[mpm_executable()],
     )
-    last = table.iloc[-1]
-    print(
-        f"demo: at t = {last['time_s']:.3g} s the detected boundary is {last['mean_m']:.3g} m "
-        f"(mean) / {last['max_m']:.3g} m (max) from the UL-FEM boundary"
-    )
+    for line in words[-len(result["checks"]) - 2 :]:
+        if line:
+            print(f"demo: {line.replace('**', '')}")
     print(f"report: {out / 'report.md'} and {out / 'index.html'}")
     return 0
 

@@ -35,7 +35,7 @@ comparison says whether the MPM load-settlement response is right.
 
 Reproduce: ``make study-parametric`` = ``/usr/bin/python3 -m studies parametric [--quick]``
 (quick: q_v = 50 and 100 kPa; slope offsets 0 and 4 m; load-settlement at E = 1e4 only).
-Needs ``pfm-mpm``, ``cases/bearing_block.json``, ``cases/slope.json`` and
+Needs ``pfm-mpm``, ``cases/thesis62_bearing_dynamic_zero_start.json``, ``cases/thesis55_slope_dynamic_zero_start.json`` and
 ``fem_reference/dolfinx_model``. The three parts run and are reported independently. Writes
 ``block_sweep.csv/.md``, ``load_settlement.csv/.md``, ``slope_load_position.csv/.md``,
 ``block_<parameter>.png``, ``load_settlement.png``, ``slope_load_position.png``.
@@ -313,7 +313,7 @@ def run(context) -> StudyOutcome:
 
 
 def _block_part(context, outcome: StudyOutcome) -> None:
-    block, block_path = base_case("bearing_block")
+    block, block_path = base_case("thesis62_bearing_dynamic_zero_start")
     context.case_files.append(block_path)
     sweeps = QUICK_BLOCK_SWEEPS if context.quick else BLOCK_SWEEPS
     end_time = QUICK_END_TIME if context.quick else END_TIME
@@ -376,7 +376,7 @@ def _block_part(context, outcome: StudyOutcome) -> None:
 
 
 def _dolfinx_part(context, outcome: StudyOutcome) -> None:
-    block, _ = base_case("bearing_block")
+    block, _ = base_case("thesis62_bearing_dynamic_zero_start")
     dolfinx_module_file()
     moduli = QUICK_CURVE_MODULI if context.quick else CURVE_MODULI
     curve = QUICK_CURVE if context.quick else CURVE
@@ -472,7 +472,7 @@ def mpm_curve(out: Path, case: dict, ramp_time: float) -> pd.DataFrame:
 
 
 def _slope_part(context, outcome: StudyOutcome) -> None:
-    slope, slope_path = base_case("slope")
+    slope, slope_path = base_case("thesis55_slope_dynamic_zero_start")
     context.case_files.append(slope_path)
     offsets = QUICK_SLOPE_OFFSETS if context.quick else SLOPE_LOAD_OFFSETS
     end_time = QUICK_END_TIME if context.quick else END_TIME

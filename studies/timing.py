@@ -11,7 +11,7 @@ the slope; the throughput in particle-steps per second.
 Cases: a block of soil (4 points per cell, linear elastic, gravity, K0 start, h = 0.5 m)
 sized to N points, run for a fixed number of steps with a fixed dt (about 3e6 particle-steps
 per run, at least 10 and at most 100 steps) with the improved detector every step, and the slope
-(``cases/slope.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. The slope
+(``cases/thesis55_slope_dynamic_zero_start.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. The slope
 is also timed through its failure and run-out (``slope_runout``: 2.5 s = 270 steps, the boundary
 study's last time, improved and thesis PFM): the body then lies spread and sheared, its points
 no longer 2 x 2 per cell, and both the step (plastic points) and the detection (a wider band)
@@ -264,7 +264,7 @@ def run(context) -> StudyOutcome:
                         "repetition": repetition,
                     },
                 )
-    slope, slope_path = base_case("slope")
+    slope, slope_path = base_case("thesis55_slope_dynamic_zero_start")
     context.case_files.append(slope_path)
     end_time = QUICK_SLOPE_END_TIME if quick else SLOPE_END_TIME
     slope = derive(
@@ -275,13 +275,16 @@ def run(context) -> StudyOutcome:
             "output": {"interval": end_time},
         },
     )
+
     def slope_rows(case: dict, label: str, detector: str | None) -> list[dict]:
         """The repetitions of one slope run on 1 thread; none if the detector cannot run."""
         rows = []
         if detector is not None:
             case = derive(case, {"detection": det.detection_block(detector)})
         for repetition in range(REPETITIONS):
-            summary = attempt(f"{label} {detector or 'MPM'}", lambda: timed_run(case, 1))
+            summary = attempt(
+                f"{label} {detector or 'MPM'}", lambda: timed_run(case, 1)
+            )
             if summary is None:
                 break
             rows += stage_rows(
@@ -304,7 +307,10 @@ def run(context) -> StudyOutcome:
             raw += rows or []
     runout = derive(
         slope,
-        {"time": {"end_time": RUNOUT_END_TIME}, "output": {"interval": RUNOUT_END_TIME}},
+        {
+            "time": {"end_time": RUNOUT_END_TIME},
+            "output": {"interval": RUNOUT_END_TIME},
+        },
     )
     for name in QUICK_RUNOUT_DETECTORS if quick else RUNOUT_DETECTORS:
         raw += slope_rows(runout, "slope_runout", name)
@@ -357,7 +363,9 @@ def run(context) -> StudyOutcome:
             "(median of the repetitions)",
         )
     )
-    for row in ratios[ratios["case"].isin(["slope", "slope_runout"])].itertuples(index=False):
+    for row in ratios[ratios["case"].isin(["slope", "slope_runout"])].itertuples(
+        index=False
+    ):
         if row.detector == "none":
             continue
         if row.detect_s is None or not np.isfinite(row.detect_s):

@@ -38,8 +38,8 @@ def shipped(name):
 
 
 def elastic_bearing_block():
-    """cases/bearing_block.json with the linear elastic soil of the reference tests."""
-    raw = shipped("bearing_block.json")
+    """cases/thesis62_bearing_dynamic_zero_start.json with the linear elastic soil of the reference tests."""
+    raw = shipped("thesis62_bearing_dynamic_zero_start.json")
     raw["materials"] = [dict(ELASTIC)]
     return raw
 
@@ -172,7 +172,7 @@ def test_detected_load_keys_and_defaults():
 def test_bad_keys_are_refused_with_their_pointer(edit, message):
     """Unknown keys and bad values of the new schema parts raise CaseError naming the file and
     the JSON pointer, as the C++ reader does."""
-    raw = shipped("bearing_block.json")
+    raw = shipped("thesis62_bearing_dynamic_zero_start.json")
     edit(raw)
     with pytest.raises(CaseError) as err:
         case_from_dict(raw, "bad.json")
@@ -181,7 +181,7 @@ def test_bad_keys_are_refused_with_their_pointer(edit, message):
 
 # ------------------------------------------------------------------------- load rule
 def test_detected_vertical_pressure_resultant_and_solve():
-    """cases/bearing_block.json with a linear elastic soil: the detected-boundary vertical
+    """cases/thesis62_bearing_dynamic_zero_start.json with a linear elastic soil: the detected-boundary vertical
     pressure has the resultant (0, -q (x1 - x0)) = (0, -250) kN/m to 1e-10 relative (sum of the
     assembled nodal forces); one elastic solve (gravity switched on, then the load in one step)
     converges and gives the settlement of the same load applied as grid_top_nodes (1e-12).

@@ -162,7 +162,7 @@ def test_bearing_block_tresca_collapse_load():
 
 # ------------------------------------------------------------------------- 4. slope
 def test_slope_elastic_crest_displacement_mesh_converged():
-    """Geometry of cases/slope.json (toe x = 10.125, crest x = 14.125, 4 m high, 6 m base,
+    """Geometry of cases/thesis55_slope_dynamic_zero_start.json (toe x = 10.125, crest x = 14.125, 4 m high, 6 m base,
     26 m wide), elastic E = 1000 kPa, nu = 0.33: gravity switched on (zero initial stress,
     displacements kept); the crest displacement of the 0.5 m and 0.25 m meshes agree within
     2 % (vector norm)."""

@@ -12,8 +12,9 @@
 //                     so that a stage's counter times particle_steps/s is its share of the step
 //   stages            their sum (the rest of the wall time is the step bookkeeping)
 //
-// The load is forced onto the grid-top nodes here whatever cases/bearing_block.json says, so the
-// benchmark measures the MPM step alone (boundary detection has its own benchmark).
+// The load is forced onto the grid-top nodes here whatever
+// cases/thesis62_bearing_dynamic_zero_start.json says, so the benchmark measures the MPM step alone
+// (boundary detection has its own benchmark).
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
@@ -32,7 +33,8 @@ double process_cpu_seconds() {
 }
 
 pfm::Case bearing_block(double cell, bool elastic) {
-  nlohmann::json j = pfm::read_json_file(std::string(PFM_SOURCE_DIR) + "/cases/bearing_block.json");
+  nlohmann::json j = pfm::read_json_file(std::string(PFM_SOURCE_DIR) +
+                                         "/cases/thesis62_bearing_dynamic_zero_start.json");
   const int nx = static_cast<int>(15.0 / cell + 0.5), ny = static_cast<int>(7.5 / cell + 0.5);
   j["grid"]["origin"] = {0.0, 0.0};
   j["grid"]["cell_size"] = cell;

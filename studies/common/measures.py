@@ -89,3 +89,32 @@ def scale_cohesion(cohesion, factor: float):
         if key in scaled:
             scaled[key] = scaled[key] * factor
     return scaled
+
+
+# Jitter: a point faster than JITTER_SPEED (m/s) that moves less than JITTER_TRAVEL x its speed x
+# the interval between two outputs is oscillating in place (FLIP velocity the grid cannot see,
+# or a load on a node that the body barely reaches), not travelling.
+JITTER_SPEED = 0.5
+JITTER_TRAVEL = 0.1
+
+
+def jitter_counts(frames: Sequence[pd.DataFrame], times: Sequence[float]) -> list[int]:
+    """Jittering points of each output interval: frames are particle tables (x, y, vx, vy and
+    id) at the output times; the speed is the one at the end of the interval."""
+    counts = []
+    for (a, ta), (b, tb) in zip(zip(frames, times), zip(frames[1:], times[1:])):
+        a, b = a.sort_values("id"), b.sort_values("id")
+        if not np.array_equal(a["id"].to_numpy(), b["id"].to_numpy()):
+            raise ValueError(f"the particles at t = {ta:g} s and t = {tb:g} s differ")
+        speed = np.hypot(b["vx"].to_numpy(), b["vy"].to_numpy())
+        moved = np.hypot(
+            b["x"].to_numpy() - a["x"].to_numpy(), b["y"].to_numpy() - a["y"].to_numpy()
+        )
+        counts.append(
+            int(
+                np.sum(
+                    (speed > JITTER_SPEED) & (moved < JITTER_TRAVEL * speed * (tb - ta))
+                )
+            )
+        )
+    return counts

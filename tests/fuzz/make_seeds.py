@@ -33,7 +33,9 @@ def case_seeds():
             seeds.append(json.dumps(document))
         elif isinstance(document, str) and document != "TRUNCATED":
             seeds.append(document)
-    base = json.loads((ROOT / "cases" / "bearing_block.json").read_text())
+    base = json.loads(
+        (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
+    )
     seeds.append(
         json.dumps(base).replace('"youngs_modulus": 1000.0', '"youngs_modulus": 1e999')
     )

@@ -9,7 +9,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-BASE = json.loads((ROOT / "cases" / "bearing_block.json").read_text())
+BASE = json.loads(
+    (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
+)
 
 
 def mutate(path, value=None, delete=False):

@@ -23,7 +23,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def short_bearing_block(tmp_path):
-    case = json.loads((ROOT / "cases" / "bearing_block.json").read_text())
+    case = json.loads(
+        (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
+    )
     case["time"]["end_time"] = 1.5
     case["output"] = {
         "interval": 0.05,

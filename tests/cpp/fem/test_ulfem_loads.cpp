@@ -14,9 +14,10 @@
 namespace pfm::ulfem {
 namespace {
 
-// The slope of cases/slope.json, weightless, with the given loads (JSON array text).
+// The slope of cases/thesis55_slope_dynamic_zero_start.json, weightless, with the given loads (JSON
+// array text).
 Case weightless_slope(const std::string& loads) {
-  nlohmann::json j = read_json_file("cases/slope.json");
+  nlohmann::json j = read_json_file("cases/thesis55_slope_dynamic_zero_start.json");
   j["gravity"] = {{"g", 0.0}};
   j["loads"] = nlohmann::json::parse(loads);
   return parse_case(j, "slope");

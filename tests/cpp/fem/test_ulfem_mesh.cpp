@@ -43,7 +43,7 @@ double element_area(const QuadMesh& mesh, std::size_t e) {
 // The bearing block (rectangle on grid nodes): elements = the 30 x 10 grid cells of the body,
 // nodes = the grid nodes, counter-clockwise from the lower-left corner, numbered row by row.
 TEST(UlFemMesh, GridAlignedBodyGivesTheGridCells) {
-  const Case c = read_case("cases/bearing_block.json");
+  const Case c = read_case("cases/thesis62_bearing_dynamic_zero_start.json");
   const QuadMesh mesh = mesh_case(c);
   EXPECT_EQ(mesh.generator, "grid");
   ASSERT_EQ(mesh.n_elements(), 300u);
@@ -70,7 +70,7 @@ TEST(UlFemMesh, GridAlignedBodyGivesTheGridCells) {
 // polygon (same vertices in the same counter-clockwise order, same perimeter), the element
 // areas sum to the polygon area, every element is a valid quad (det J > 0 at its Gauss points).
 TEST(UlFemMesh, SlopeMeshConformsToThePolygon) {
-  const Case c = read_case("cases/slope.json");
+  const Case c = read_case("cases/thesis55_slope_dynamic_zero_start.json");
   const QuadMesh mesh = mesh_case(c);
   EXPECT_EQ(mesh.generator, "gmsh-transfinite");
   const std::vector<Vec2>& polygon = c.bodies[0].polygon;
@@ -136,7 +136,7 @@ TEST(UlFemMesh, SlopeMeshConformsToThePolygon) {
 
 // Deterministic: two meshes of the same case are identical, node for node.
 TEST(UlFemMesh, GmshMeshIsDeterministic) {
-  const Case c = read_case("cases/slope.json");
+  const Case c = read_case("cases/thesis55_slope_dynamic_zero_start.json");
   const QuadMesh a = mesh_case(c), b = mesh_case(c);
   ASSERT_EQ(a.n_nodes(), b.n_nodes());
   EXPECT_EQ(a.node_position, b.node_position);
@@ -153,7 +153,7 @@ TEST(UlFemMesh, GmshMeshIsDeterministic) {
 // A polygon that is not cut by every horizontal line in one interval (a U) falls back to
 // gmsh's unstructured all-quad mesh, which still conforms and covers the area.
 TEST(UlFemMesh, NonConvexPolygonFallsBackToUnstructuredQuads) {
-  Case c = read_case("cases/slope.json");
+  Case c = read_case("cases/thesis55_slope_dynamic_zero_start.json");
   c.bodies[0].polygon = {Vec2(0, 0),     Vec2(9, 0),     Vec2(9, 5.3),   Vec2(6.2, 5.3),
                          Vec2(6.2, 2.1), Vec2(2.9, 2.1), Vec2(2.9, 5.3), Vec2(0, 5.3)};
   const QuadMesh mesh = mesh_case(c);
@@ -185,7 +185,7 @@ namespace {
 // gives the same strain increment, hence the same stress, at every material point (the Q4
 // isoparametric gradients reproduce linear fields exactly: sum_I x_I (x) grad N_I = I).
 TEST(UlFemMesh, PatchTestOnTheDistortedSlopeMesh) {
-  Case c = read_case("cases/slope.json");
+  Case c = read_case("cases/thesis55_slope_dynamic_zero_start.json");
   c.materials[0].model = LinearElastic{elastic_parameters(c.materials[0].model)};
   UlFemSolver solver(c);
   Mat2 l;

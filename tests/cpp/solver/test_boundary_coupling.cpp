@@ -21,11 +21,11 @@ double total_mass(const Particles& particles) {
   return std::accumulate(particles.mass.begin(), particles.mass.end(), 0.0);
 }
 
-// The thesis's bearing block (cases/bearing_block.json): q_v = 50 kPa on [5, 10] m on the
-// detected top surface. Every step the nodal forces of the load sum to q_v x 5 m, lost load
-// included, and the grid's external forces are exactly gravity plus that load.
+// The thesis's bearing block (cases/thesis62_bearing_dynamic_zero_start.json): q_v = 50 kPa on [5,
+// 10] m on the detected top surface. Every step the nodal forces of the load sum to q_v x 5 m, lost
+// load included, and the grid's external forces are exactly gravity plus that load.
 void check_bearing_block_load(bool redistribute) {
-  Case c = read_case("cases/bearing_block.json");
+  Case c = read_case("cases/thesis62_bearing_dynamic_zero_start.json");
   c.loads[0].surface->redistribute_lost_load = redistribute;
   MpmSolver solver(c);
   BoundaryCoupling coupling(c);
@@ -111,6 +111,85 @@ TEST(BoundaryCoupling, ColumnWithSurchargeOnDetectedTopSettlesToTheAnalyticValue
       exact_row * (1.0 + worst), exact, worst);
   EXPECT_LE(worst, 0.01);
   EXPECT_NEAR(coupling.diagnostics().applied.y(), -q * 1.0, 1e-9 * q);
+}
+
+// The stress of the top row under a load on the detected top. A column 4 m wide between rollers
+// (E = 1e4 kPa, nu = 0.15, gamma = 20, H = 5 m, 2 x 2 points per cell) under q = 30 kPa, damped
+// to rest. The exact syy at the top row's centre, depth h / 2, is -(q + gamma h / 2). Only the
+// points more than one cell from the walls are averaged: the detector rounds the corners.
+struct TopRow {
+  double syy = 0.0;         // mean syy of the top row's points away from the walls, kPa
+  double settlement = 0.0;  // of the surface, m (the top points' mean, which move as one)
+};
+
+TopRow loaded_column_top_row(double h, const char* shape_function) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                   "poisson_ratio": 0.15, "unit_weight": 20.0}],
+    "bodies": [{"name": "column", "material": "soil", "rectangle": [[0.5, 0.0], [4.5, 5.0]],
+                "points_per_cell": 2, "placement": "equal"}],
+    "gravity": {"g": 9.81, "ramp_time": 0.5},
+    "node_sets": [{"name": "base", "box": [[0.0, 0.0], [5.0, 0.0]]},
+                  {"name": "left_wall", "box": [[0.5, -0.5], [0.5, 6.5]]},
+                  {"name": "right_wall", "box": [[4.5, -0.5], [4.5, 6.5]]}],
+    "boundary_conditions": [{"where": "base", "fix": "xy"}, {"where": "left_wall", "fix": "x"},
+                            {"where": "right_wall", "fix": "x"}],
+    "loads": [{"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 30.0,
+               "x_range": [0.5, 4.5], "time_function": {"type": "ramp", "ramp_time": 0.5}}],
+    "detection": {"method": "improved", "every_steps": 10},
+    "solver": {"scheme": "musl", "damping": 0.2},
+    "time": {"end_time": 3.0, "cfl": 0.5}
+  })");
+  j["grid"] = {{"origin", {0.0, -0.5}},
+               {"cell_size", h},
+               {"n_cells", {std::lround(5.0 / h), std::lround(7.0 / h)}}};
+  j["solver"]["shape_function"] = shape_function;
+  const Case c = parse_case(j, "loaded_column");
+  MpmSolver solver(c);
+  BoundaryCoupling coupling(c);
+  coupling.attach(solver);
+  while (solver.time() < c.time.end_time) solver.step();
+  const Particles& p = solver.particles();
+  TopRow row;
+  int n = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const Vec2& x0 = p.reference_position[k];
+    if (x0.y() < 5.0 - h || x0.x() < 0.5 + h || x0.x() > 4.5 - h) continue;
+    row.syy += p.stress[k][kYY];
+    if (x0.y() > 5.0 - 0.5 * h) row.settlement += x0.y() - p.position[k].y();
+    ++n;
+  }
+  row.syy /= n;
+  row.settlement /= n / 2;
+  return row;
+}
+
+// uGIMP integrates over the particle domains: the top row is within 3 % of the exact stress.
+// With linear shape functions the consistent load puts the fraction s / h of q on the node row
+// below the top (the surface has settled s into the top cell), while point quadrature counts the
+// whole volume of the top row's points in the top cell. The top nodes' equilibrium then gives
+// syy = -(q (1 - s / h) + gamma h / 2 (1 - 2 s / h)): short by s / h, so twice as short on a
+// grid twice as fine (s is the same). The test asserts that prediction to 1 % at h = 0.5 and
+// 0.25 m.
+TEST(BoundaryCoupling, TopRowStressUnderADetectedLoadIsExactWithGimpAndShortBySettlementOverH) {
+  const double q = 30.0, gamma = 20.0;
+  const TopRow gimp = loaded_column_top_row(0.5, "gimp");
+  const double exact = -(q + gamma * 0.25);
+  std::printf("uGIMP h = 0.5: top-row syy %.3f kPa, exact %.3f (%+.2f %%)\n", gimp.syy, exact,
+              100.0 * (gimp.syy / exact - 1.0));
+  EXPECT_LE(std::abs(gimp.syy / exact - 1.0), 0.03);
+  for (const double h : {0.5, 0.25}) {
+    const TopRow linear = loaded_column_top_row(h, "linear");
+    const double s = linear.settlement / h;
+    const double predicted = -(q * (1.0 - s) + gamma * 0.5 * h * (1.0 - 2.0 * s));
+    const double exact_h = -(q + gamma * 0.5 * h);
+    std::printf(
+        "linear h = %.2f: top-row syy %.3f kPa, exact %.3f (%+.2f %%), settlement / h %.4f, "
+        "predicted %.3f\n",
+        h, linear.syy, exact_h, 100.0 * (linear.syy / exact_h - 1.0), s, predicted);
+    EXPECT_LE(std::abs(linear.syy / predicted - 1.0), 0.01) << "h = " << h;
+    EXPECT_GT(s, 0.05) << "the surface must have entered the top cell for the test to tell";
+  }
 }
 
 // A free square (3 m, turned 20 degrees, 3 x 3 points per 0.25 m cell, weightless, no
@@ -280,7 +359,7 @@ TEST(BoundaryCoupling, SurfaceMarkersMoveWithTheGridVelocitiesInARun) {
 // steps leave the particles bitwise as a solver without the survey does. Particles changed from
 // outside between steps are swept anew.
 TEST(StepSurvey, IsTheDetectorsOwnSweepAndLeavesTheStepsAsTheyWere) {
-  const Case c = read_case("cases/slope.json");
+  const Case c = read_case("cases/thesis55_slope_dynamic_zero_start.json");
   MpmSolver plain(c);
   MpmSolver surveyed(c);
   EXPECT_EQ(surveyed.step_survey(), nullptr);  // off by default

@@ -158,10 +158,10 @@ TEST(EnergyLedger, ClosesOnTheUlFemDampedAndUndamped) {
   }
 }
 
-// Through failure: the softening Tresca block of cases/bearing_block_k0.json under its load on
-// the detected top, K0 start (initial elastic energy), damped.
+// Through failure: the softening Tresca block of cases/thesis62_bearing_dynamic_k0_start.json under
+// its load on the detected top, K0 start (initial elastic energy), damped.
 TEST(EnergyLedger, ClosesThroughFailureUnderADetectedBoundaryLoad) {
-  const Case c = read_case("cases/bearing_block_k0.json");
+  const Case c = read_case("cases/thesis62_bearing_dynamic_k0_start.json");
   MpmSolver solver(c);
   BoundaryCoupling coupling(c);
   solver.initialise_stress();

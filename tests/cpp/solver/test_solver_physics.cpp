@@ -162,7 +162,8 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
 // Two runs give bitwise identical particles, with 1 and with 2 threads.
 TEST(SolverPhysics, BitwiseDeterministicAcrossThreadCounts) {
   for (const std::string shape : {"linear", "gimp"}) {
-    nlohmann::json j = read_json_file(std::string(PFM_SOURCE_DIR) + "/cases/bearing_block.json");
+    nlohmann::json j = read_json_file(std::string(PFM_SOURCE_DIR) +
+                                      "/cases/thesis62_bearing_dynamic_zero_start.json");
     j["time"]["end_time"] = 0.5;
     if (shape == "gimp") {
       j["grid"]["origin"] = {-0.5, -0.5};
