@@ -65,6 +65,12 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
   smallest = std::abs(q - r);
 }
 
+/// The kernels' stretch cap (ImprovedConfig::max_stretch): clamps every singular value of each F
+/// to [1 / cap, cap], keeping its axes: F' = F (I + sum_k (s_k' / s_k - 1) v_k v_k^T) over the
+/// right singular vectors v_k. Returns the smallest det F' of the changed ones (infinity if none
+/// changed).
+double cap_stretch(std::vector<Mat2>& deformation, double cap);
+
 /// The neighbours of the kernel shapes regularised by the neighbours
 /// (ImprovedConfig::neighbour_shape): a cloud (its spans; the arrays must outlive the search) and
 /// its bins.

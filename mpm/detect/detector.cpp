@@ -117,8 +117,8 @@ ThesisPfmConfig parse_pfm(const JsonView& v) {
 ImprovedConfig parse_improved(const JsonView& v) {
   v.expect_object({"profile", "radius_factor", "level", "guard_factor", "guard_margin",
                    "refinement", "max_refinement", "saddle_rule", "narrow_band", "band_margin",
-                   "root_tolerance", "curvature_correction", "mirror_grid_edges",
-                   "neighbour_shape"});
+                   "root_tolerance", "curvature_correction", "mirror_grid_edges", "neighbour_shape",
+                   "max_stretch"});
   ImprovedConfig c;
   if (v.has("profile")) {
     const std::string p = v.at("profile").as_choice({"epanechnikov", "biweight", "triweight"});
@@ -169,6 +169,11 @@ ImprovedConfig parse_improved(const JsonView& v) {
     v.at("neighbour_shape")
         .require(c.neighbour_shape >= 0.0 && c.neighbour_shape <= 0.9,
                  "must be in [0, 0.9] (0 = off)");
+  }
+  c.max_stretch = v.number_or("max_stretch", c.max_stretch);
+  if (v.has("max_stretch")) {
+    v.at("max_stretch")
+        .require(c.max_stretch == 0.0 || c.max_stretch >= 1.0, "must be >= 1 (0 = no cap)");
   }
   return c;
 }

@@ -160,6 +160,11 @@ struct ImprovedConfig {
   /// max_refinement / sqrt(1 - beta). Costs a neighbour search for each particle of the narrow
   /// band (README of mpm/detect).
   double neighbour_shape = 0.0;
+  /// Largest stretch of a kernel: the kernels (and guards) take F with its singular values
+  /// clamped to [1 / max_stretch, max_stretch] (same axes), so no kernel reaches more than
+  /// max_stretch x a0, nor narrows below a0 / max_stretch, however the material deforms (the
+  /// reach of the widest kernel sets the cost of every field evaluation). 0 = no cap.
+  double max_stretch = 2.0;
 };
 
 /// How advect_surface_markers() treats grid nodes without mass, whose velocity (mv)_i / m_i of

@@ -1121,10 +1121,29 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
 
 }  // namespace
 
+double cap_stretch(std::vector<Mat2>& deformation, double cap) {
+  double smallest_det = std::numeric_limits<double>::infinity();
+  const double floor = 1.0 / cap;
+  for (Mat2& f : deformation) {
+    double largest = 0.0, smallest = 0.0;
+    singular_values(f, largest, smallest);
+    if (largest <= cap && smallest >= floor) continue;
+    const Mat2 c = f.transpose() * f;  // V diag(s^2) V^T
+    const double angle = 0.5 * std::atan2(2.0 * c(0, 1), c(0, 0) - c(1, 1));
+    const Vec2 v1(std::cos(angle), std::sin(angle)), v2(-v1.y(), v1.x());
+    const double s1 = std::clamp(largest, floor, cap), s2 = std::clamp(smallest, floor, cap);
+    // F v2 = s2 u2: a singular value of zero (F is checked to have det F > 0) cannot occur.
+    f = f * (Mat2::Identity() + (s1 / largest - 1.0) * v1 * v1.transpose() +
+             (s2 / smallest - 1.0) * v2 * v2.transpose());
+    smallest_det = std::min(smallest_det, f.determinant());
+  }
+  return smallest_det;
+}
+
 // The pipeline: survey (0), band (0), field setup, coarse screening (1), guards (2), then per
 // contour pass the fine cells (3), the contours with their edge points (4) and the containment
 // check (5); a second pass, with the particles left outside guarded, only if there are any.
-DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
+DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
                                  const ImprovedConfig& config, DetectionTimings& timings) {
   const double h = grid.cell_size;
   auto& parts = timings.field_parts;
@@ -1133,7 +1152,24 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
   // 0. One sweep over the cloud. The fixed-point unit of the kernel sums follows from the whole
   //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
   //    sums of one built on all of them (the sums are of integers: any order gives the same).
-  const CloudSurvey survey = survey_cloud(cloud, grid, config.narrow_band);
+  CloudSurvey survey = survey_cloud(input, grid, config.narrow_band);
+  //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
+  //    values clamped to [1 / cap, cap] where any lies outside.
+  ParticleCloud cloud = input;
+  std::vector<Mat2> capped;
+  //    Every particle's smallest singular value is det F / its largest >= smallest_det /
+  //    largest_stretch, so the pass runs only when some F may be outside the cap.
+  if (config.max_stretch > 0.0 && !input.deformation_gradient.empty() &&
+      (survey.largest_stretch > config.max_stretch ||
+       survey.smallest_det * config.max_stretch < survey.largest_stretch)) {
+    capped.assign(input.deformation_gradient.begin(), input.deformation_gradient.end());
+    const double det = cap_stretch(capped, config.max_stretch);
+    if (det < std::numeric_limits<double>::infinity()) {
+      survey.smallest_det = std::min(survey.smallest_det, det);
+      survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
+      cloud.deformation_gradient = capped;
+    }
+  }
   lap(parts.survey);
   const double kernel_reach = config.radius_factor * cloud.initial_spacing * survey.largest_stretch;
   const double particle_reach =

@@ -1,7 +1,8 @@
-// Contour invariants on 10,000 seeded random clouds (2,000 under the sanitizers): closed or ending on the field-grid edge,
-// every point joined to exactly two segments (no point shared between contours), no crossings,
-// orientation consistent with nesting, every material point inside the detected material.
-// Asserted zero for the improved detector; the thesis PFM's counts are printed beside them.
+// Contour invariants on 10,000 seeded random clouds (2,000 under the sanitizers): closed or ending
+// on the field-grid edge, every point joined to exactly two segments (no point shared between
+// contours), no crossings, orientation consistent with nesting, every material point inside the
+// detected material. Asserted zero for the improved detector; the thesis PFM's counts are printed
+// beside them.
 #include <gtest/gtest.h>
 
 #include <chrono>

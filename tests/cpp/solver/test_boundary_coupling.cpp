@@ -136,9 +136,9 @@ TopRow loaded_column_top_row(double h, const char* shape_function) {
                             {"where": "right_wall", "fix": "x"}],
     "loads": [{"apply_on": "detected_boundary", "type": "vertical_pressure", "pressure": 30.0,
                "x_range": [0.5, 4.5], "time_function": {"type": "ramp", "ramp_time": 0.5}}],
-    "detection": {"method": "improved", "every_steps": 10},
+    "detection": {"method": "improved", "every_steps": 25},
     "solver": {"scheme": "musl", "damping": 0.2},
-    "time": {"end_time": 3.0, "cfl": 0.5}
+    "time": {"end_time": 2.0, "cfl": 0.5}
   })");
   j["grid"] = {{"origin", {0.0, -0.5}},
                {"cell_size", h},

@@ -1,0 +1,134 @@
+// The improved detector on the particle states of failing bodies (tests/data/failure_states:
+// thesis bearing collapses at 100 and 150 kPa, the slope run-out, the quasi-static default), and
+// the kernels' stretch cap that keeps its cost bounded there.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+
+#include "detect_test_support.hpp"
+#include "mpm/detect/detect_command.hpp"
+#include "mpm/detect/detect_internal.hpp"
+
+namespace pfm::test {
+namespace {
+
+Mat2 rotation(double angle) {
+  Mat2 r;
+  r << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  return r;
+}
+
+// F = R(a) diag(s1, s2) R(b)^T with singular values from 0.03 to 30: the cap gives
+// R(a) diag(clamp(s1), clamp(s2)) R(b)^T, and leaves an F within [1 / cap, cap] bitwise as it was.
+TEST(StretchCap, ClampsTheSingularValuesAndKeepsTheirAxes) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> angle(-3.2, 3.2),
+      log_stretch(-1.5, 1.5);  // log10 of the singular values
+  const double cap = 2.0;
+  std::vector<Mat2> f, expected;
+  for (int k = 0; k < 2000; ++k) {
+    const double s1 = std::pow(10.0, log_stretch(rng)), s2 = std::pow(10.0, log_stretch(rng));
+    const Mat2 a = rotation(angle(rng)), b = rotation(angle(rng));
+    f.push_back(a * Vec2(s1, s2).asDiagonal() * b.transpose());
+    expected.push_back(
+        a * Vec2(std::clamp(s1, 1.0 / cap, cap), std::clamp(s2, 1.0 / cap, cap)).asDiagonal() *
+        b.transpose());
+  }
+  const std::vector<Mat2> before = f;
+  detail::cap_stretch(f, cap);
+  double worst = 0.0;
+  int unchanged = 0;
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    worst = std::max(worst, (f[k] - expected[k]).norm() / expected[k].norm());
+    double largest = 0.0, smallest = 0.0;
+    detail::singular_values(before[k], largest, smallest);
+    if (largest <= cap && smallest >= 1.0 / cap) {
+      EXPECT_EQ(f[k], before[k]);
+      ++unchanged;
+    }
+  }
+  std::printf("2000 F: worst relative error %.2e, %d within the cap\n", worst, unchanged);
+  EXPECT_LE(worst, 1e-12);
+  EXPECT_GT(unchanged, 40);  // 68 of them (3.4 %)
+}
+
+struct State {
+  std::string name;
+  ParticleTable particles;
+  Grid grid;
+  double spacing = 0.0;
+};
+
+std::vector<State> failure_states() {
+  const std::string folder = std::string(PFM_SOURCE_DIR) + "/tests/data/failure_states/";
+  std::ifstream index(folder + "states.json");
+  const nlohmann::json states = nlohmann::json::parse(index);
+  std::vector<State> out;
+  for (const auto& s : states) {
+    State state;
+    state.name = s.at("name").get<std::string>();
+    state.particles = read_particle_csv(folder + state.name + ".csv");
+    const auto& g = s.at("grid");
+    state.grid.origin = Vec2(g.at("origin")[0].get<double>(), g.at("origin")[1].get<double>());
+    state.grid.cell_size = g.at("cell_size").get<double>();
+    state.grid.n_cells_x = g.at("n_cells")[0].get<int>();
+    state.grid.n_cells_y = g.at("n_cells")[1].get<int>();
+    state.spacing = s.at("initial_spacing").get<double>();
+    out.push_back(std::move(state));
+  }
+  return out;
+}
+
+// Every state with the default settings keeps the contour invariants (closed or ending on the
+// grid edge, no shared points, no crossings, orientation, every particle inside). Without the
+// cap the collapses' F (singular values up to 2,250) make kernels that reach across the body
+// and slivers that split it into hundreds of loops: in Release the uncapped detection runs too,
+// and over the states the cap must cut the field evaluations to less than a third (measured:
+// 493,000 against 2,108,000; each uncapped evaluation also searches a wider window, so the time
+// falls 11 to 50 times on the collapses, tests/data/failure_states/cost.py).
+TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
+  const std::vector<State> states = failure_states();
+  ASSERT_EQ(states.size(), 14u);
+  DetectorConfig capped;
+  capped.method = DetectorMethod::kImproved;
+  DetectorConfig uncapped = capped;
+  uncapped.improved.max_stretch = 0.0;
+  long capped_evaluations = 0, uncapped_evaluations = 0;
+  Violations total;
+  for (const State& s : states) {
+    const ParticleCloud cloud{s.particles.position, s.particles.volume,
+                              s.particles.deformation_gradient, s.spacing};
+    DetectorState state;
+    DetectionTimings t;
+    const auto b = detect(cloud, s.grid, capped, state, &t);
+    const Violations v = check_invariants(b, s.grid, s.particles.position);
+    total += v;
+    capped_evaluations += t.field_evaluations;
+    long without = 0;
+#if !defined(__SANITIZE_ADDRESS__)
+    DetectorState state0;
+    DetectionTimings t0;
+    detect(cloud, s.grid, uncapped, state0, &t0);
+    without = t0.field_evaluations;
+    uncapped_evaluations += without;
+#endif
+    std::printf(
+        "%-28s %5zu points: %3zu loops, %7ld field evaluations (%ld uncapped), %ld "
+        "violations\n",
+        s.name.c_str(), s.particles.position.size(), b.contours.size(), t.field_evaluations,
+        without, v.total());
+  }
+  EXPECT_EQ(total.total(), 0);
+#if !defined(__SANITIZE_ADDRESS__)
+  EXPECT_LT(3 * capped_evaluations, uncapped_evaluations);
+#endif
+}
+
+}  // namespace
+}  // namespace pfm::test
