@@ -11,6 +11,7 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/detect/loop_classes.hpp"
 
 namespace pfm {
 
@@ -222,6 +223,9 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     closed.push_back(contour.closed);
     n_closed += contour.closed ? 1 : 0;
   }
+  const LoopClasses classes = classify_loops(boundary, table.position, spacing);
+  nlohmann::json class_of_loop = nlohmann::json::array();
+  for (const LoopClass c : classes.of_loop) class_of_loop.push_back(loop_class_name(c));
   made["finished_utc"] = utc_now();
   nlohmann::json summary = {
       {"provenance", made},
@@ -238,6 +242,14 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
       {"open", static_cast<int>(boundary.contours.size()) - n_closed},
       {"points_per_loop", points_per_loop},
       {"loop_closed", closed},
+      {"loop_classes",
+       {{"body", classes.bodies},
+        {"island", classes.islands},
+        {"real_hole", classes.real_holes},
+        {"spurious_loop", classes.spurious_loops},
+        {"spurious_island", classes.spurious_islands},
+        {"spurious_hole", classes.spurious_holes}}},
+      {"class_of_loop", class_of_loop},
       {"timings_s",
        {{"field", timings.field},
         {"edge_points", timings.edge_points},

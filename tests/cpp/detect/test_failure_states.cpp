@@ -8,12 +8,14 @@
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <random>
 #include <string>
 
 #include "detect_test_support.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/loop_classes.hpp"
 
 namespace pfm::test {
 namespace {
@@ -58,6 +60,70 @@ TEST(StretchCap, ClampsTheSingularValuesAndKeepsTheirAxes) {
   EXPECT_GT(unchanged, 40);  // 68 of them (3.4 %)
 }
 
+Contour polygon(std::vector<Vec2> points) {
+  return Contour{std::move(points), true};
+}
+
+Contour circle(const Vec2& centre, double r, bool clockwise) {
+  std::vector<Vec2> p;
+  for (int k = 0; k < 64; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / 64 * (clockwise ? -1.0 : 1.0);
+    p.push_back(centre + r * Vec2(std::cos(a), std::sin(a)));
+  }
+  return polygon(p);
+}
+
+// Hand-made loops about a 4 x 4 m block of points (spacing 0.25 m) with a cavity of radius 0.75
+// m, and a second block 2 m to its right: each loop gets the class of its definition.
+TEST(LoopClasses, EachLoopGetsTheClassOfItsDefinition) {
+  const double s = 0.25;
+  std::vector<Vec2> points;
+  for (double y = 0.125; y < 4.0; y += s) {
+    for (double x = 0.125; x < 4.0; x += s) {
+      if ((Vec2(x, y) - Vec2(2.0, 2.0)).norm() > 0.75) points.emplace_back(x, y);
+    }
+  }
+  for (double y = 0.125; y < 1.0; y += s) {
+    for (double x = 6.125; x < 7.0; x += s) points.emplace_back(x, y);
+  }
+  DetectedBoundary b;
+  b.contours.push_back(polygon({{0, 0}, {4, 0}, {4, 4}, {0, 4}}));                  // body
+  b.contours.push_back(circle({2.0, 2.0}, 0.7, true));                              // real hole
+  b.contours.push_back(polygon({{1.0, 1.0}, {1.0, 1.1}, {1.1, 1.0}}));              // spurious hole
+  b.contours.push_back(polygon({{6, 0}, {7, 0}, {7, 1}, {6, 1}}));                  // island
+  b.contours.push_back(polygon({{10, 10}, {11, 10}, {11, 11}, {10, 11}}));          // spurious loop
+  b.contours.push_back(polygon({{0.5, 3.0}, {1.0, 3.0}, {1.0, 3.5}, {0.5, 3.5}}));  // in contact
+  const LoopClasses c = classify_loops(b, points, s);
+  const std::vector<LoopClass> expected = {LoopClass::kBody,         LoopClass::kRealHole,
+                                           LoopClass::kSpuriousHole, LoopClass::kIsland,
+                                           LoopClass::kSpuriousLoop, LoopClass::kSpuriousIsland};
+  EXPECT_EQ(c.of_loop, expected);
+  EXPECT_EQ(c.spurious(), 3);
+}
+
+// A straight row of 24 points one spacing apart: with the default settings the detector finds
+// a guard island per point, and the classification calls 23 of them spurious (the points touch).
+TEST(LoopClasses, AStraightRowSplitIntoIslandsIsSpurious) {
+  std::vector<Vec2> position;
+  std::vector<double> volume;
+  for (int k = 0; k < 24; ++k) {
+    position.emplace_back(2.0 + 0.25 * k, 3.0);
+    volume.push_back(0.0625);
+  }
+  Grid grid;
+  grid.cell_size = 0.5;
+  grid.n_cells_x = 20;
+  grid.n_cells_y = 12;
+  DetectorConfig config;
+  config.method = DetectorMethod::kImproved;
+  DetectorState state;
+  const ParticleCloud cloud{position, volume, {}, 0.25};
+  const LoopClasses c = classify_loops(detect(cloud, grid, config, state), position, 0.25);
+  std::printf("straight row: %zu loops, %ld spurious\n", c.of_loop.size(), c.spurious());
+  EXPECT_EQ(c.bodies, 1);
+  EXPECT_EQ(c.bodies + c.spurious_islands, static_cast<long>(c.of_loop.size()));
+}
+
 struct State {
   std::string name;
   ParticleTable particles;
@@ -99,7 +165,7 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
   capped.method = DetectorMethod::kImproved;
   DetectorConfig uncapped = capped;
   uncapped.improved.max_stretch = 0.0;
-  long capped_evaluations = 0, uncapped_evaluations = 0;
+  long capped_evaluations = 0, uncapped_evaluations = 0, spurious = 0;
   Violations total;
   for (const State& s : states) {
     const ParticleCloud cloud{s.particles.position, s.particles.volume,
@@ -108,6 +174,8 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
     DetectionTimings t;
     const auto b = detect(cloud, s.grid, capped, state, &t);
     const Violations v = check_invariants(b, s.grid, s.particles.position);
+    const LoopClasses classes = classify_loops(b, s.particles.position, s.spacing);
+    spurious += classes.spurious();
     total += v;
     capped_evaluations += t.field_evaluations;
     long without = 0;
@@ -119,12 +187,13 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
     uncapped_evaluations += without;
 #endif
     std::printf(
-        "%-28s %5zu points: %3zu loops, %7ld field evaluations (%ld uncapped), %ld "
-        "violations\n",
-        s.name.c_str(), s.particles.position.size(), b.contours.size(), t.field_evaluations,
-        without, v.total());
+        "%-28s %5zu points: %3zu loops (%ld spurious), %7ld field evaluations (%ld "
+        "uncapped), %ld violations\n",
+        s.name.c_str(), s.particles.position.size(), b.contours.size(), classes.spurious(),
+        t.field_evaluations, without, v.total());
   }
   EXPECT_EQ(total.total(), 0);
+  std::printf("spurious loops over the states: %ld (not yet asserted zero)\n", spurious);
 #if !defined(__SANITIZE_ADDRESS__)
   EXPECT_LT(3 * capped_evaluations, uncapped_evaluations);
 #endif

@@ -1,0 +1,168 @@
+#include "mpm/detect/loop_classes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "mpm/detect/particle_bins.hpp"
+
+namespace pfm {
+
+const char* loop_class_name(LoopClass c) {
+  switch (c) {
+    case LoopClass::kBody:
+      return "body";
+    case LoopClass::kIsland:
+      return "island";
+    case LoopClass::kSpuriousLoop:
+      return "spurious_loop";
+    case LoopClass::kSpuriousIsland:
+      return "spurious_island";
+    case LoopClass::kRealHole:
+      return "real_hole";
+    case LoopClass::kSpuriousHole:
+      return "spurious_hole";
+  }
+  return "";
+}
+
+namespace {
+
+constexpr double kContact = 1.5;  // initial spacings: points closer than this are in contact
+
+double signed_area(const std::vector<Vec2>& p) {
+  double a = 0.0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const Vec2& u = p[k];
+    const Vec2& v = p[(k + 1) % p.size()];
+    a += u.x() * v.y() - v.x() * u.y();
+  }
+  return 0.5 * a;
+}
+
+// Crossing number of the closed polygon p about x (even-odd rule).
+bool inside(const std::vector<Vec2>& p, const Vec2& x) {
+  bool in = false;
+  for (std::size_t k = 0, j = p.size() - 1; k < p.size(); j = k++) {
+    if ((p[k].y() > x.y()) != (p[j].y() > x.y()) &&
+        x.x() < (p[j].x() - p[k].x()) * (x.y() - p[k].y()) / (p[j].y() - p[k].y()) + p[k].x()) {
+      in = !in;
+    }
+  }
+  return in;
+}
+
+double distance_to_polygon(const std::vector<Vec2>& p, const Vec2& x) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const Vec2& a = p[k];
+    const Vec2 d = p[(k + 1) % p.size()] - a;
+    const double t = std::clamp((x - a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
+    best = std::min(best, (a + t * d - x).norm());
+  }
+  return best;
+}
+
+void bounding_box(const std::vector<Vec2>& p, Vec2& lo, Vec2& hi) {
+  lo = hi = p.front();
+  for (const Vec2& x : p) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+}
+
+}  // namespace
+
+LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec2> particles,
+                           double spacing) {
+  LoopClasses out;
+  const std::size_t n_loops = boundary.contours.size();
+  out.of_loop.assign(n_loops, LoopClass::kIsland);
+  if (n_loops == 0) return out;
+  const ParticleBins bins(particles, spacing);
+  const double radius = 0.5 * spacing;
+  double largest_area = 0.0;
+  std::size_t body = n_loops;
+  std::vector<std::vector<int>> held(n_loops);  // the particles inside each material loop
+  for (std::size_t c = 0; c < n_loops; ++c) {
+    const Contour& contour = boundary.contours[c];
+    if (!contour.closed || contour.points.size() < 3) {
+      out.of_loop[c] = LoopClass::kBody;  // an open chain bounds the material on the grid edge
+      continue;
+    }
+    const std::vector<Vec2>& p = contour.points;
+    Vec2 lo, hi;
+    bounding_box(p, lo, hi);
+    const double area = signed_area(p);
+    if (area > 0.0) {
+      held[c].clear();
+      bins.for_each_slot_in_box(lo, hi, [&](int k) {
+        const int q = bins.particle_at(k);
+        const Vec2& x = particles[static_cast<std::size_t>(q)];
+        if (x.x() >= lo.x() && x.x() <= hi.x() && x.y() >= lo.y() && x.y() <= hi.y() &&
+            inside(p, x)) {
+          held[c].push_back(q);
+        }
+      });
+      if (held[c].empty()) {
+        out.of_loop[c] = LoopClass::kSpuriousLoop;
+      } else if (area > largest_area) {
+        largest_area = area;
+        body = c;
+      }
+      continue;
+    }
+    // A hole: look for a free disk's centre on a lattice of a quarter spacing.
+    bool real = false;
+    const double step = 0.25 * spacing;
+    for (double y = lo.y() + radius; y <= hi.y() - radius && !real; y += step) {
+      for (double x = lo.x() + radius; x <= hi.x() - radius && !real; x += step) {
+        const Vec2 centre(x, y);
+        if (!inside(p, centre) || distance_to_polygon(p, centre) < radius) continue;
+        bool free = true;
+        bins.for_each_slot_in_box(
+            centre - Vec2::Constant(radius), centre + Vec2::Constant(radius), [&](int k) {
+              const Vec2& q = particles[static_cast<std::size_t>(bins.particle_at(k))];
+              if ((q - centre).norm() < radius) free = false;
+            });
+        real = free;
+      }
+    }
+    out.of_loop[c] = real ? LoopClass::kRealHole : LoopClass::kSpuriousHole;
+  }
+  if (body < n_loops) out.of_loop[body] = LoopClass::kBody;
+  // An island whose points touch the points of the rest (closer than kContact spacings) has
+  // not separated: the field split material in contact (a row of points, a thin neck).
+  std::vector<char> mine(particles.size(), 0);
+  const double contact = kContact * spacing;
+  for (std::size_t c = 0; c < n_loops; ++c) {
+    if (out.of_loop[c] != LoopClass::kIsland || !boundary.contours[c].closed) continue;
+    for (const int q : held[c]) mine[static_cast<std::size_t>(q)] = 1;
+    bool touches = false;
+    for (const int q : held[c]) {
+      const Vec2& x = particles[static_cast<std::size_t>(q)];
+      bins.for_each_slot_in_box(
+          x - Vec2::Constant(contact), x + Vec2::Constant(contact), [&](int k) {
+            const int r = bins.particle_at(k);
+            if (!mine[static_cast<std::size_t>(r)] &&
+                (particles[static_cast<std::size_t>(r)] - x).norm() < contact) {
+              touches = true;
+            }
+          });
+      if (touches) break;
+    }
+    for (const int q : held[c]) mine[static_cast<std::size_t>(q)] = 0;
+    if (touches) out.of_loop[c] = LoopClass::kSpuriousIsland;
+  }
+  for (const LoopClass c : out.of_loop) {
+    out.bodies += c == LoopClass::kBody;
+    out.islands += c == LoopClass::kIsland;
+    out.spurious_loops += c == LoopClass::kSpuriousLoop;
+    out.spurious_islands += c == LoopClass::kSpuriousIsland;
+    out.real_holes += c == LoopClass::kRealHole;
+    out.spurious_holes += c == LoopClass::kSpuriousHole;
+  }
+  return out;
+}
+
+}  // namespace pfm
