@@ -455,6 +455,7 @@ DETECTOR_KEYS = {
         "curvature_correction",
         "mirror_grid_edges",
         "neighbour_shape",
+        "max_stretch",
     },
     "smm": {"marker_spacing", "initial_contour", "massless_nodes"},
     "vof": {"refinement", "fraction", "mixed_tolerance"},

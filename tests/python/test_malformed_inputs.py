@@ -325,6 +325,13 @@ DETECT_CASES = [
     ("config_empty", GOOD_CSV, b"", "config", "file is empty"),
     ("config_not_object", GOOD_CSV, b"[1, 2]", "config", "expected an object"),
     (
+        "config_max_stretch_below_one",
+        GOOD_CSV,
+        {"improved": {"max_stretch": 0.5}},
+        "config",
+        "/improved/max_stretch",
+    ),
+    (
         "config_refinement_1e6",
         GOOD_CSV,
         {"pfm": {"refinement": 1000000}},
