@@ -230,7 +230,9 @@ def git_revision() -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="/usr/bin/python3 -m fem_reference.closing_figures")
+    parser = argparse.ArgumentParser(
+        prog="/usr/bin/python3 -m fem_reference.closing_figures"
+    )
     parser.add_argument("--out", required=True, help="output directory (created)")
     args = parser.parse_args(argv)
     logging.getLogger().setLevel(logging.WARNING)

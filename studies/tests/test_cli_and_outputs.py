@@ -82,7 +82,12 @@ def test_rejected_case_keys_count_as_missing_prerequisites():
     )
     assert missing_reason(RunFailed("x", 1, stderr)) is None  # a crash, not an input
     assert missing_reason(RunFailed("x", 2, "/time/dt: above the CFL limit")) is None
-    assert missing_reason(PrerequisiteMissing("cases/thesis55_slope_dynamic_zero_start.json")) == "cases/thesis55_slope_dynamic_zero_start.json"
+    assert (
+        missing_reason(
+            PrerequisiteMissing("cases/thesis55_slope_dynamic_zero_start.json")
+        )
+        == "cases/thesis55_slope_dynamic_zero_start.json"
+    )
 
 
 def test_particle_outputs_are_read_from_xdmf_and_hdf5(tmp_path):
