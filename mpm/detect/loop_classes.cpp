@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "mpm/core/polygon.hpp"
 #include "mpm/detect/particle_bins.hpp"
 
 namespace pfm {
@@ -29,28 +30,6 @@ const char* loop_class_name(LoopClass c) {
 namespace {
 
 constexpr double kContact = 1.5;  // initial spacings: points closer than this are in contact
-
-double signed_area(const std::vector<Vec2>& p) {
-  double a = 0.0;
-  for (std::size_t k = 0; k < p.size(); ++k) {
-    const Vec2& u = p[k];
-    const Vec2& v = p[(k + 1) % p.size()];
-    a += u.x() * v.y() - v.x() * u.y();
-  }
-  return 0.5 * a;
-}
-
-// Crossing number of the closed polygon p about x (even-odd rule).
-bool inside(const std::vector<Vec2>& p, const Vec2& x) {
-  bool in = false;
-  for (std::size_t k = 0, j = p.size() - 1; k < p.size(); j = k++) {
-    if ((p[k].y() > x.y()) != (p[j].y() > x.y()) &&
-        x.x() < (p[j].x() - p[k].x()) * (x.y() - p[k].y()) / (p[j].y() - p[k].y()) + p[k].x()) {
-      in = !in;
-    }
-  }
-  return in;
-}
 
 double distance_to_polygon(const std::vector<Vec2>& p, const Vec2& x) {
   double best = std::numeric_limits<double>::infinity();
@@ -93,14 +72,13 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     const std::vector<Vec2>& p = contour.points;
     Vec2 lo, hi;
     bounding_box(p, lo, hi);
-    const double area = signed_area(p);
+    const double area = polygon_signed_area(p);
     if (area > 0.0) {
-      held[c].clear();
       bins.for_each_slot_in_box(lo, hi, [&](int k) {
         const int q = bins.particle_at(k);
         const Vec2& x = particles[static_cast<std::size_t>(q)];
         if (x.x() >= lo.x() && x.x() <= hi.x() && x.y() >= lo.y() && x.y() <= hi.y() &&
-            inside(p, x)) {
+            point_in_polygon(p, x)) {
           held[c].push_back(q);
         }
       });
@@ -118,7 +96,7 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     for (double y = lo.y() + radius; y <= hi.y() - radius && !real; y += step) {
       for (double x = lo.x() + radius; x <= hi.x() - radius && !real; x += step) {
         const Vec2 centre(x, y);
-        if (!inside(p, centre) || distance_to_polygon(p, centre) < radius) continue;
+        if (!point_in_polygon(p, centre) || distance_to_polygon(p, centre) < radius) continue;
         bool free = true;
         bins.for_each_slot_in_box(
             centre - Vec2::Constant(radius), centre + Vec2::Constant(radius), [&](int k) {

@@ -38,20 +38,6 @@ void Particles::add(const Vec2& x, double particle_volume, double density, const
   body.push_back(body_index);
 }
 
-bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& x) {
-  bool inside = false;
-  const std::size_t n = polygon.size();
-  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
-    const Vec2& a = polygon[i];
-    const Vec2& b = polygon[j];
-    if ((a.y() > x.y()) != (b.y() > x.y())) {
-      const double cross_x = a.x() + (x.y() - a.y()) * (b.x() - a.x()) / (b.y() - a.y());
-      if (x.x() < cross_x) inside = !inside;
-    }
-  }
-  return inside;
-}
-
 double polygon_top(const std::vector<Vec2>& polygon, double x) {
   double top = std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = polygon.size();

@@ -8,10 +8,6 @@
 
 namespace pfm {
 
-/// Even-odd point-in-polygon test (points exactly on an edge count as inside the half-open
-/// region below/left of it, consistently for neighbouring polygons).
-bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& x);
-
 /// Height of the polygon's top above x: the largest y of the polygon boundary on the vertical
 /// line through x, or NaN if the line misses the polygon. Used as the local surface for K0.
 double polygon_top(const std::vector<Vec2>& polygon, double x);

@@ -197,16 +197,6 @@ double largest_wave_speed(const Case& c) {
   return speed;
 }
 
-double polygon_signed_area(const std::vector<Vec2>& polygon) {
-  double twice = 0.0;
-  for (std::size_t k = 0; k < polygon.size(); ++k) {
-    const Vec2& a = polygon[k];
-    const Vec2& b = polygon[(k + 1) % polygon.size()];
-    twice += a.x() * b.y() - b.x() * a.y();
-  }
-  return 0.5 * twice;
-}
-
 bool polygon_self_intersects(const std::vector<Vec2>& polygon) {
   const std::size_t n = polygon.size();
   for (std::size_t i = 0; i < n; ++i) {

@@ -10,6 +10,7 @@
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/grid.hpp"
 #include "mpm/core/materials.hpp"
+#include "mpm/core/polygon.hpp"
 #include "mpm/core/shape_functions.hpp"
 #include "mpm/detect/detector.hpp"
 
@@ -148,8 +149,6 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// weightless (no critical time step).
 double largest_wave_speed(const Case& c);
 
-/// Signed area of a closed polygon (positive when counter-clockwise), m^2.
-double polygon_signed_area(const std::vector<Vec2>& polygon);
 /// True if two non-adjacent edges of the closed polygon intersect or touch.
 bool polygon_self_intersects(const std::vector<Vec2>& polygon);
 
