@@ -456,6 +456,7 @@ DETECTOR_KEYS = {
         "mirror_grid_edges",
         "neighbour_shape",
         "max_stretch",
+        "spurious_loops",
     },
     "smm": {"marker_spacing", "initial_contour", "massless_nodes"},
     "vof": {"refinement", "fraction", "mixed_tolerance"},

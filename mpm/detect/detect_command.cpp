@@ -266,6 +266,9 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
                                            {"shape", parts.shape}};
     summary["particles_guarded_after_contouring"] = timings.particles_guarded_after_contouring;
     summary["particles_outside_first_contours"] = timings.particles_outside_first_contours;
+    summary["bridges"] = timings.bridges;
+    summary["guard_refinement_passes"] = timings.guard_refinement_passes;
+    summary["spurious_loops_removed"] = timings.spurious_loops_removed;
   }
   const std::filesystem::path dir(out_dir);
   std::filesystem::create_directories(dir);

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstddef>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "mpm/detect/detector.hpp"
@@ -67,9 +68,10 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
 
 /// The kernels' stretch cap (ImprovedConfig::max_stretch): clamps every singular value of each F
 /// to [1 / cap, cap], keeping its axes: F' = F (I + sum_k (s_k' / s_k - 1) v_k v_k^T) over the
-/// right singular vectors v_k. Returns the smallest det F' of the changed ones (infinity if none
-/// changed).
-double cap_stretch(std::vector<Mat2>& deformation, double cap);
+/// right singular vectors v_k. A particle's volume is V = V0 det F: each `volume` (one per F, or
+/// empty) shrinks as its det F does, V' = V min(1, det F' / det F) (never raised). Returns the
+/// smallest det F' of the changed ones (infinity if none changed).
+double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume = {});
 
 /// The neighbours of the kernel shapes regularised by the neighbours
 /// (ImprovedConfig::neighbour_shape): a cloud (its spans; the arrays must outlive the search) and

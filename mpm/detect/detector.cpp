@@ -118,7 +118,7 @@ ImprovedConfig parse_improved(const JsonView& v) {
   v.expect_object({"profile", "radius_factor", "level", "guard_factor", "guard_margin",
                    "refinement", "max_refinement", "saddle_rule", "narrow_band", "band_margin",
                    "root_tolerance", "curvature_correction", "mirror_grid_edges", "neighbour_shape",
-                   "max_stretch"});
+                   "max_stretch", "spurious_loops"});
   ImprovedConfig c;
   if (v.has("profile")) {
     const std::string p = v.at("profile").as_choice({"epanechnikov", "biweight", "triweight"});
@@ -174,6 +174,9 @@ ImprovedConfig parse_improved(const JsonView& v) {
   if (v.has("max_stretch")) {
     v.at("max_stretch")
         .require(c.max_stretch == 0.0 || c.max_stretch >= 1.0, "must be >= 1 (0 = no cap)");
+  }
+  if (v.has("spurious_loops")) {
+    c.join_spurious_loops = v.at("spurious_loops").as_choice({"join", "keep"}) == "join";
   }
   return c;
 }

@@ -165,6 +165,17 @@ struct ImprovedConfig {
   /// max_stretch x a0, nor narrows below a0 / max_stretch, however the material deforms (the
   /// reach of the widest kernel sets the cost of every field evaluation). 0 = no cap.
   double max_stretch = 2.0;
+  /// What the improved detector does with the loops that the particle spacing cannot resolve
+  /// (loop_classes.hpp): true ("join", the default) runs the second contour pass at the first
+  /// pass's refinement with bridges (ImprovedField::add_bridges()) from every particle the first
+  /// contours left outside to each particle within 1.5 initial spacings of it, and from each
+  /// particle of an island in contact with other material (a spurious island) to those particles
+  /// of the other material within 1.5 spacings; then removes every hole into which no
+  /// particle-free disk of one spacing fits (a spurious hole, with the loops inside it) and every
+  /// material loop that holds no particle. If a particle is still outside, a third pass runs at
+  /// the guards' refinement. false ("keep"): the contours of max(phi, guards) as they are, the
+  /// second pass at the guards' refinement.
+  bool join_spurious_loops = true;
 };
 
 /// How advect_surface_markers() treats grid nodes without mass, whose velocity (mv)_i / m_i of
@@ -271,8 +282,15 @@ struct DetectionTimings {
   /// Improved detector: particles its first contours left outside, guarded for a second pass.
   long particles_guarded_after_contouring = 0;
   /// Improved detector: particles (guarded or not) its first contours left outside; any makes
-  /// a second pass, at the guards' refinement when the refinement is automatic.
+  /// a second pass (ImprovedConfig::join_spurious_loops).
   long particles_outside_first_contours = 0;
+  /// Improved detector: bridges of its second pass (points and segments, ImprovedField).
+  long bridges = 0;
+  /// Improved detector: passes at the guards' refinement (0 or 1).
+  long guard_refinement_passes = 0;
+  /// Improved detector: spurious holes (with the loops inside them) and empty material loops
+  /// removed (ImprovedConfig::join_spurious_loops).
+  long spurious_loops_removed = 0;
   /// Improved detector: the parts of `field`, s. survey: the one sweep over every particle;
   /// band: the cells interior by volume and the copy of the particles within reach of the
   /// others; setup: the field's slots, bins and mirror images; screening: the coarse
@@ -397,6 +415,17 @@ class ImprovedField {
   /// particles its first contours left outside).
   void add_guards(std::span<const std::size_t> particles);
 
+  /// Bridges, for the detector's second pass: keeps the square of half side `cell` (m, the fine
+  /// cell) around each particle of `points` in the material, and a strip of that half width along
+  /// the segment between the two particles of each of `pairs`. The field is max(phi, guards,
+  /// level (2 - d / (1.25 cell))), d the Chebyshev distance to the particle or segment: every
+  /// fine node within `cell` of it is inside, so the four corners of the fine cell that holds the
+  /// particle, or any point of the segment, are. Adds to the bridges already there.
+  void add_bridges(std::span<const std::size_t> points,
+                   std::span<const std::array<std::size_t, 2>> pairs, double cell);
+  /// Number of bridges (points and segments).
+  std::size_t n_bridges() const { return bridges_.a.size(); }
+
   double operator()(const Vec2& x) const;
   /// The slots (kernels and guards) whose support box meets the box lo..hi, copied into `out`:
   /// the terms of operator() at any point of the box that are not exact zeros.
@@ -442,6 +471,20 @@ class ImprovedField {
   double sum_ranges(const KernelArrays& kernels, const int* begin, const int* end, int n_ranges,
                     const Vec2& x, bool guard) const;
   double sum_at(const Vec2& x, bool guard) const;
+
+  // The bridges of add_bridges(): segments a-b (a point: a == b), binned in squares of side bin
+  // (each segment listed in every bin its support box meets).
+  struct Bridges {
+    std::vector<Vec2> a, b;
+    double half = 0.0;  ///< Chebyshev half width of the part inside (1.25 fine cells), m
+    Vec2 origin = Vec2::Zero();
+    double bin = 0.0;
+    int n_x = 0, n_y = 0;
+    std::vector<int> start, item;  ///< bin k lists item[start[k] .. start[k + 1] - 1]
+    /// The largest bridge value at x (0 outside every support), for contour level `level`.
+    double value(const Vec2& x, double level) const;
+  };
+  Bridges bridges_;
 
   // Per particle, by particle index.
   std::vector<Vec2> position_;

@@ -14,7 +14,9 @@
 #include <span>
 #include <vector>
 
+#include "mpm/core/polygon.hpp"
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/marching_squares.hpp"
 #include "mpm/detect/vector_loops.hpp"
 
@@ -264,6 +266,20 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
     survey.runs = std::move(chunk_runs);
   }
   return survey;
+}
+
+// The runs' and the cells' volumes summed again from `volume` (the same runs, in the same order
+// as survey_cloud()).
+void total_volumes_again(CloudSurvey& survey, std::span<const double> volume) {
+  std::fill(survey.cell_volume.begin(), survey.cell_volume.end(), 0.0);
+  for (Runs& r : survey.runs) {
+    for (std::size_t k = 0; k < r.cell.size(); ++k) {
+      double sum = 0.0;
+      for (std::size_t q = r.start[k]; q < r.start[k + 1]; ++q) sum += volume[q];
+      r.volume[k] = sum;
+      if (r.cell[k] >= 0) survey.cell_volume[static_cast<std::size_t>(r.cell[k])] += sum;
+    }
+  }
 }
 
 // A filter of the n_x x n_y cells along every row, then along every column. Along a line of n
@@ -679,8 +695,10 @@ std::vector<char> guard_candidates(std::span<const Vec2> positions, const Grid& 
 // (300k-point block: 13 ms at refinement 10, 8 ms at 4).
 int pass_refinement(const ImprovedConfig& config, int pass, const ImprovedField& field, double h) {
   if (config.refinement > 0) return config.refinement;
+  // Joining the spurious loops, the second pass (the bridges) keeps the first's refinement.
+  const int base_passes = config.join_spurious_loops ? 2 : 1;
   const double axis =
-      pass == 0 ? std::numeric_limits<double>::infinity() : field.smallest_guard_axis();
+      pass < base_passes ? std::numeric_limits<double>::infinity() : field.smallest_guard_axis();
   // (Capped before the conversion: a guard squeezed to nothing asks for any refinement.)
   const int refinement = std::isfinite(axis)
                              ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
@@ -1119,12 +1137,73 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
   return left_out;
 }
 
+// The bridges of the second pass (ImprovedConfig::join_spurious_loops): from each particle of
+// `left_out` to every particle within kContactSpacings initial spacings of it, and the contacts
+// of the spurious islands of `classes`; pairs in increasing order, each once.
+std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> positions,
+                                                     std::span<const std::size_t> left_out,
+                                                     const LoopClasses& classes, double spacing) {
+  std::vector<std::array<std::size_t, 2>> pairs = classes.contacts;
+  if (!left_out.empty()) {
+    const double contact = kContactSpacings * spacing;
+    const ParticleBins bins(positions, contact);
+    for (const std::size_t p : left_out) {
+      bins.for_each_near(positions[p], [&](int q) {
+        const auto r = static_cast<std::size_t>(q);
+        if (r != p && (positions[r] - positions[p]).norm() < contact) pairs.push_back({p, r});
+      });
+    }
+  }
+  for (auto& pair : pairs) {
+    if (pair[0] > pair[1]) std::swap(pair[0], pair[1]);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+// Removes the loops the particle spacing cannot resolve (classify_loops()): every spurious hole,
+// with the loops inside it (their region becomes material: it held no free disk of one spacing),
+// and every material loop that holds no particle. Returns the number of loops removed.
+long remove_spurious_loops(DetectedBoundary& boundary, std::span<const Vec2> positions,
+                           double spacing) {
+  if (boundary.contours.size() < 2) return 0;
+  const LoopClasses classes = classify_loops(boundary, positions, spacing);
+  const std::size_t n = boundary.contours.size();
+  std::vector<char> drop(n, 0);
+  for (std::size_t c = 0; c < n; ++c) {
+    if (classes.of_loop[c] == LoopClass::kSpuriousLoop) drop[c] = 1;
+    if (classes.of_loop[c] != LoopClass::kSpuriousHole) continue;
+    drop[c] = 1;
+    // Loops do not cross: one inside the hole has all its points, the first among them, inside.
+    const std::vector<Vec2>& hole = boundary.contours[c].points;
+    for (std::size_t d = 0; d < n; ++d) {
+      if (d != c && boundary.contours[d].closed && !boundary.contours[d].points.empty() &&
+          point_in_polygon(hole, boundary.contours[d].points.front())) {
+        drop[d] = 1;
+      }
+    }
+  }
+  long removed = 0;
+  std::vector<Contour> kept;
+  for (std::size_t c = 0; c < n; ++c) {
+    if (drop[c]) {
+      ++removed;
+    } else {
+      kept.push_back(std::move(boundary.contours[c]));
+    }
+  }
+  boundary.contours = std::move(kept);
+  return removed;
+}
+
 }  // namespace
 
-double cap_stretch(std::vector<Mat2>& deformation, double cap) {
+double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume) {
   double smallest_det = std::numeric_limits<double>::infinity();
   const double floor = 1.0 / cap;
-  for (Mat2& f : deformation) {
+  for (std::size_t p = 0; p < deformation.size(); ++p) {
+    Mat2& f = deformation[p];
     double largest = 0.0, smallest = 0.0;
     singular_values(f, largest, smallest);
     if (largest <= cap && smallest >= floor) continue;
@@ -1135,6 +1214,7 @@ double cap_stretch(std::vector<Mat2>& deformation, double cap) {
     // F v2 = s2 u2: a singular value of zero (F is checked to have det F > 0) cannot occur.
     f = f * (Mat2::Identity() + (s1 / largest - 1.0) * v1 * v1.transpose() +
              (s2 / smallest - 1.0) * v2 * v2.transpose());
+    if (!volume.empty()) volume[p] *= std::min(1.0, (s1 / largest) * (s2 / smallest));
     smallest_det = std::min(smallest_det, f.determinant());
   }
   return smallest_det;
@@ -1155,19 +1235,30 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   CloudSurvey survey = survey_cloud(input, grid, config.narrow_band);
   //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
   //    values clamped to [1 / cap, cap] where any lies outside.
+  //    A particle's volume is V0 det F: where det F' < det F (stretched beyond the cap), the
+  //    volume shrinks with it, V' = V det F' / det F, so that the capped kernel holds no more than
+  //    V0 det F' and a stretched particle does not overfill it. Volumes are never raised: the
+  //    band's solid cells take the volumes as the space the particles fill, and a collapse's det F
+  //    (down to 1e-3) says nothing of where its points are. The survey's cell volumes are summed
+  //    again from the capped volumes, so that the band agrees with the field.
   ParticleCloud cloud = input;
   std::vector<Mat2> capped;
+  std::vector<double> capped_volume;
   //    Every particle's smallest singular value is det F / its largest >= smallest_det /
   //    largest_stretch, so the pass runs only when some F may be outside the cap.
   if (config.max_stretch > 0.0 && !input.deformation_gradient.empty() &&
       (survey.largest_stretch > config.max_stretch ||
        survey.smallest_det * config.max_stretch < survey.largest_stretch)) {
     capped.assign(input.deformation_gradient.begin(), input.deformation_gradient.end());
-    const double det = cap_stretch(capped, config.max_stretch);
+    capped_volume.assign(input.volume.begin(), input.volume.end());
+    const double det = cap_stretch(capped, config.max_stretch, capped_volume);
     if (det < std::numeric_limits<double>::infinity()) {
+      // The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
       survey.smallest_det = std::min(survey.smallest_det, det);
       survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
       cloud.deformation_gradient = capped;
+      cloud.volume = capped_volume;
+      if (config.narrow_band) total_volumes_again(survey, capped_volume);
     }
   }
   lap(parts.survey);
@@ -1245,7 +1336,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     timings.refinement = r;
     FineNodes nodes(grid, r, field, config.level, field_evaluations);
     // Without guards the field is phi, which the screening evaluated at the grid nodes.
-    if (field.n_guarded() == 0) nodes.reuse_grid_nodes(screen.coarse);
+    if (field.n_guarded() == 0 && field.n_bridges() == 0) nodes.reuse_grid_nodes(screen.coarse);
     // 3. The fine cells to contour: all of them for the full field.
     std::vector<int> cells;
     if (config.narrow_band) {
@@ -1277,12 +1368,38 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     edge_points += roots.count();
     root_evaluations += roots.evaluations();
     connection_seconds += seconds_since(contour_start) - roots.seconds();
-    if (left_out.empty() || pass > 0 || config.guard_factor <= 0.0) break;
-    timings.particles_outside_first_contours = static_cast<long>(left_out.size());
+    if (config.guard_factor <= 0.0) break;
+    if (pass == 0 && config.join_spurious_loops) {
+      // The second pass bridges the particles left outside and the islands in contact, at the
+      // same refinement.
+      const LoopClasses classes = boundary.contours.size() > 1
+                                      ? classify_loops(boundary, positions, cloud.initial_spacing)
+                                      : LoopClasses{};
+      const auto pairs = bridge_pairs(positions, left_out, classes, cloud.initial_spacing);
+      if (left_out.empty() && pairs.empty()) break;
+      timings.particles_outside_first_contours = static_cast<long>(left_out.size());
+      const std::size_t guarded_before = field.n_guarded();
+      field.add_guards(left_out);
+      timings.particles_guarded_after_contouring =
+          static_cast<long>(field.n_guarded() - guarded_before);
+      field.add_bridges(left_out, pairs, h / r);
+      timings.bridges = static_cast<long>(field.n_bridges());
+      continue;
+    }
+    // The pass at the guards' refinement, if any particle is outside.
+    if (left_out.empty() || pass == (config.join_spurious_loops ? 2 : 1)) break;
+    if (!config.join_spurious_loops) {
+      timings.particles_outside_first_contours = static_cast<long>(left_out.size());
+    }
     const std::size_t guarded_before = field.n_guarded();
     field.add_guards(left_out);
-    timings.particles_guarded_after_contouring =
+    timings.particles_guarded_after_contouring +=
         static_cast<long>(field.n_guarded() - guarded_before);
+    timings.guard_refinement_passes += 1;
+  }
+  if (config.join_spurious_loops && config.guard_factor > 0.0) {
+    timings.spurious_loops_removed =
+        remove_spurious_loops(boundary, positions, cloud.initial_spacing);
   }
   timings.edge_points = edge_seconds;
   timings.connection = connection_seconds;

@@ -390,7 +390,9 @@ double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, 
   const double px = x.x(), py = x.y();
   const std::uint64_t units = detail::kernel_sum(exponent_, columns, begin, end, n_ranges, px, py);
   const double phi = static_cast<double>(units) * fixed_point_unit_;
-  if (!guard || n_guarded_ == 0) return phi;
+  if (!guard) return phi;
+  const double bridged = bridges_.a.empty() ? phi : std::max(phi, bridges_.value(x, level_));
+  if (n_guarded_ == 0) return bridged;
   // The guards (few): 0.5 + 0.5 (1 - |G^-1 d|^2), > 0.5 inside the guard ellipse, continuous,
   // 0 at q = 2; G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q. A maximum, so in any
   // order.
@@ -408,7 +410,7 @@ double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, 
       if (qg < 2.0) best = std::max(best, 1.0 - 0.5 * qg);
     }
   }
-  return std::max(phi, best);
+  return std::max(bridged, best);
 }
 
 double ImprovedField::sum_at(const Vec2& x, bool guard) const {
@@ -419,6 +421,93 @@ double ImprovedField::sum_at(const Vec2& x, bool guard) const {
 
 double ImprovedField::volume_fraction(const Vec2& x) const {
   return sum_at(x, false);
+}
+
+namespace {
+
+// Chebyshev (max-norm) distance from x to the segment a-b: the convex, piecewise linear
+// max(|e_x - t d_x|, |e_y - t d_y|) (e = x - a, d = b - a) is least on [0, 1] at an end or where
+// a term vanishes or the two are equal.
+double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b) {
+  const Vec2 e = x - a, d = b - a;
+  const auto at = [&](double t) {
+    t = std::clamp(t, 0.0, 1.0);
+    return std::max(std::abs(e.x() - t * d.x()), std::abs(e.y() - t * d.y()));
+  };
+  double best = std::min(at(0.0), at(1.0));
+  if (d.x() != 0.0) best = std::min(best, at(e.x() / d.x()));
+  if (d.y() != 0.0) best = std::min(best, at(e.y() / d.y()));
+  if (d.x() != d.y()) best = std::min(best, at((e.x() - e.y()) / (d.x() - d.y())));
+  if (d.x() != -d.y()) best = std::min(best, at((e.x() + e.y()) / (d.x() + d.y())));
+  return best;
+}
+
+}  // namespace
+
+double ImprovedField::Bridges::value(const Vec2& x, double level) const {
+  const double u = std::floor((x.x() - origin.x()) / bin),
+               v = std::floor((x.y() - origin.y()) / bin);
+  if (!(u >= 0.0 && v >= 0.0 && u < n_x && v < n_y)) return 0.0;
+  const std::size_t k = static_cast<std::size_t>(v) * n_x + static_cast<std::size_t>(u);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int i = start[k]; i < start[k + 1]; ++i) {
+    const auto s = static_cast<std::size_t>(item[static_cast<std::size_t>(i)]);
+    nearest = std::min(nearest, chebyshev_distance(x, a[s], b[s]));
+  }
+  return nearest < 2.0 * half ? level * (2.0 - nearest / half) : 0.0;
+}
+
+void ImprovedField::add_bridges(std::span<const std::size_t> points,
+                                std::span<const std::array<std::size_t, 2>> pairs, double cell) {
+  Bridges& g = bridges_;
+  for (const std::size_t p : points) {
+    g.a.push_back(position_[p]);
+    g.b.push_back(position_[p]);
+  }
+  // Each segment from its lower-left end (lexicographically), so that its distances do not
+  // depend on the order of the two particles.
+  for (const auto& [p, q] : pairs) {
+    const Vec2 &x = position_[p], &y = position_[q];
+    const bool ordered = x.x() < y.x() || (x.x() == y.x() && x.y() <= y.y());
+    g.a.push_back(ordered ? x : y);
+    g.b.push_back(ordered ? y : x);
+  }
+  if (g.a.empty()) return;
+  g.half = 1.25 * cell;
+  const double support = 2.0 * g.half;  // beyond it a bridge adds 0
+  Vec2 lo = g.a[0].cwiseMin(g.b[0]), hi = g.a[0].cwiseMax(g.b[0]);
+  double longest = 0.0;
+  for (std::size_t s = 0; s < g.a.size(); ++s) {
+    lo = lo.cwiseMin(g.a[s].cwiseMin(g.b[s]));
+    hi = hi.cwiseMax(g.a[s].cwiseMax(g.b[s]));
+    longest = std::max(longest, (g.b[s] - g.a[s]).cwiseAbs().maxCoeff());
+  }
+  g.origin = lo - Vec2::Constant(support);
+  g.bin = std::max(longest, support) + support;
+  g.n_x = static_cast<int>(std::floor((hi.x() + support - g.origin.x()) / g.bin)) + 1;
+  g.n_y = static_cast<int>(std::floor((hi.y() + support - g.origin.y()) / g.bin)) + 1;
+  std::vector<std::vector<int>> lists(static_cast<std::size_t>(g.n_x) * g.n_y);
+  for (std::size_t s = 0; s < g.a.size(); ++s) {
+    const Vec2 a = g.a[s].cwiseMin(g.b[s]) - Vec2::Constant(support);
+    const Vec2 b = g.a[s].cwiseMax(g.b[s]) + Vec2::Constant(support);
+    const int i0 = static_cast<int>(std::floor((a.x() - g.origin.x()) / g.bin));
+    const int j0 = static_cast<int>(std::floor((a.y() - g.origin.y()) / g.bin));
+    const int i1 =
+        std::min(g.n_x - 1, static_cast<int>(std::floor((b.x() - g.origin.x()) / g.bin)));
+    const int j1 =
+        std::min(g.n_y - 1, static_cast<int>(std::floor((b.y() - g.origin.y()) / g.bin)));
+    for (int j = std::max(j0, 0); j <= j1; ++j) {
+      for (int i = std::max(i0, 0); i <= i1; ++i) {
+        lists[static_cast<std::size_t>(j) * g.n_x + i].push_back(static_cast<int>(s));
+      }
+    }
+  }
+  g.start.assign(1, 0);
+  g.item.clear();
+  for (const std::vector<int>& l : lists) {
+    g.item.insert(g.item.end(), l.begin(), l.end());
+    g.start.push_back(static_cast<int>(g.item.size()));
+  }
 }
 
 double ImprovedField::operator()(const Vec2& x) const {

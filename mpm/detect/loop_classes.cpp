@@ -29,8 +29,6 @@ const char* loop_class_name(LoopClass c) {
 
 namespace {
 
-constexpr double kContact = 1.5;  // initial spacings: points closer than this are in contact
-
 double distance_to_polygon(const std::vector<Vec2>& p, const Vec2& x) {
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < p.size(); ++k) {
@@ -109,25 +107,28 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     out.of_loop[c] = real ? LoopClass::kRealHole : LoopClass::kSpuriousHole;
   }
   if (body < n_loops) out.of_loop[body] = LoopClass::kBody;
-  // An island whose points touch the points of the rest (closer than kContact spacings) has
+  // An island whose points touch the points of the rest (closer than kContactSpacings) has
   // not separated: the field split material in contact (a row of points, a thin neck).
   std::vector<char> mine(particles.size(), 0);
-  const double contact = kContact * spacing;
+  const double contact = kContactSpacings * spacing;
+  std::vector<std::size_t> outside;
   for (std::size_t c = 0; c < n_loops; ++c) {
     if (out.of_loop[c] != LoopClass::kIsland || !boundary.contours[c].closed) continue;
+    std::sort(held[c].begin(), held[c].end());
     for (const int q : held[c]) mine[static_cast<std::size_t>(q)] = 1;
     bool touches = false;
     for (const int q : held[c]) {
       const Vec2& x = particles[static_cast<std::size_t>(q)];
-      bins.for_each_slot_in_box(
-          x - Vec2::Constant(contact), x + Vec2::Constant(contact), [&](int k) {
-            const int r = bins.particle_at(k);
-            if (!mine[static_cast<std::size_t>(r)] &&
-                (particles[static_cast<std::size_t>(r)] - x).norm() < contact) {
-              touches = true;
-            }
-          });
-      if (touches) break;
+      outside.clear();
+      bins.for_each_slot_in_box(x - Vec2::Constant(contact), x + Vec2::Constant(contact),
+                                [&](int k) {
+                                  const auto r = static_cast<std::size_t>(bins.particle_at(k));
+                                  if (!mine[r] && (particles[r] - x).norm() < contact)
+                                    outside.push_back(r);
+                                });
+      std::sort(outside.begin(), outside.end());
+      for (const std::size_t r : outside) out.contacts.push_back({static_cast<std::size_t>(q), r});
+      touches = touches || !outside.empty();
     }
     for (const int q : held[c]) mine[static_cast<std::size_t>(q)] = 0;
     if (touches) out.of_loop[c] = LoopClass::kSpuriousIsland;

@@ -14,6 +14,8 @@
 //   `spurious_hole` (a gap the field opened between points that are still in contact).
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <span>
 #include <string>
 #include <vector>
@@ -23,6 +25,9 @@
 
 namespace pfm {
 
+/// Points closer than this many initial spacings are in contact.
+inline constexpr double kContactSpacings = 1.5;
+
 enum class LoopClass { kBody, kIsland, kSpuriousLoop, kSpuriousIsland, kRealHole, kSpuriousHole };
 
 /// The class's name in summaries: "body", "island", "spurious_loop", "spurious_island",
@@ -31,6 +36,10 @@ const char* loop_class_name(LoopClass c);
 
 struct LoopClasses {
   std::vector<LoopClass> of_loop;  ///< one per contour, in the boundary's order
+  /// The contacts of the spurious islands: (particle inside the island, particle outside it
+  /// within kContactSpacings), indices into the particles, by island in the boundary's order,
+  /// then by increasing particle indices.
+  std::vector<std::array<std::size_t, 2>> contacts;
   long bodies = 0, islands = 0, spurious_loops = 0, spurious_islands = 0, real_holes = 0,
        spurious_holes = 0;
   long spurious() const { return spurious_loops + spurious_islands + spurious_holes; }

@@ -192,7 +192,9 @@ Range distances_to_segment(const DetectedBoundary& boundary, const Vec2& a, cons
 
 TEST(NeighbourShape, FilamentOneParticleThickIsOneLoopOfItsWidth) {
   // 40 points in a row at the initial spacing, along x and at 30 degrees: its material is a
-  // strip one spacing wide. Without the option each point keeps its own guard island.
+  // strip one spacing wide. Without the option each point keeps its own guard island, which the
+  // second pass bridges into one loop (spurious_loops "join", the default) about a fine cell
+  // wider than the strip; with "keep", 40 islands.
   const Grid grid = grid_of(28, 20);
   for (const double angle : {0.0, std::numbers::pi / 6.0}) {
     const Vec2 a(2.0, 2.5), t(std::cos(angle), std::sin(angle));
@@ -204,6 +206,9 @@ TEST(NeighbourShape, FilamentOneParticleThickIsOneLoopOfItsWidth) {
     }
     const Vec2 b = a + 40 * kSpacing * t;
     const auto plain = run(row, grid, shaped_config(0.0));
+    DetectorConfig keep = shaped_config(0.0);
+    keep.improved.join_spurious_loops = false;
+    const auto islands = run(row, grid, keep);
     DetectionTimings timings;
     const auto shaped = run(row, grid, shaped_config(), &timings);
     // The strip's long faces, away from its rounded ends (a kernel radius and a cell).
@@ -217,7 +222,9 @@ TEST(NeighbourShape, FilamentOneParticleThickIsOneLoopOfItsWidth) {
         plain_faces.max / kH, kBeta, shaped.contours.size(), faces.min / kH, faces.max / kH,
         0.5 * kSpacing / kH, 1e3 * timings.field_parts.shape);
     EXPECT_GT(faces.count, 100);
-    EXPECT_EQ(plain.contours.size(), 40u);
+    EXPECT_EQ(plain.contours.size(), 1u);
+    EXPECT_EQ(check_invariants(plain, grid, row.position).total(), 0);
+    EXPECT_EQ(islands.contours.size(), 40u);
     EXPECT_EQ(shaped.contours.size(), 1u);
     // The flat-face target of issue 3: within 0.02 h of the strip's faces.
     EXPECT_LE(std::abs(faces.min - 0.5 * kSpacing), 0.02 * kH);
