@@ -449,12 +449,19 @@ double ImprovedField::Bridges::value(const Vec2& x, double level) const {
                v = std::floor((x.y() - origin.y()) / bin);
   if (!(u >= 0.0 && v >= 0.0 && u < n_x && v < n_y)) return 0.0;
   const std::size_t k = static_cast<std::size_t>(v) * n_x + static_cast<std::size_t>(u);
-  double nearest = std::numeric_limits<double>::infinity();
+  // The Chebyshev distance to a segment's box bounds the distance to the segment from below: a
+  // box farther than the support is skipped (a fixed bound, not the nearest so far, whose
+  // rounding would make the result depend on the order of the segments).
+  const double support = 2.0 * half;
+  double nearest = support;
   for (int i = start[k]; i < start[k + 1]; ++i) {
     const auto s = static_cast<std::size_t>(item[static_cast<std::size_t>(i)]);
-    nearest = std::min(nearest, chebyshev_distance(x, a[s], b[s]));
+    const Vec2 lo = a[s].cwiseMin(b[s]), hi = a[s].cwiseMax(b[s]);
+    const double box = std::max(std::max(lo.x() - x.x(), x.x() - hi.x()),
+                                std::max(lo.y() - x.y(), x.y() - hi.y()));
+    if (box < support) nearest = std::min(nearest, chebyshev_distance(x, a[s], b[s]));
   }
-  return nearest < 2.0 * half ? level * (2.0 - nearest / half) : 0.0;
+  return nearest < support ? level * (2.0 - nearest / half) : 0.0;
 }
 
 void ImprovedField::add_bridges(std::span<const std::size_t> points,
@@ -476,14 +483,14 @@ void ImprovedField::add_bridges(std::span<const std::size_t> points,
   g.half = 1.25 * cell;
   const double support = 2.0 * g.half;  // beyond it a bridge adds 0
   Vec2 lo = g.a[0].cwiseMin(g.b[0]), hi = g.a[0].cwiseMax(g.b[0]);
-  double longest = 0.0;
   for (std::size_t s = 0; s < g.a.size(); ++s) {
     lo = lo.cwiseMin(g.a[s].cwiseMin(g.b[s]));
     hi = hi.cwiseMax(g.a[s].cwiseMax(g.b[s]));
-    longest = std::max(longest, (g.b[s] - g.a[s]).cwiseAbs().maxCoeff());
   }
+  // Bins of the support's size (a segment is listed in each bin its box widened by the support
+  // meets), at most 128 along the bridges' box: an evaluation visits the few bridges near it.
   g.origin = lo - Vec2::Constant(support);
-  g.bin = std::max(longest, support) + support;
+  g.bin = std::max(support, ((hi - lo).maxCoeff() + 2.0 * support) / 128.0);
   g.n_x = static_cast<int>(std::floor((hi.x() + support - g.origin.x()) / g.bin)) + 1;
   g.n_y = static_cast<int>(std::floor((hi.y() + support - g.origin.y()) / g.bin)) + 1;
   std::vector<std::vector<int>> lists(static_cast<std::size_t>(g.n_x) * g.n_y);
