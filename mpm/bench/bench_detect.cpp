@@ -24,10 +24,12 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/detect/vector_loops.hpp"
 #include "mpm/solver/case.hpp"
@@ -328,6 +330,120 @@ BENCHMARK(BM_DetectInStep)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->MinTime(0.5);
+
+// The failure states of tests/data/failure_states (states.json: the thesis bearing collapses, the
+// slope run-out, the quasi-static default at its end), each with its case: one MPM step of the
+// case (median, 1 thread, CPU time, from its start: elastic, so a plastic step of the state may
+// take up to twice as long) and the improved detection of the case's particles at t = 0.
+struct FailureState {
+  std::string name;
+  pfm::ParticleTable particles;
+  pfm::Grid grid;
+  double spacing = 0.0;
+  double step_seconds = 0.0;
+  double detect_at_start_seconds = 0.0;
+};
+
+// The case with the state's overrides (generate.py's derived(): the loads' entries by index, the
+// other blocks merged key by key).
+nlohmann::json case_of(const nlohmann::json& state) {
+  nlohmann::json j = pfm::read_json_file(std::string(PFM_SOURCE_DIR) + "/cases/" +
+                                         state.at("case").get<std::string>() + ".json");
+  for (const auto& [key, value] : state.at("overrides").items()) {
+    for (const auto& [inner, v] : value.items()) {
+      if (key == "loads") {
+        j["loads"][std::stoul(inner)].update(v);
+      } else {
+        j[key][inner] = v;
+      }
+    }
+  }
+  return j;
+}
+
+// Improved detections per second of `cloud` (minimum over 5 rounds of 20 detections, CPU time).
+double improved_detection_seconds(const pfm::ParticleCloud& cloud, const pfm::Grid& grid) {
+  pfm::DetectorConfig config;
+  config.method = pfm::DetectorMethod::kImproved;
+  double best = 1e300;
+  for (int round = 0; round < 5; ++round) {
+    pfm::DetectorState detector_state;
+    const double start = thread_seconds();
+    for (int k = 0; k < 20; ++k)
+      benchmark::DoNotOptimize(pfm::detect(cloud, grid, config, detector_state));
+    best = std::min(best, (thread_seconds() - start) / 20.0);
+  }
+  return best;
+}
+
+const std::vector<FailureState>& failure_states() {
+  static std::vector<FailureState> states;
+  if (!states.empty()) return states;
+  omp_set_num_threads(1);
+  const std::string folder = std::string(PFM_SOURCE_DIR) + "/tests/data/failure_states/";
+  const nlohmann::json index = pfm::read_json_file(folder + "states.json");
+  std::map<std::string, std::pair<double, double>> of_case;  // step, detection at t = 0
+  for (const auto& s : index) {
+    FailureState f;
+    f.name = s.at("name").get<std::string>();
+    f.particles = pfm::read_particle_csv(folder + f.name + ".csv");
+    const auto& g = s.at("grid");
+    f.grid.origin = pfm::Vec2(g.at("origin")[0].get<double>(), g.at("origin")[1].get<double>());
+    f.grid.cell_size = g.at("cell_size").get<double>();
+    f.grid.n_cells_x = g.at("n_cells")[0].get<int>();
+    f.grid.n_cells_y = g.at("n_cells")[1].get<int>();
+    f.spacing = s.at("initial_spacing").get<double>();
+    const nlohmann::json j = case_of(s);
+    const std::string key = j.dump();
+    if (!of_case.contains(key)) {
+      pfm::MpmSolver solver(pfm::parse_case(j, f.name));
+      const pfm::Particles& p = solver.particles();
+      const double at_start = improved_detection_seconds(
+          {p.position, p.volume, p.deformation_gradient, f.spacing}, solver.grid());
+      of_case[key] = {median_step_seconds({&solver}, 0, 1, thread_seconds)[0], at_start};
+    }
+    std::tie(f.step_seconds, f.detect_at_start_seconds) = of_case[key];
+    states.push_back(std::move(f));
+  }
+  return states;
+}
+
+// range(0): the state's index in states.json. Counters: detect_ms, step_ms and ratio_to_step (the
+// case's step), detect_t0_ms and ratio_to_t0 (the case's detection at t = 0).
+void BM_DetectFailureState(benchmark::State& state) {
+  const FailureState& f = failure_states().at(static_cast<std::size_t>(state.range(0)));
+  omp_set_num_threads(1);
+  const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
+                                 f.particles.deformation_gradient, f.spacing};
+  pfm::DetectorConfig config;
+  config.method = pfm::DetectorMethod::kImproved;
+  pfm::DetectionTimings timings;
+  double seconds = 0.0;
+  for (auto _ : state) {
+    pfm::DetectorState detector_state;
+    const double start = thread_seconds();
+    benchmark::DoNotOptimize(pfm::detect(cloud, f.grid, config, detector_state, &timings));
+    const double elapsed = thread_seconds() - start;
+    state.SetIterationTime(elapsed);
+    seconds += elapsed;
+  }
+  const double per_detection = seconds / static_cast<double>(std::max<long>(state.iterations(), 1));
+  state.counters["particles"] = static_cast<double>(f.particles.position.size());
+  state.counters["detect_ms"] = 1e3 * per_detection;
+  state.counters["step_ms"] = 1e3 * f.step_seconds;
+  state.counters["ratio_to_step"] = per_detection / f.step_seconds;
+  state.counters["detect_t0_ms"] = 1e3 * f.detect_at_start_seconds;
+  state.counters["ratio_to_t0"] = per_detection / f.detect_at_start_seconds;
+  state.counters["bridges"] = static_cast<double>(timings.bridges);
+  state.counters["loops_removed"] = static_cast<double>(timings.spurious_loops_removed);
+  state.counters["guard_refinement_passes"] = static_cast<double>(timings.guard_refinement_passes);
+  state.SetLabel(f.name);
+}
+BENCHMARK(BM_DetectFailureState)
+    ->DenseRange(0, 13)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->MinTime(0.3);
 
 void BM_Step(benchmark::State& state) {
   const int scale = static_cast<int>(state.range(0));
