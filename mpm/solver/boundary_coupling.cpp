@@ -124,6 +124,12 @@ void BoundaryCoupling::detect_now() {
   detected_at_step_ = solver_->step_count();
   times_.detect += seconds_since(start);
   ++times_.detections;
+  const DetectionTimings& t = detection_timings_;
+  times_.bridged_detections += t.bridges > 0;
+  times_.bridges += t.bridges;
+  times_.spurious_loops_removed += t.spurious_loops_removed;
+  times_.guard_refinement_passes += t.guard_refinement_passes;
+  times_.most_loops = std::max(times_.most_loops, static_cast<long>(boundary_.contours.size()));
 }
 
 const DetectedBoundary& BoundaryCoupling::current_boundary() {

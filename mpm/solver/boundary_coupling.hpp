@@ -53,6 +53,14 @@ struct CouplingTimes {
   double bezier = 0.0;
   double traction = 0.0;
   long detections = 0;
+  /// Improved detector, over the run (DetectionTimings): detections whose second pass bridged
+  /// particles left outside or islands in contact, the bridges, the spurious loops removed, the
+  /// passes at the guards' refinement, and the most loops of one boundary.
+  long bridged_detections = 0;
+  long bridges = 0;
+  long spurious_loops_removed = 0;
+  long guard_refinement_passes = 0;
+  long most_loops = 0;
 };
 
 class BoundaryCoupling {

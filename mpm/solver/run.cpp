@@ -287,7 +287,12 @@ int run_case(const Case& c, const RunOptions& options) {
     run["summary"]["detection"] = {
         {"calls", ct.detections},
         {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
-        {"every_steps", c.detection->every_steps}};
+        {"every_steps", c.detection->every_steps},
+        {"most_loops", ct.most_loops},
+        {"bridged_calls", ct.bridged_detections},
+        {"bridges", ct.bridges},
+        {"spurious_loops_removed", ct.spurious_loops_removed},
+        {"guard_refinement_passes", ct.guard_refinement_passes}};
     nlohmann::json ends = nlohmann::json::array();
     for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
     if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
