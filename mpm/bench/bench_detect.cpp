@@ -193,6 +193,34 @@ pfm::DetectionTimings time_improved_detections(benchmark::State& state, const Fi
   return timings;
 }
 
+// The improved detector's counters of its last detection (DetectionTimings).
+void set_improved_counters(benchmark::State& state, const pfm::DetectionTimings& timings) {
+  state.counters["field_particles"] = static_cast<double>(timings.field_particles);
+  // Wall-clock split of the last detection: field (sweep, screening, field nodes), edge
+  // points (root finding), connection (marching squares, contours).
+  state.counters["field_ms"] = 1e3 * timings.field;
+  state.counters["edge_ms"] = 1e3 * timings.edge_points;
+  state.counters["connection_ms"] = 1e3 * timings.connection;
+  // The field's parts (DetectionTimings::FieldParts).
+  const auto& parts = timings.field_parts;
+  state.counters["survey_ms"] = 1e3 * parts.survey;
+  state.counters["band_ms"] = 1e3 * parts.band;
+  state.counters["setup_ms"] = 1e3 * parts.setup;
+  state.counters["screening_ms"] = 1e3 * parts.screening;
+  state.counters["guards_ms"] = 1e3 * parts.guards;
+  state.counters["nodes_ms"] = 1e3 * parts.nodes;
+  state.counters["shape_ms"] = 1e3 * parts.shape;
+  // Exact field evaluations of the last detection (nodes, screening, guards, roots).
+  state.counters["field_evaluations"] = static_cast<double>(timings.field_evaluations);
+  state.counters["root_evaluations"] = static_cast<double>(timings.root_evaluations);
+  state.counters["processed_cells"] = static_cast<double>(timings.processed_cells);
+  // Particles the containment check guarded for a second pass (0: one pass).
+  state.counters["second_pass_guards"] =
+      static_cast<double>(timings.particles_guarded_after_contouring);
+  state.counters["outside_first_contours"] =
+      static_cast<double>(timings.particles_outside_first_contours);
+}
+
 // One detection with `config` on the particles of scale `scale`, one thread, and its counters.
 void detect_on_one_thread(benchmark::State& state, int scale, const pfm::DetectorConfig& config) {
   const pfm::DetectorMethod method = config.method;
@@ -225,32 +253,7 @@ void detect_on_one_thread(benchmark::State& state, int scale, const pfm::Detecto
                                                                                 : 2;
   state.counters["boundary_points"] = static_cast<double>(points);
   state.counters["refinement"] = timings.refinement;
-  if (method == pfm::DetectorMethod::kImproved) {
-    state.counters["field_particles"] = static_cast<double>(timings.field_particles);
-    // Wall-clock split of the last detection: field (sweep, screening, field nodes), edge
-    // points (root finding), connection (marching squares, contours).
-    state.counters["field_ms"] = 1e3 * timings.field;
-    state.counters["edge_ms"] = 1e3 * timings.edge_points;
-    state.counters["connection_ms"] = 1e3 * timings.connection;
-    // The field's parts (DetectionTimings::FieldParts).
-    const auto& parts = timings.field_parts;
-    state.counters["survey_ms"] = 1e3 * parts.survey;
-    state.counters["band_ms"] = 1e3 * parts.band;
-    state.counters["setup_ms"] = 1e3 * parts.setup;
-    state.counters["screening_ms"] = 1e3 * parts.screening;
-    state.counters["guards_ms"] = 1e3 * parts.guards;
-    state.counters["nodes_ms"] = 1e3 * parts.nodes;
-    state.counters["shape_ms"] = 1e3 * parts.shape;
-    // Exact field evaluations of the last detection (nodes, screening, guards, roots).
-    state.counters["field_evaluations"] = static_cast<double>(timings.field_evaluations);
-    state.counters["root_evaluations"] = static_cast<double>(timings.root_evaluations);
-    state.counters["processed_cells"] = static_cast<double>(timings.processed_cells);
-    // Particles the containment check guarded for a second pass (0: one pass).
-    state.counters["second_pass_guards"] =
-        static_cast<double>(timings.particles_guarded_after_contouring);
-    state.counters["outside_first_contours"] =
-        static_cast<double>(timings.particles_outside_first_contours);
-  }
+  if (method == pfm::DetectorMethod::kImproved) set_improved_counters(state, timings);
   state.SetLabel(std::string(pfm::detector_method_name(method)) +
                  (config.improved.neighbour_shape > 0.0 ? " (neighbour_shape)" : "") + ", " +
                  std::to_string(f.particles.size()) + " points");
@@ -434,6 +437,7 @@ void BM_DetectFailureState(benchmark::State& state) {
   state.counters["ratio_to_step"] = per_detection / f.step_seconds;
   state.counters["detect_t0_ms"] = 1e3 * f.detect_at_start_seconds;
   state.counters["ratio_to_t0"] = per_detection / f.detect_at_start_seconds;
+  set_improved_counters(state, timings);
   state.counters["bridges"] = static_cast<double>(timings.bridges);
   state.counters["loops_removed"] = static_cast<double>(timings.spurious_loops_removed);
   state.counters["guard_refinement_passes"] = static_cast<double>(timings.guard_refinement_passes);
