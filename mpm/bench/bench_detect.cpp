@@ -30,6 +30,7 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/detect/detect_command.hpp"
+#include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/detect/vector_loops.hpp"
 #include "mpm/solver/case.hpp"
@@ -338,6 +339,11 @@ BENCHMARK(BM_DetectInStep)
 // slope run-out, the quasi-static default at its end), each with its case: one MPM step of the
 // case (median, 1 thread, CPU time, from its start: elastic, so a plastic step of the state may
 // take up to twice as long) and the improved detection of the case's particles at t = 0.
+// Refined m times (m = 5: 30k points, 16: 307k), each point becomes m x m points of volume V / m^2
+// at x + F' u, u on the m x m lattice of its reference square of one initial spacing and F' its F
+// with the singular values clamped to [1/2, 2] (the detector's cap: the collapses' raw F would
+// fling them metres away), each keeping its raw F; the grid's cells and the spacing are divided
+// by m, and the case's step and detection at t = 0 are those of the case on that grid.
 struct FailureState {
   std::string name;
   pfm::ParticleTable particles;
@@ -348,8 +354,8 @@ struct FailureState {
 };
 
 // The case with the state's overrides (generate.py's derived(): the loads' entries by index, the
-// other blocks merged key by key).
-nlohmann::json case_of(const nlohmann::json& state) {
+// other blocks merged key by key), its cells divided by `m`.
+nlohmann::json case_of(const nlohmann::json& state, int m) {
   nlohmann::json j = pfm::read_json_file(std::string(PFM_SOURCE_DIR) + "/cases/" +
                                          state.at("case").get<std::string>() + ".json");
   for (const auto& [key, value] : state.at("overrides").items()) {
@@ -361,60 +367,90 @@ nlohmann::json case_of(const nlohmann::json& state) {
       }
     }
   }
+  j["grid"]["cell_size"] = j["grid"]["cell_size"].get<double>() / m;
+  j["grid"]["n_cells"] = {j["grid"]["n_cells"][0].get<int>() * m,
+                          j["grid"]["n_cells"][1].get<int>() * m};
   return j;
 }
 
-// Improved detections per second of `cloud` (minimum over 5 rounds of 20 detections, CPU time).
-double improved_detection_seconds(const pfm::ParticleCloud& cloud, const pfm::Grid& grid) {
+// Seconds per improved detection of `cloud` (minimum over `rounds` rounds of `repeats`
+// detections, CPU time).
+double improved_detection_seconds(const pfm::ParticleCloud& cloud, const pfm::Grid& grid,
+                                  int rounds, int repeats) {
   pfm::DetectorConfig config;
   config.method = pfm::DetectorMethod::kImproved;
   double best = 1e300;
-  for (int round = 0; round < 5; ++round) {
+  for (int round = 0; round < rounds; ++round) {
     pfm::DetectorState detector_state;
     const double start = thread_seconds();
-    for (int k = 0; k < 20; ++k)
+    for (int k = 0; k < repeats; ++k) {
       benchmark::DoNotOptimize(pfm::detect(cloud, grid, config, detector_state));
-    best = std::min(best, (thread_seconds() - start) / 20.0);
+    }
+    best = std::min(best, (thread_seconds() - start) / repeats);
   }
   return best;
 }
 
-const std::vector<FailureState>& failure_states() {
-  static std::vector<FailureState> states;
-  if (!states.empty()) return states;
-  omp_set_num_threads(1);
-  const std::string folder = std::string(PFM_SOURCE_DIR) + "/tests/data/failure_states/";
-  const nlohmann::json index = pfm::read_json_file(folder + "states.json");
-  std::map<std::string, std::pair<double, double>> of_case;  // step, detection at t = 0
-  for (const auto& s : index) {
-    FailureState f;
-    f.name = s.at("name").get<std::string>();
-    f.particles = pfm::read_particle_csv(folder + f.name + ".csv");
-    const auto& g = s.at("grid");
-    f.grid.origin = pfm::Vec2(g.at("origin")[0].get<double>(), g.at("origin")[1].get<double>());
-    f.grid.cell_size = g.at("cell_size").get<double>();
-    f.grid.n_cells_x = g.at("n_cells")[0].get<int>();
-    f.grid.n_cells_y = g.at("n_cells")[1].get<int>();
-    f.spacing = s.at("initial_spacing").get<double>();
-    const nlohmann::json j = case_of(s);
-    const std::string key = j.dump();
-    if (!of_case.contains(key)) {
-      pfm::MpmSolver solver(pfm::parse_case(j, f.name));
-      const pfm::Particles& p = solver.particles();
-      const double at_start = improved_detection_seconds(
-          {p.position, p.volume, p.deformation_gradient, f.spacing}, solver.grid());
-      of_case[key] = {median_step_seconds({&solver}, 0, 1, thread_seconds)[0], at_start};
+// Each point of `p` as m x m points (see FailureState).
+pfm::ParticleTable refined(const pfm::ParticleTable& p, double spacing, int m) {
+  if (m == 1) return p;
+  std::vector<pfm::Mat2> capped = p.deformation_gradient;
+  pfm::detail::cap_stretch(capped, 2.0);
+  pfm::ParticleTable out;
+  for (std::size_t k = 0; k < p.position.size(); ++k) {
+    for (int b = 0; b < m; ++b) {
+      for (int a = 0; a < m; ++a) {
+        const pfm::Vec2 u(((a + 0.5) / m - 0.5) * spacing, ((b + 0.5) / m - 0.5) * spacing);
+        out.position.push_back(p.position[k] + capped[k] * u);
+        out.volume.push_back(p.volume[k] / (m * m));
+        out.deformation_gradient.push_back(p.deformation_gradient[k]);
+      }
     }
-    std::tie(f.step_seconds, f.detect_at_start_seconds) = of_case[key];
-    states.push_back(std::move(f));
   }
-  return states;
+  return out;
 }
 
-// range(0): the state's index in states.json. Counters: detect_ms, step_ms and ratio_to_step (the
-// case's step), detect_t0_ms and ratio_to_t0 (the case's detection at t = 0).
+// State `index` of states.json refined m times, built on first use.
+const FailureState& failure_state(std::size_t index, int m) {
+  static std::map<std::pair<std::size_t, int>, FailureState> states;
+  static std::map<std::string, std::pair<double, double>> of_case;  // step, detection at t = 0
+  const auto key = std::make_pair(index, m);
+  if (const auto it = states.find(key); it != states.end()) return it->second;
+  omp_set_num_threads(1);
+  const std::string folder = std::string(PFM_SOURCE_DIR) + "/tests/data/failure_states/";
+  const nlohmann::json s = pfm::read_json_file(folder + "states.json").at(index);
+  FailureState f;
+  f.name = s.at("name").get<std::string>();
+  const double spacing = s.at("initial_spacing").get<double>();
+  f.particles = refined(pfm::read_particle_csv(folder + f.name + ".csv"), spacing, m);
+  const auto& g = s.at("grid");
+  f.grid.origin = pfm::Vec2(g.at("origin")[0].get<double>(), g.at("origin")[1].get<double>());
+  f.grid.cell_size = g.at("cell_size").get<double>() / m;
+  f.grid.n_cells_x = g.at("n_cells")[0].get<int>() * m;
+  f.grid.n_cells_y = g.at("n_cells")[1].get<int>() * m;
+  f.spacing = spacing / m;
+  const nlohmann::json j = case_of(s, m);
+  const std::string case_key = j.dump();
+  if (!of_case.contains(case_key)) {
+    pfm::MpmSolver solver(pfm::parse_case(j, f.name));
+    const pfm::Particles& p = solver.particles();
+    const bool large = p.size() > 100000;
+    const double at_start =
+        improved_detection_seconds({p.position, p.volume, p.deformation_gradient, f.spacing},
+                                   solver.grid(), large ? 3 : 5, large ? 3 : 20);
+    of_case[case_key] = {median_step_seconds({&solver}, large ? 2 : 0, 1, thread_seconds)[0],
+                         at_start};
+  }
+  std::tie(f.step_seconds, f.detect_at_start_seconds) = of_case[case_key];
+  return states.emplace(key, std::move(f)).first->second;
+}
+
+// range(0): the state's index in states.json; range(1): the refinement m. Counters: detect_ms,
+// step_ms and ratio_to_step (the case's step), detect_t0_ms and ratio_to_t0 (the case's
+// detection at t = 0).
 void BM_DetectFailureState(benchmark::State& state) {
-  const FailureState& f = failure_states().at(static_cast<std::size_t>(state.range(0)));
+  const FailureState& f =
+      failure_state(static_cast<std::size_t>(state.range(0)), static_cast<int>(state.range(1)));
   omp_set_num_threads(1);
   const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
                                  f.particles.deformation_gradient, f.spacing};
@@ -441,10 +477,11 @@ void BM_DetectFailureState(benchmark::State& state) {
   state.counters["bridges"] = static_cast<double>(timings.bridges);
   state.counters["loops_removed"] = static_cast<double>(timings.spurious_loops_removed);
   state.counters["guard_refinement_passes"] = static_cast<double>(timings.guard_refinement_passes);
-  state.SetLabel(f.name);
+  state.SetLabel(f.name +
+                 (state.range(1) > 1 ? " x " + std::to_string(state.range(1)) + "^2" : ""));
 }
 BENCHMARK(BM_DetectFailureState)
-    ->DenseRange(0, 13)
+    ->ArgsProduct({benchmark::CreateDenseRange(0, 13, 1), {1, 5, 16}})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->MinTime(0.3);
