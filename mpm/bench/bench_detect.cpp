@@ -7,10 +7,8 @@
 // 0.047 s against a 0.048 s step). Targets for the improved detector (issue 3): <= 0.3 at slope
 // size,
 // <= 0.05 at 300k points. BM_DetectThreads times the improved detector and the step on 1 and 2
-// OpenMP threads by the wall clock (the other threads' work included). BM_DetectInStep times
-// the improved detector as a run calls it, at the step's external-force hook, where the step has
-// already found each particle's cell and the cloud's totals (MpmSolver::step_survey()), against
-// the step that finds them.
+// OpenMP threads by the wall clock (the other threads' work included). BM_DetectFailureState
+// times it on the failure states of tests/data/failure_states (below).
 //
 // Sample run:  build/bin/pfm-bench-detect --benchmark_filter='improved'
 // The Surface Marker Method is timed per step as advect_surface_markers() + detect() (the
@@ -97,12 +95,7 @@ struct Fixture {
   /// step: the steps timed later move the solver's own, and every detection benchmark must see
   /// the same cloud.
   pfm::Particles particles;
-  /// What that step had found of them (its cells held in `cells`).
-  pfm::StepSurvey survey;
-  std::vector<int> cells;
   double step_seconds = 0.0;
-  /// A step that sweeps the particles for step_survey(), as in a run with the improved detector.
-  double surveyed_step_seconds = 0.0;
   double initial_spacing = 0.0;
 };
 
@@ -122,32 +115,22 @@ Fixture& fixture(int scale) {
   f.solver = std::make_unique<pfm::MpmSolver>(pfm::parse_case(j, "bench_detect"));
   f.initial_spacing = cell / s.points_per_cell;
   {
-    pfm::MpmSolver surveyed = *f.solver;
-    surveyed.set_step_survey(true);
-    // The same solver sweeping its particles for step_survey() (the sweeps leave the particles
-    // bitwise as they were).
-    const std::vector<double> medians =
-        median_step_seconds({f.solver.get(), &surveyed}, scale, 1, thread_seconds);
-    f.step_seconds = medians[0];
-    f.surveyed_step_seconds = medians[1];
-    // The particles at the hook of the next step (as the plain solver's last step left them),
-    // and what the step had found of them.
-    surveyed.set_external_force_hook([&](double, const pfm::GridState&, std::vector<pfm::Vec2>&) {
-      f.particles = surveyed.particles();
-      f.survey = *surveyed.step_survey();
+    f.step_seconds = median_step_seconds({f.solver.get()}, scale, 1, thread_seconds)[0];
+    // The particles at the hook of the next step (of a copy: the solver's own stay as its last
+    // step left them).
+    pfm::MpmSolver next = *f.solver;
+    next.set_external_force_hook([&](double, const pfm::GridState&, std::vector<pfm::Vec2>&) {
+      f.particles = next.particles();
     });
-    surveyed.step();
-    f.cells.assign(f.survey.cell.begin(), f.survey.cell.end());
-    f.survey.cell = f.cells;
+    next.step();
   }
   return cache.emplace(scale, std::move(f)).first->second;
 }
 
-// The cloud of the fixture's particles, with the step's survey of them or without.
-pfm::ParticleCloud cloud_of(const Fixture& f, bool surveyed = false) {
+// The cloud of the fixture's particles.
+pfm::ParticleCloud cloud_of(const Fixture& f) {
   const pfm::Particles& p = f.particles;
-  return {p.position, p.volume, p.deformation_gradient, f.initial_spacing,
-          surveyed ? &f.survey : nullptr};
+  return {p.position, p.volume, p.deformation_gradient, f.initial_spacing};
 }
 
 // Times one detection per benchmark iteration by `clock` (after before_each(), timed too), and
@@ -157,8 +140,8 @@ template <class BeforeEach>
 void time_detections(benchmark::State& state, const Fixture& f, double step_seconds,
                      const pfm::DetectorConfig& config, pfm::DetectorState& detector_state,
                      double (*clock)(), BeforeEach before_each, long& points,
-                     pfm::DetectionTimings& last, bool surveyed = false) {
-  const pfm::ParticleCloud cloud = cloud_of(f, surveyed);
+                     pfm::DetectionTimings& last) {
+  const pfm::ParticleCloud cloud = cloud_of(f);
   double seconds = 0.0;
   for (auto _ : state) {
     const double start = clock();
@@ -179,18 +162,16 @@ void time_detections(benchmark::State& state, const Fixture& f, double step_seco
   state.counters["ratio_to_step"] = per_detection / step_seconds;
 }
 
-// time_detections() of the improved detector with its defaults, on the step's survey or without;
-// the last detection's timings.
+// time_detections() of the improved detector with its defaults; the last detection's timings.
 pfm::DetectionTimings time_improved_detections(benchmark::State& state, const Fixture& f,
-                                               double step_seconds, double (*clock)(),
-                                               bool surveyed) {
+                                               double step_seconds, double (*clock)()) {
   pfm::DetectorConfig config;
   config.method = pfm::DetectorMethod::kImproved;
   pfm::DetectorState detector_state;
   pfm::DetectionTimings timings;
   long points = 0;
   time_detections(
-      state, f, step_seconds, config, detector_state, clock, [] {}, points, timings, surveyed);
+      state, f, step_seconds, config, detector_state, clock, [] {}, points, timings);
   return timings;
 }
 
@@ -303,7 +284,7 @@ void BM_DetectThreads(benchmark::State& state) {
   const double step = step_wall_seconds(scale, threads);
   Fixture& f = fixture(scale);
   omp_set_num_threads(threads);
-  time_improved_detections(state, f, step, wall_seconds, false);
+  time_improved_detections(state, f, step, wall_seconds);
   state.counters["threads"] = threads;
   state.SetLabel("improved, " + std::to_string(f.particles.size()) + " points, " +
                  std::to_string(threads) + " thread(s), wall clock");
@@ -311,26 +292,6 @@ void BM_DetectThreads(benchmark::State& state) {
 }
 BENCHMARK(BM_DetectThreads)
     ->ArgsProduct({{0, 1, 2}, {1, 2}})
-    ->Unit(benchmark::kMillisecond)
-    ->UseManualTime()
-    ->MinTime(0.5);
-
-// range(0): scale. The improved detector on the step's survey, against the step that sweeps
-// the particles for it (1 thread, CPU time).
-void BM_DetectInStep(benchmark::State& state) {
-  const int scale = static_cast<int>(state.range(0));
-  Fixture& f = fixture(scale);
-  omp_set_num_threads(1);
-  const pfm::DetectionTimings timings =
-      time_improved_detections(state, f, f.surveyed_step_seconds, thread_seconds, true);
-  state.counters["survey_ms"] = 1e3 * timings.field_parts.survey;
-  // What sweeping the particles for the detector adds to a step (medians of steps taken in turn
-  // from the same state).
-  state.counters["step_survey_ms"] = 1e3 * (f.surveyed_step_seconds - f.step_seconds);
-  state.SetLabel("improved at the step's hook, " + std::to_string(f.particles.size()) + " points");
-}
-BENCHMARK(BM_DetectInStep)
-    ->DenseRange(0, 2)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->MinTime(0.5);

@@ -25,20 +25,8 @@
 
 namespace pfm {
 
-/// What a solver's step already found of its particles (MpmSolver::step_survey()), so that the
-/// improved detector need not read every particle again: each particle's cell of `lattice` and
-/// the cloud's totals, as detail::sweep_positions() and detail::sweep_volumes() give them (over
-/// any chunks: the totals are minima and maxima). The detector uses it when `lattice` is that of
-/// its grid and the totals are valid; it finds bitwise the boundary of its own sweep.
-struct StepSurvey {
-  std::span<const int> cell;  ///< j n_x + i, -1 outside the lattice
-  detail::CellLattice lattice;
-  detail::PositionTotals positions;
-  detail::VolumeTotals volumes;
-};
-
 namespace detail {
-/// The lattice of the grid's cells as the sweeps take it (a StepSurvey's `lattice` must be it).
+/// The lattice of the grid's cells as the improved detector's sweep takes it.
 inline CellLattice cell_lattice(const Grid& grid) {
   return {grid.origin.x(), grid.origin.y(), 1.0 / grid.cell_size, grid.n_cells_x, grid.n_cells_y};
 }
@@ -50,7 +38,6 @@ struct ParticleCloud {
   std::span<const double> volume;              ///< current volume, m^2 (per unit thickness)
   std::span<const Mat2> deformation_gradient;  ///< total F since the initial state; may be empty
   double initial_spacing = 0.0;                ///< particle spacing in the initial state, m
-  const StepSurvey* step_survey = nullptr;     ///< of these particles, or none
 };
 
 enum class DetectorMethod { kPfm, kImproved, kSmm, kVof, kDensity };

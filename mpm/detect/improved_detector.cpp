@@ -191,25 +191,12 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
   return runs;
 }
 
-// Whether the cloud's step survey may stand for the detector's own sweep: of these particles, on
-// this grid's lattice, with valid totals (the detector's own sweep reports what is invalid).
-bool step_survey_applies(const ParticleCloud& cloud, const Grid& grid) {
-  const StepSurvey* s = cloud.step_survey;
-  if (s == nullptr) return false;
-  const CellLattice l = cell_lattice(grid);
-  return s->cell.size() == cloud.position.size() && s->lattice.origin_x == l.origin_x &&
-         s->lattice.origin_y == l.origin_y && s->lattice.inverse_size == l.inverse_size &&
-         s->lattice.n_x == l.n_x && s->lattice.n_y == l.n_y && s->positions.finite &&
-         s->volumes.valid;
-}
-
 // The one pass over every particle the improved detector makes: checks each particle (with the
 // messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
 // band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised). Large
 // clouds are swept by chunks on the OpenMP threads; the chunks' minima and maxima, the volumes of
 // the runs (each added in particle order) and the cells' volumes (the runs added in run order)
-// are those of one sweep, whatever the thread count. A solver's step survey (StepSurvey) stands
-// for the sweep: only the runs and the cells' volumes are left.
+// are those of one sweep, whatever the thread count.
 CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
@@ -220,31 +207,25 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
       cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
   const CellLattice lattice = cell_lattice(grid);
-  const bool handed = step_survey_applies(cloud, grid);
-  std::vector<int> cell_of(cells && !handed ? n : 0);  // grid cell of each particle, -1 outside
-  const int* cell = !cells ? nullptr : handed ? cloud.step_survey->cell.data() : cell_of.data();
+  std::vector<int> cell_of(cells ? n : 0);  // grid cell of each particle, -1 outside
+  const int* cell = cells ? cell_of.data() : nullptr;
   const std::size_t n_chunks = (n + kParticleChunk - 1) / kParticleChunk;
   const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
   const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
-  CloudTotals totals;
-  if (handed) {
-    totals = {cloud.step_survey->positions, cloud.step_survey->volumes};
-  } else {
-    std::vector<CloudTotals> chunk_totals(n_chunks);
-    for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
-      const std::size_t b = chunk_begin(k);
-      chunk_totals[k] =
-          sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
-                      chunk_end(k) - b, lattice, cells ? cell_of.data() + b : nullptr);
-    });
-    totals = chunk_totals[0];
-    for (std::size_t k = 1; k < n_chunks; ++k) {
-      include(totals.positions, chunk_totals[k].positions);
-      include(totals.volumes, chunk_totals[k].volumes);
-    }
-    if (!totals.valid()) {
-      for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
-    }
+  std::vector<CloudTotals> chunk_totals(n_chunks);
+  for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
+    const std::size_t b = chunk_begin(k);
+    chunk_totals[k] =
+        sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
+                    chunk_end(k) - b, lattice, cells ? cell_of.data() + b : nullptr);
+  });
+  CloudTotals totals = chunk_totals[0];
+  for (std::size_t k = 1; k < n_chunks; ++k) {
+    include(totals.positions, chunk_totals[k].positions);
+    include(totals.volumes, chunk_totals[k].volumes);
+  }
+  if (!totals.valid()) {
+    for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
   // (After every cell is known: a run may go on into the next chunk.)
   std::vector<Runs> chunk_runs(cells ? n_chunks : 0);

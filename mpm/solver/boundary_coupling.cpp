@@ -54,11 +54,6 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
   for (SurfaceLoad& load : loads_)
     load.spec.min_node_mass = load.spec.min_node_mass_fraction * density * h * h;
   if (!detection_enabled()) return;
-  // The improved detector, detecting at every step, takes the cells and totals of the particles
-  // from the step (at a step without a detection the step's sweep would be lost: it costs about
-  // what it saves the detection).
-  solver.set_step_survey(case_.detection->detector.method == DetectorMethod::kImproved &&
-                         case_.detection->every_steps == 1);
   tie_material_intervals();
   if (case_.detection->detector.method == DetectorMethod::kSmm) {
     // Surface markers ride on the updated grid velocities (thesis eq. 4.6-4.7), every step.
@@ -117,8 +112,6 @@ void BoundaryCoupling::detect_now() {
   cloud.volume = particles.volume;
   cloud.deformation_gradient = particles.deformation_gradient;
   cloud.initial_spacing = initial_spacing_;
-  // At the external-force hook the step has swept the particles for the detector already.
-  cloud.step_survey = solver_->step_survey();
   boundary_ =
       detect(cloud, case_.grid, case_.detection->detector, detector_state_, &detection_timings_);
   detected_at_step_ = solver_->step_count();

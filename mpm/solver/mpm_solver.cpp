@@ -18,9 +18,6 @@ using Clock = std::chrono::steady_clock;
 // Sums over particles or nodes (energies) are taken per fixed block of this many items, then
 // over the blocks, both in index order: deterministic, and parallel over the blocks.
 constexpr std::size_t kSumBlock = 1024;
-// Particles per block of the step survey's sweep over positions in locate_particles (their
-// positions are then read from the cache by the loop that follows).
-constexpr std::size_t kSurveyBlock = 1024;
 
 // Every loop is shared out dynamically, by blocks (particle and node blocks, bands, chunks):
 // a thread that the operating system holds back then delays the others by one block at most.
@@ -107,37 +104,6 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   chunk_offsets_.resize(static_cast<std::size_t>(n_chunks_) * static_cast<std::size_t>(n_bands_));
   band_start_.resize(static_cast<std::size_t>(n_bands_) + 1);
   sorted_.resize(n);
-}
-
-void MpmSolver::set_step_survey(bool on) {
-  surveying_ = on;
-  positions_surveyed_ = volumes_surveyed_ = false;
-  survey_cell_.assign(on ? particles_.size() : 0, -1);
-  chunk_positions_.assign(on ? static_cast<std::size_t>(n_chunks_) : 0, {});
-  block_volumes_.assign(on ? point_energy_blocks_.size() : 0, {});
-}
-
-const StepSurvey* MpmSolver::step_survey() {
-  if (!surveying_ || !positions_surveyed_) return nullptr;
-  const std::size_t n = particles_.size();
-  if (!volumes_surveyed_) {
-    const double* volume = particles_.volume.data();
-    const double* deformation = particles_.deformation_gradient.data()->data();
-#pragma omp parallel for schedule(dynamic, 1) if (parallel_)
-    for (std::size_t k = 0; k < block_volumes_.size(); ++k) {
-      const std::size_t b = k * kSumBlock;
-      block_volumes_[k] =
-          detail::sweep_volumes(volume + b, deformation + 4 * b, std::min(n, b + kSumBlock) - b);
-    }
-    volumes_surveyed_ = true;
-  }
-  survey_.cell = survey_cell_;
-  survey_.lattice = detail::cell_lattice(case_.grid);
-  survey_.positions = chunk_positions_.front();
-  for (const detail::PositionTotals& t : chunk_positions_) detail::include(survey_.positions, t);
-  survey_.volumes = block_volumes_.front();
-  for (const detail::VolumeTotals& t : block_volumes_) detail::include(survey_.volumes, t);
-  return &survey_;
 }
 
 void MpmSolver::set_dt(double dt) {
@@ -254,7 +220,6 @@ void MpmSolver::run_step() {
   times_.update_grid += seconds_since(t0);
   if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
 
-  positions_surveyed_ = false;  // the particles move
   if (case_.solver.scheme == Scheme::kMUSL) {
     t0 = Clock::now();
     grid_to_particles<W, true>();
@@ -349,10 +314,6 @@ void MpmSolver::locate_particles(bool clear_grid) {
   double* mass = grid_.mass.data();
   Vec2* momentum = grid_.momentum.data();
   Vec2* force = grid_.internal_force.data();
-  const detail::CellLattice lattice = detail::cell_lattice(grid);
-  const bool surveying = surveying_;
-  int* survey_cell = survey_cell_.data();
-  detail::PositionTotals* chunk_positions = chunk_positions_.data();
   long outside = -1;
 #pragma omp parallel reduction(max : outside) if (parallel_)
   {
@@ -374,65 +335,49 @@ void MpmSolver::locate_particles(bool clear_grid) {
           n * static_cast<std::size_t>(k) / static_cast<std::size_t>(n_chunks);
       const std::size_t end =
           n * static_cast<std::size_t>(k + 1) / static_cast<std::size_t>(n_chunks);
-      for (std::size_t block = begin; block < end; block += kSurveyBlock) {
-        const std::size_t block_end = std::min(end, block + kSurveyBlock);
-        // The step survey's sweep over the block's positions, which the loop then reads from the
-        // cache.
-        if (surveying) {
-          const detail::PositionTotals totals = detail::sweep_positions(
-              position[block].data(), block_end - block, lattice, survey_cell + block);
-          if (block == begin) {
-            chunk_positions[k] = totals;
-          } else {
-            detail::include(chunk_positions[k], totals);
-          }
+      for (std::size_t p = begin; p < end; ++p) {
+        const Vec2 x = position[p];
+        // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
+        // value checked to lie in [0, n_cells) first (also false for NaN).
+        const double tx = (x.x() - x0) / h, ty = (x.y() - y0) / h;
+        if (!(tx >= 0.0 && tx < n_cells_x && ty >= 0.0 && ty < n_cells_y)) {
+          outside = std::max(outside, static_cast<long>(p));
+          particle_band[p] = 0;
+          continue;
         }
-        for (std::size_t p = block; p < block_end; ++p) {
-          const Vec2 x = position[p];
-          // The cell as Grid::cell_i / cell_j: floor((x - x0) / h), here as a truncation of a
-          // value checked to lie in [0, n_cells) first (also false for NaN).
-          const double tx = (x.x() - x0) / h, ty = (x.y() - y0) / h;
-          if (!(tx >= 0.0 && tx < n_cells_x && ty >= 0.0 && ty < n_cells_y)) {
-            outside = std::max(outside, static_cast<long>(p));
-            particle_band[p] = 0;
-            continue;
+        const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
+        const int band = cj / band_rows;
+        particle_band[p] = band;
+        ++count[band];
+        const double xi = (x.x() - x0) * inv_h - ci;
+        const double eta = (x.y() - y0) * inv_h - cj;
+        if constexpr (W == 2) {
+          linear[p] = {xi, eta, ci, cj};
+        } else {
+          double* f = gimp[p].data();
+          const int bi = xi < 0.5 ? ci - 1 : ci;
+          const int bj = eta < 0.5 ? cj - 1 : cj;
+          gimp_base[p] = {bi, bj};
+          const Vec2& lp = half_length[p];
+          for (int a = 0; a < 3; ++a) {
+            const double node_x = x0 + (bi + a) * h;
+            const double node_y = y0 + (bj + a) * h;
+            f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
+            f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
           }
-          const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
-          const int band = cj / band_rows;
-          particle_band[p] = band;
-          ++count[band];
-          const double xi = (x.x() - x0) * inv_h - ci;
-          const double eta = (x.y() - y0) * inv_h - cj;
-          if constexpr (W == 2) {
-            linear[p] = {xi, eta, ci, cj};
-          } else {
-            double* f = gimp[p].data();
-            const int bi = xi < 0.5 ? ci - 1 : ci;
-            const int bj = eta < 0.5 ? cj - 1 : cj;
-            gimp_base[p] = {bi, bj};
-            const Vec2& lp = half_length[p];
-            for (int a = 0; a < 3; ++a) {
-              const double node_x = x0 + (bi + a) * h;
-              const double node_y = y0 + (bj + a) * h;
-              f[a] = gimp_1d(x.x() - node_x, h, lp.x(), f[6 + a]);
-              f[3 + a] = gimp_1d(x.y() - node_y, h, lp.y(), f[9 + a]);
-            }
-            // A node off the grid must carry no weight (the particle domain stays on the grid).
-            bool off = false;
-            for (int a = 0; a < 3; ++a) {
-              if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
-                off = true;
-              if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) &&
-                  (f[3 + a] != 0.0 || f[9 + a] != 0.0))
-                off = true;
-            }
-            if (off) outside = std::max(outside, static_cast<long>(p));
+          // A node off the grid must carry no weight (the particle domain stays on the grid).
+          bool off = false;
+          for (int a = 0; a < 3; ++a) {
+            if ((bi + a < 0 || bi + a >= grid.n_nodes_x()) && (f[a] != 0.0 || f[6 + a] != 0.0))
+              off = true;
+            if ((bj + a < 0 || bj + a >= grid.n_nodes_y()) && (f[3 + a] != 0.0 || f[9 + a] != 0.0))
+              off = true;
           }
+          if (off) outside = std::max(outside, static_cast<long>(p));
         }
       }
     }
   }
-  positions_surveyed_ = surveying_;
   if (outside >= 0) {
     const auto p = static_cast<std::size_t>(outside);
     throw SimulationError(describe_particle(particles_, p) +
@@ -692,8 +637,6 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   double* kinetic_blocks = kinetic_blocks_.data();
   const Vec2* particle_velocity = particles_.velocity.data();
   const double* particle_mass = particles_.mass.data();
-  const bool surveying = surveying_;
-  detail::VolumeTotals* volume_blocks = block_volumes_.data();
   long bad = -1;
   const std::size_t n_blocks = point_energy_blocks_.size();
   remap_seconds_ = 0.0;
@@ -761,15 +704,8 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
       }
       energy_blocks[k] = block;
       kinetic_blocks[k] = kinetic;
-      // The step survey's sweep over the volumes and F just written.
-      if (surveying) {
-        const std::size_t b = k * kSumBlock;
-        volume_blocks[k] = detail::sweep_volumes(
-            particle_volume + b, particle_deformation[b].data(), std::min(n, b + kSumBlock) - b);
-      }
     }
   }
-  volumes_surveyed_ = surveying_;
   bad_particle_ = std::max(bad_particle_, bad);
   PointEnergy step;
   double kinetic = 0.0;

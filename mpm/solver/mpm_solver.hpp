@@ -24,8 +24,7 @@
 // where it is used; the MUSL grid-to-particle update and the momentum scatter of the remap are
 // one pass; the constitutive constants of each material are computed once (MaterialConstants);
 // a step has about a dozen thread synchronisations, and tiny problems (< 1024 particles +
-// nodes) run on one thread; per-step arrays are allocated once. With set_step_survey(), the
-// step also sweeps its particles for the improved detector as it reads them (step_survey()).
+// nodes) run on one thread; per-step arrays are allocated once.
 #pragma once
 
 #include <array>
@@ -34,7 +33,6 @@
 #include <string>
 #include <vector>
 
-#include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/initial_stress.hpp"
@@ -105,22 +103,12 @@ class MpmSolver {
   /// Critical time step h / c_p of the stiffest material at its initial density, s.
   double critical_dt() const { return critical_dt_; }
   const Particles& particles() const { return particles_; }
-  /// The particles, to change them between steps (checkpoint restart, tests): step_survey() is
-  /// then taken anew.
+  /// The particles, to change them between steps (checkpoint restart, tests): the ledger's
+  /// particle kinetic energy is then taken anew.
   Particles& mutable_particles() {
-    positions_surveyed_ = volumes_surveyed_ = false;
     kinetic_stale_ = true;
     return particles_;
   }
-  /// What this step has found of the particles for a detection at its external-force hook: each
-  /// particle's grid cell and the box of the positions (locate_particles), the largest volume
-  /// and stretch and the smallest det F (update_stress of the step before; swept anew when the
-  /// particles were changed since). nullptr once the particles have moved (after the hook, or
-  /// before the first step).
-  const StepSurvey* step_survey();
-  /// Whether the steps sweep the particles for step_survey() (off by default: a run that
-  /// detects with the improved detector at every step turns it on; it costs 1-5 % of a step).
-  void set_step_survey(bool on);
   const Grid& grid() const { return case_.grid; }
   const GridState& grid_state() const { return grid_; }
   const Case& case_spec() const { return case_; }
@@ -211,18 +199,7 @@ class MpmSolver {
   std::vector<Vec2> remapped_velocity_;  ///< MUSL: nodal velocity from updated particles
   std::vector<Vec2> remapped_momentum_;  ///< MUSL: nodal momentum of updated particles
   double remap_seconds_ = 0.0;           ///< MUSL: time of the remap in update_stress
-  bool parallel_ = true;  ///< run the stages on all threads (false for tiny problems)
-  // step_survey(): the detector's sweeps (detail::sweep_positions(), sweep_volumes()) by the
-  // chunks of locate_particles and the blocks of update_stress, over particles they have just
-  // read or written.
-  std::vector<int> survey_cell_;                         ///< grid cell of each particle
-  std::vector<detail::PositionTotals> chunk_positions_;  ///< per chunk of locate_particles
-  std::vector<detail::VolumeTotals> block_volumes_;      ///< per block of update_stress
-  bool surveying_ = false;                               ///< set_step_survey()
-  bool positions_surveyed_ = false;  ///< from locate_particles until the particles move
-  bool volumes_surveyed_ = false;    ///< from update_stress until the particles are changed
-  StepSurvey survey_;
-
+  bool parallel_ = true;    ///< run the stages on all threads (false for tiny problems)
   long bad_particle_ = -1;  ///< a particle with a non-finite value in this step, or -1
   double max_speed_ = 0.0;  ///< largest particle speed after this step, m/s
 };

@@ -205,42 +205,9 @@ DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
   return in;
 }
 
-// The improved detector on `cloud` with its sweep handed over as a solver's step hands it
-// (StepSurvey), swept in chunks of seven points.
-DetectedBoundary detect_on_step_survey(const ParticleCloud& cloud, const Grid& grid,
-                                       const DetectorConfig& config) {
-  const std::size_t n = cloud.position.size();
-  std::vector<int> cells(n);
-  StepSurvey survey;
-  survey.lattice = detail::cell_lattice(grid);
-  const double* position = cloud.position.data()->data();
-  const double* deformation =
-      cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();
-  constexpr std::size_t kChunk = 7;
-  for (std::size_t b = 0; b < n; b += kChunk) {
-    const std::size_t count = std::min(kChunk, n - b);
-    const detail::PositionTotals positions =
-        detail::sweep_positions(position + 2 * b, count, survey.lattice, cells.data() + b);
-    const detail::VolumeTotals volumes = detail::sweep_volumes(
-        cloud.volume.data() + b, deformation ? deformation + 4 * b : nullptr, count);
-    if (b == 0) {
-      survey.positions = positions;
-      survey.volumes = volumes;
-    } else {
-      detail::include(survey.positions, positions);
-      detail::include(survey.volumes, volumes);
-    }
-  }
-  survey.cell = cells;
-  ParticleCloud handed = cloud;
-  handed.step_survey = &survey;
-  DetectorState state;
-  return detect(handed, grid, config, state);
-}
-
 // The improved detector on the decoded cloud: the contour invariants of issue 3 (closed or
 // ending on the grid edge, no shared point, no crossing, orientation, every material point
-// inside), the narrow band bitwise equal to the full field and to itself on a step's survey.
+// inside), the narrow band bitwise equal to the full field.
 Outcome run_detect(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(file)),
@@ -258,8 +225,6 @@ Outcome run_detect(const std::string& path) {
   const DetectedBoundary a = detect(cloud, in.grid, band, band_state);
   const DetectedBoundary b = detect(cloud, in.grid, full, full_state);
   check(test::same_contours(a, b), path, "the narrow band gives the full field's contours");
-  check(test::same_contours(a, detect_on_step_survey(cloud, in.grid, band)), path,
-        "the step's survey gives the detector's own contours");
   if (a.contours.empty()) {
     // No contour: the material covers the whole grid (every edge a wall), and then the field is
     // inside at every node along the grid edge; otherwise a contour was missed.
