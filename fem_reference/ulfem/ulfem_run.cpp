@@ -130,7 +130,8 @@ void MeshSeriesWriter::write_xdmf() const {
 }
 
 int run_ulfem_case(const Case& c, const RunOptions& options) {
-  const int threads = use_threads(options.threads);
+  ThreadGovernor governor(options.threads);
+  const int threads = governor.threads();
   UlFemSolver solver(c);  // may throw InputError: nothing created yet
   prepare_output_directory(options.out_dir);
   const std::string dir = options.out_dir;
@@ -175,6 +176,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     double next_output = c.output.interval, next_series = c.output.timeseries_interval;
     // The step may shrink as elements are crushed (UlFemSolver::dt), so loop on time.
     while (solver.time() < end - eps) {
+      governor.update();
       solver.step();
       const double t = solver.time();
       const bool last = t >= end - eps;
@@ -228,6 +230,8 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
                       {"stress", st.stress}}}};
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
+  run["summary"]["threads"] = {
+      {"policy", governor.policy()}, {"fewest", governor.fewest()}, {"most", governor.most()}};
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }

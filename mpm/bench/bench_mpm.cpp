@@ -17,11 +17,17 @@
 // (boundary detection has its own benchmark).
 #include <benchmark/benchmark.h>
 #include <omp.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <ctime>
 #include <string>
+#include <thread>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/provenance.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 
 namespace {
@@ -97,6 +103,52 @@ void BM_Step(benchmark::State& state) {
 // 1 Tresca; range(2): threads.
 BENCHMARK(BM_Step)
     ->ArgsProduct({{1, 4, 16}, {0, 1}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(1.0);
+
+// A child process that keeps one core busy (a spinning loop) until it is killed: the job that
+// shares the machine.
+class BusyJob {
+ public:
+  BusyJob() : pid_(fork()) {
+    if (pid_ == 0) {
+      volatile unsigned long spin = 0;
+      for (;;) spin = spin + 1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let it take its core
+  }
+  ~BusyJob() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  BusyJob(const BusyJob&) = delete;
+  BusyJob& operator=(const BusyJob&) = delete;
+
+ private:
+  pid_t pid_;
+};
+
+// Steps of the Tresca block beside a busy job, by the wall clock. range(0): refinement (1 ->
+// 1.2k particles, 4 -> 19k); range(1): threads, 0 = the default (pfm::use_threads(0), which
+// counts the cores the other jobs keep busy). Counter threads: the count used. The default must
+// be no more than 10 % slower than one thread (issue 19): compare /0 with /1.
+void BM_StepBesideABusyJob(benchmark::State& state) {
+  const double cell = 0.5 / static_cast<double>(state.range(0));
+  const BusyJob job;
+  const int threads = pfm::use_threads(static_cast<int>(state.range(1)));
+  pfm::MpmSolver solver(bearing_block(cell, false));
+  for (int k = 0; k < 3; ++k) solver.step();
+  for (auto _ : state) solver.step();
+  state.counters["particles"] = static_cast<double>(solver.particles().size());
+  state.counters["threads"] = threads;
+  state.SetLabel(state.range(1) == 0 ? "default threads beside a busy job"
+                                     : std::to_string(threads) + " thread(s) beside a busy job");
+}
+BENCHMARK(BM_StepBesideABusyJob)
+    ->ArgsProduct({{1, 4}, {1, 2, 0}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(1.0);

@@ -75,7 +75,8 @@ void prepare_output_directory(const std::string& out_dir) {
 }
 
 int run_case(const Case& c, const RunOptions& options) {
-  const int threads = use_threads(options.threads);
+  ThreadGovernor governor(options.threads);
+  const int threads = governor.threads();
   MpmSolver solver(c);  // may throw InputError: nothing created yet
   BoundaryCoupling coupling(c);
   const std::string dir = options.out_dir;
@@ -221,6 +222,7 @@ int run_case(const Case& c, const RunOptions& options) {
     Progress progress(options.progress);
     auto last_checkpoint = std::chrono::steady_clock::now();
     for (long k = solver.step_count(); k < n_steps; ++k) {
+      governor.update();
       solver.step();
       const double t = solver.time();
       if (t >= next_series - eps || k + 1 == n_steps) {
@@ -299,6 +301,8 @@ int run_case(const Case& c, const RunOptions& options) {
   }
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
+  run["summary"]["threads"] = {
+      {"policy", governor.policy()}, {"fewest", governor.fewest()}, {"most", governor.most()}};
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }
