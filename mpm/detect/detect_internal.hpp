@@ -73,6 +73,11 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
 /// smallest det F' of the changed ones (infinity if none changed).
 double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume = {});
 
+/// Whether a contour pass at the refinement of the pass before keeps that pass's fine nodes and
+/// edge roots outside the cells where the field changed (on by default; tests turn it off to
+/// check that the contours are bitwise the same). Returns the previous setting.
+bool keep_nodes_between_passes(bool on);
+
 /// The neighbours of the kernel shapes regularised by the neighbours
 /// (ImprovedConfig::neighbour_shape): a cloud (its spans; the arrays must outlive the search) and
 /// its bins.

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -12,6 +14,7 @@
 #include <limits>
 #include <optional>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "mpm/core/polygon.hpp"
@@ -125,6 +128,12 @@ class BlockStore {
   }
   /// Whether fine index k lies on a coarse grid line (a multiple of r).
   bool on_grid_line(int k) const { return within_[static_cast<std::size_t>(k)] == 0; }
+  /// Sets every value of block (bi, bj) back to the fill, if the block is allocated.
+  void reset_block(int bi, int bj) {
+    const long offset = offset_[static_cast<std::size_t>(bj) * n_x_ + bi];
+    if (offset < 0) return;
+    std::fill_n(pool_.begin() + offset, static_cast<long>(r_) * r_, fill_);
+  }
 
  private:
   std::size_t block_index(int i, int j) const {
@@ -709,6 +718,7 @@ class FineNodes {
   }
   /// Origin, spacing and node counts (no values).
   const NodalField& geometry() const { return geometry_; }
+  const Grid& grid() const { return grid_; }
   int refinement() const { return r_; }
   int n_cells_x() const { return geometry_.n_x - 1; }
   int n_cells_y() const { return geometry_.n_y - 1; }
@@ -754,6 +764,18 @@ class FineNodes {
     evaluations_ += static_cast<long>(n);
   }
   bool inside(int i, int j) { return value(i, j) > level_; }
+  /// Forgets the values of every fine node in the closed square of each grid cell set in
+  /// `changed` (n_cells_x x n_cells_y), to be evaluated anew: the field changed there.
+  void forget(const std::vector<char>& changed) {
+    const int ncx = grid_.n_cells_x, ncy = grid_.n_cells_y;
+    for (int cj = 0; cj < ncy; ++cj) {
+      for (int ci = 0; ci < ncx; ++ci) {
+        if (!changed[static_cast<std::size_t>(cj) * ncx + ci]) continue;
+        // The square's upper and right node lines belong to the next blocks.
+        for (int b = 0; b < 4; ++b) cache_.reset_block(ci + (b & 1), cj + (b >> 1));
+      }
+    }
+  }
   /// The value at (i, j) if its block holds it already (maybe NaN: not evaluated), else nullptr.
   const double* known(int i, int j) const { return cache_.find(i, j); }
 
@@ -969,24 +991,50 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
 // terms, so neither do the points.
 class EdgeRoots {
  public:
-  EdgeRoots(const ImprovedField& field, const FineNodes& nodes, double level, double root_tolerance)
+  /// The roots found, by the edge's ends (bits of a.x, a.y, b.x, b.y).
+  struct EdgeHash {
+    std::size_t operator()(const std::array<double, 4>& e) const {
+      std::uint64_t h = 0;
+      for (const double v : e) h = (h ^ std::bit_cast<std::uint64_t>(v)) * 0x100000001b3ULL;
+      return static_cast<std::size_t>(h ^ (h >> 29));
+    }
+  };
+  using Memo = std::unordered_map<std::array<double, 4>, Vec2, EdgeHash>;
+
+  /// `memo`: the roots of an earlier pass at the same refinement, taken again for the edges
+  /// whose grid cell (of the edge's middle) is not set in `changed` (the field there is as it
+  /// was, so the root is bitwise the same); the roots found are added to it. nullptr: none.
+  EdgeRoots(const ImprovedField& field, const FineNodes& nodes, double level, double root_tolerance,
+            Memo* memo = nullptr, const std::vector<char>* changed = nullptr)
       : field_(field),
         nodes_(nodes),
         level_(level),
         tolerance_t_(root_tolerance * nodes.refinement()),  // fraction of the fine edge
-        square_(std::max(1, nodes.refinement() / 2)) {}
+        square_(std::max(1, nodes.refinement() / 2)),
+        memo_(memo),
+        changed_(changed) {}
   void operator()(std::span<const EdgeCrossing> crossing, std::span<Vec2> point) {
     const auto start = std::chrono::steady_clock::now();
-    const std::size_t n = crossing.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
+    // The crossings whose root is known from the earlier pass, then the others on the threads.
+    std::vector<std::size_t> open;
+    open.reserve(crossing.size());
+    for (std::size_t c = 0; c < crossing.size(); ++c) {
+      if (!known(crossing[c], point[c])) open.push_back(c);
+    }
+    const std::size_t n = open.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
     std::vector<long> evaluations(n_chunks, 0);
     for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
       ImprovedField::KernelArrays slots;
       int slots_square = -1;  // the square whose slots `slots` holds (-1: none)
-      for (std::size_t c = k * kCrossingChunk; c < std::min(n, (k + 1) * kCrossingChunk); ++c) {
+      for (std::size_t o = k * kCrossingChunk; o < std::min(n, (k + 1) * kCrossingChunk); ++o) {
+        const std::size_t c = open[o];
         point[c] = root(crossing[c], slots, slots_square, evaluations[k]);
       }
     });
-    count_ += static_cast<long>(n);
+    if (memo_ != nullptr) {
+      for (const std::size_t c : open) memo_->emplace(key(crossing[c]), point[c]);
+    }
+    count_ += static_cast<long>(crossing.size());
     for (const long e : evaluations) evaluations_ += e;
     seconds_ += seconds_since(start);
   }
@@ -998,6 +1046,23 @@ class EdgeRoots {
 
  private:
   static constexpr std::size_t kCrossingChunk = 128;  // about 3.5 evaluations each
+
+  static std::array<double, 4> key(const EdgeCrossing& c) {
+    return {c.a.x(), c.a.y(), c.b.x(), c.b.y()};
+  }
+  // The root of an earlier pass, where the field has not changed since.
+  bool known(const EdgeCrossing& c, Vec2& point) const {
+    if (memo_ == nullptr || changed_ == nullptr || memo_->empty()) return false;
+    const Grid& grid = nodes_.grid();
+    const Vec2 middle = 0.5 * (c.a + c.b);
+    const int i = std::clamp(grid.cell_i(middle.x()), 0, grid.n_cells_x - 1);
+    const int j = std::clamp(grid.cell_j(middle.y()), 0, grid.n_cells_y - 1);
+    if ((*changed_)[static_cast<std::size_t>(j) * grid.n_cells_x + i]) return false;
+    const auto it = memo_->find(key(c));
+    if (it == memo_->end()) return false;
+    point = it->second;
+    return true;
+  }
 
   Vec2 root(const EdgeCrossing& c, ImprovedField::KernelArrays& slots, int& slots_square,
             long& evaluations) const {
@@ -1023,6 +1088,8 @@ class EdgeRoots {
   const FineNodes& nodes_;
   double level_, tolerance_t_;
   int square_;
+  Memo* memo_;
+  const std::vector<char>* changed_;
   long count_ = 0, evaluations_ = 0;
   double seconds_ = 0.0;
 };
@@ -1143,6 +1210,42 @@ std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> posit
   return pairs;
 }
 
+// The grid cells where the field of the next pass may differ from the last one's: those met by
+// the support of each newly guarded particle's guard (within `guard_reach` m of it) and of each
+// bridge (2.5 fine cells, `cell` m, about its segment), each widened by a millionth of a cell
+// against rounding at its rim (the guards and bridges add exactly 0 beyond their supports).
+std::vector<char> cells_changed_by(const Grid& grid, const ImprovedField& field,
+                                   std::span<const std::size_t> guarded,
+                                   std::span<const std::array<std::size_t, 2>> pairs,
+                                   double guard_reach, double cell) {
+  const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
+  std::vector<char> changed(static_cast<std::size_t>(ncx) * ncy, 0);
+  const Vec2 hair = Vec2::Constant(1e-6 * grid.cell_size);
+  const auto index = [&](double v, double origin, int n) {
+    return static_cast<int>(
+        std::clamp(std::floor((v - origin) / grid.cell_size), 0.0, static_cast<double>(n - 1)));
+  };
+  const auto mark = [&](const Vec2& lo, const Vec2& hi) {
+    const int i0 = index(lo.x() - hair.x(), grid.origin.x(), ncx);
+    const int i1 = index(hi.x() + hair.x(), grid.origin.x(), ncx);
+    const int j0 = index(lo.y() - hair.y(), grid.origin.y(), ncy);
+    const int j1 = index(hi.y() + hair.y(), grid.origin.y(), ncy);
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) changed[static_cast<std::size_t>(j) * ncx + i] = 1;
+    }
+  };
+  const auto positions = field.positions();
+  const Vec2 guard = Vec2::Constant(guard_reach), support = Vec2::Constant(2.5 * cell);
+  for (const std::size_t p : guarded) {
+    mark(positions[p] - guard.cwiseMax(support), positions[p] + guard.cwiseMax(support));
+  }
+  for (const auto& [p, q] : pairs) {
+    mark(positions[p].cwiseMin(positions[q]) - support,
+         positions[p].cwiseMax(positions[q]) + support);
+  }
+  return changed;
+}
+
 // Removes the loops the particle spacing cannot resolve (classify_loops()): every spurious hole,
 // with the loops inside it (their region becomes material: it held no free disk of one spacing),
 // and every material loop that holds no particle. Returns the number of loops removed.
@@ -1179,6 +1282,14 @@ long remove_spurious_loops(DetectedBoundary& boundary, std::span<const Vec2> pos
 }
 
 }  // namespace
+
+namespace {
+std::atomic<bool> keep_nodes{true};
+}  // namespace
+
+bool keep_nodes_between_passes(bool on) {
+  return keep_nodes.exchange(on);
+}
 
 double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume) {
   double smallest_det = std::numeric_limits<double>::infinity();
@@ -1311,13 +1422,28 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
   DetectedBoundary boundary;
+  // A pass at the refinement of the pass before keeps that pass's fine nodes and edge roots
+  // outside the grid cells where the field changed (`changed`: the supports of the guards and
+  // bridges added, and a ring of cells); the contours are bitwise those of a pass that evaluates
+  // everything anew.
+  std::optional<FineNodes> kept_nodes;
+  EdgeRoots::Memo memo;
+  std::vector<char> changed;
   for (int pass = 0;; ++pass) {
     lap.restart();
     const int r = pass_refinement(config, pass, field, h);
     timings.refinement = r;
-    FineNodes nodes(grid, r, field, config.level, field_evaluations);
+    if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
+      kept_nodes->forget(changed);
+    } else {
+      kept_nodes.emplace(grid, r, field, config.level, field_evaluations);
+      memo.clear();
+    }
+    FineNodes& nodes = *kept_nodes;
     // Without guards the field is phi, which the screening evaluated at the grid nodes.
-    if (field.n_guarded() == 0 && field.n_bridges() == 0) nodes.reuse_grid_nodes(screen.coarse);
+    const bool phi_alone = field.n_guarded() == 0 && field.n_bridges() == 0;
+    nodes.reuse_grid_nodes(phi_alone ? std::span<const double>(screen.coarse)
+                                     : std::span<const double>());
     // 3. The fine cells to contour: all of them for the full field.
     std::vector<int> cells;
     if (config.narrow_band) {
@@ -1331,7 +1457,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
 
     // 4. Edge points and contours.
     const auto contour_start = std::chrono::steady_clock::now();
-    EdgeRoots roots(field, nodes, config.level, config.root_tolerance);
+    EdgeRoots roots(field, nodes, config.level, config.root_tolerance, &memo, &changed);
     const std::function<double(const Vec2&)> exact_sample = [&](const Vec2& x) {
       ++field_evaluations;
       return field(x);
@@ -1365,6 +1491,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
           static_cast<long>(field.n_guarded() - guarded_before);
       field.add_bridges(left_out, pairs, h / r);
       timings.bridges = static_cast<long>(field.n_bridges());
+      changed = cells_changed_by(grid, field, left_out, pairs, guard_reach, h / r);
       continue;
     }
     // The pass at the guards' refinement, if any particle is outside.
@@ -1374,6 +1501,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     }
     const std::size_t guarded_before = field.n_guarded();
     field.add_guards(left_out);
+    changed = cells_changed_by(grid, field, left_out, {}, guard_reach, h / r);
     timings.particles_guarded_after_contouring +=
         static_cast<long>(field.n_guarded() - guarded_before);
     timings.guard_refinement_passes += 1;

@@ -280,7 +280,8 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
   capped.method = DetectorMethod::kImproved;
   DetectorConfig uncapped = capped;
   uncapped.improved.max_stretch = 0.0;
-  long capped_evaluations = 0, uncapped_evaluations = 0, spurious = 0, guard_passes = 0;
+  long capped_evaluations = 0, uncapped_evaluations = 0, spurious = 0, guard_passes = 0,
+       differ_without_kept_nodes = 0;
   Violations total;
   for (const State& s : states) {
     const ParticleCloud cloud{s.particles.position, s.particles.volume,
@@ -294,6 +295,18 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
     total += v;
     capped_evaluations += t.field_evaluations;
     guard_passes += t.guard_refinement_passes;
+    // The second pass keeps the first's fine nodes and edge roots where the field is as it was:
+    // the contours must be bitwise those of a second pass that evaluates everything anew.
+    detail::keep_nodes_between_passes(false);
+    DetectorState fresh_state;
+    DetectionTimings fresh;
+    const auto anew = detect(cloud, s.grid, capped, fresh_state, &fresh);
+    detail::keep_nodes_between_passes(true);
+    if (!same_contours(b, anew)) ++differ_without_kept_nodes;
+    if (t.bridges > 0) {
+      std::printf("  second pass: %ld field evaluations, %ld when evaluated anew\n",
+                  t.field_evaluations, fresh.field_evaluations);
+    }
     long without = 0;
 #if !defined(__SANITIZE_ADDRESS__)
     DetectorState state0;
@@ -309,6 +322,7 @@ TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
         t.field_evaluations, without, v.total());
   }
   EXPECT_EQ(total.total(), 0);
+  EXPECT_EQ(differ_without_kept_nodes, 0);
   std::printf("spurious loops over the states: %ld, passes at the guards' refinement: %ld\n",
               spurious, guard_passes);
   EXPECT_EQ(spurious, 0);
