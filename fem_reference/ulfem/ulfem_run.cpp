@@ -11,6 +11,7 @@
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/provenance.hpp"
+#include "mpm/solver/hdf5_untimed.hpp"
 #include "mpm/solver/output.hpp"
 
 namespace pfm::ulfem {
@@ -21,8 +22,8 @@ void write_doubles(hid_t group, const char* name, const std::vector<double>& dat
                    std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const hid_t set =
-      H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t set = H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT,
+                               UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
   if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
   if (rows > 0 &&
       H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0) {
@@ -51,7 +52,8 @@ MeshSeriesWriter::MeshSeriesWriter(std::string directory, const QuadMesh& mesh)
     : directory_(std::move(directory)), n_nodes_(mesh.n_nodes()), n_elements_(mesh.n_elements()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const std::string path = directory_ + "/mesh.h5";
-  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  file_ =
+      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error("cannot create " + path);
   std::vector<long long> topology;
   for (const auto& element : mesh.element_nodes) {
@@ -60,7 +62,7 @@ MeshSeriesWriter::MeshSeriesWriter(std::string directory, const QuadMesh& mesh)
   hsize_t dims[2] = {n_elements_, 4};
   const hid_t space = H5Screate_simple(2, dims, nullptr);
   const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "topology", H5T_STD_I64LE, space,
-                               H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+                               H5P_DEFAULT, UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
   if (set < 0 ||
       H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, topology.data()) < 0) {
     throw std::runtime_error("HDF5: cannot write the mesh topology");
@@ -78,8 +80,8 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
                              const std::vector<Vec2>& velocity) {
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group =
-      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
   if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
   std::vector<double> buffer(3 * n_nodes_, 0.0);
   auto put = [&](const std::vector<Vec2>& v, const char* dataset) {

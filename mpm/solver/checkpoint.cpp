@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/solver/hdf5_untimed.hpp"
 
 namespace pfm {
 
@@ -47,9 +48,9 @@ void write_array(hid_t file, const std::string& name, hid_t file_type, hid_t mem
                  const void* data, std::size_t count) {
   hsize_t dims[1] = {count};
   const Handle space(H5Screate_simple(1, dims, nullptr), H5Sclose);
-  const Handle set(
-      H5Dcreate2(file, name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-      H5Dclose);
+  const Handle set(H5Dcreate2(file, name.c_str(), file_type, space.get(), H5P_DEFAULT,
+                              UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT),
+                   H5Dclose);
   if (!set.ok()) throw std::runtime_error("checkpoint: cannot create dataset " + name);
   if (count > 0 && H5Dwrite(set.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
     throw std::runtime_error("checkpoint: cannot write dataset " + name);
@@ -100,7 +101,8 @@ void CheckpointFile::write(const std::string& path) const {
   const std::string temporary = path + ".tmp";
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   {
-    const Handle file(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
+    const Handle file(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
+                                UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT),
                       H5Fclose);
     if (!file.ok()) throw std::runtime_error("cannot create " + temporary);
     for (const auto& [name, values] : numbers_) {

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mpm/solver/hdf5_untimed.hpp"
+
 namespace pfm {
 
 std::string format_exact(double v) {
@@ -61,8 +63,8 @@ void write_dataset(hid_t group, const char* name, const std::vector<double>& dat
                    std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
-  const hid_t set =
-      H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t set = H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT,
+                               UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
   if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
   if (rows > 0)
     check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()), name);
@@ -90,7 +92,8 @@ hid_t rebuild_keeping(const std::string& directory, const std::string& file_name
   const std::string path = directory + "/" + file_name, temporary = path + ".rebuild";
   const hid_t old_file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (old_file < 0) throw std::runtime_error("restart: cannot open " + path);
-  const hid_t new_file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t new_file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
+                                   UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (new_file < 0) {
     H5Fclose(old_file);
     throw std::runtime_error("restart: cannot create " + temporary);
@@ -139,7 +142,8 @@ ParticleSeriesWriter::ParticleSeriesWriter(std::string directory)
     : directory_(std::move(directory)) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const std::string path = directory_ + "/particles.h5";
-  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  file_ =
+      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error("cannot create " + path);
 }
 
@@ -170,8 +174,9 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
       connectivity[p] = static_cast<long long>(p);
     hsize_t dims[1] = {connectivity.size()};
     const hid_t space = H5Screate_simple(1, dims, nullptr);
-    const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space,
-                                 H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t set =
+        H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space, H5P_DEFAULT,
+                   UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
     if (set < 0) throw std::runtime_error("HDF5: cannot create dataset connectivity");
     if (!connectivity.empty()) {
       check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, connectivity.data()),
@@ -182,8 +187,8 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   }
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group =
-      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
   if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
   const std::size_t n = particles.size();
   std::vector<double> buffer;
@@ -273,7 +278,8 @@ BoundarySeriesWriter::BoundarySeriesWriter(std::string directory)
     : directory_(std::move(directory)) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const std::string path = directory_ + "/boundary.h5";
-  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  file_ =
+      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (file_ < 0) throw std::runtime_error("cannot create " + path);
 }
 
@@ -314,8 +320,8 @@ void BoundarySeriesWriter::write(double time, long step,
   }
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group =
-      H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
   if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
   const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
   write_dataset(group, "position", position, n_points, 3);
@@ -323,8 +329,8 @@ void BoundarySeriesWriter::write(double time, long step,
   {
     hsize_t dims[2] = {n_segments, 2};
     const hid_t space = H5Screate_simple(2, dims, nullptr);
-    const hid_t set =
-        H5Dcreate2(group, "segments", H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    const hid_t set = H5Dcreate2(group, "segments", H5T_STD_I64LE, space, H5P_DEFAULT,
+                                 UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
     if (set < 0) throw std::runtime_error("HDF5: cannot create dataset segments");
     if (n_segments > 0) {
       check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, segments.data()),
