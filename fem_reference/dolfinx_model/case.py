@@ -745,7 +745,7 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
     if "time" not in root:
         _fail(file, "/time", "missing key")
     tm = root["time"]
-    _expect_object(tm, file, "/time", {"end_time", "cfl", "dt"})
+    _expect_object(tm, file, "/time", {"end_time", "cfl", "dt", "max_steps"})
     end_time = _number(tm, "end_time", file, "/time", required=True, rule=_POSITIVE)
     cfl = _number(
         tm,

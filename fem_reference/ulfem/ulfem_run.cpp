@@ -135,6 +135,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   ThreadGovernor governor(options.threads);
   const int threads = governor.threads();
   UlFemSolver solver(c);  // may throw InputError: nothing created yet
+  check_run_length(c, solver.dt());
   prepare_output_directory(options.out_dir);
   const std::string dir = options.out_dir;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <set>
@@ -427,7 +428,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
 
   {
     const JsonView t = root.at("time");
-    t.expect_object({"end_time", "cfl", "dt"});
+    t.expect_object({"end_time", "cfl", "dt", "max_steps"});
     c.time.end_time = t.at("end_time").as_number();
     t.at("end_time").require(c.time.end_time > 0.0, "must be > 0");
     c.time.cfl = t.number_or("cfl", 0.5);
@@ -437,6 +438,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       c.time.dt = t.at("dt").as_number();
       t.at("dt").require(*c.time.dt > 0.0, "must be > 0");
     }
+    c.time.max_steps = t.number_or("max_steps", c.time.max_steps);
+    if (t.has("max_steps")) t.at("max_steps").require(c.time.max_steps >= 1.0, "must be >= 1");
   }
 
   c.output.interval = c.time.end_time / 20.0;
@@ -444,8 +447,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     o->expect_object({"interval", "timeseries_interval", "nodal_loads"});
     if (const auto nodal = o->find("nodal_loads")) c.output.nodal_loads = nodal->as_bool();
     c.output.interval = o->number_or("interval", c.output.interval);
+    c.output.interval_given = o->has("interval");
     if (o->has("interval")) o->at("interval").require(c.output.interval > 0.0, "must be > 0");
     c.output.timeseries_interval = o->number_or("timeseries_interval", c.output.interval / 10.0);
+    c.output.timeseries_interval_given = o->has("timeseries_interval");
     if (o->has("timeseries_interval")) {
       o->at("timeseries_interval").require(c.output.timeseries_interval > 0.0, "must be > 0");
     }
@@ -473,6 +478,35 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
   }
   return c;
+}
+
+void check_run_length(const Case& c, double dt) {
+  char text[320];
+  const char* step_key = c.time.dt ? "/time/dt" : "/time/cfl";
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    std::snprintf(text, sizeof text,
+                  ": %s: the time step is %g s, not a positive number (check the materials' "
+                  "stiffness and density: kPa and t/m^3)",
+                  step_key, dt);
+    throw InputError(c.file + text);
+  }
+  const double steps = c.time.end_time / dt;
+  if (!(steps <= c.time.max_steps)) {
+    std::snprintf(text, sizeof text,
+                  ": /time/end_time: %g s takes %.3g steps of %g s, more than time.max_steps "
+                  "(%.3g): a unit mistake? (raise time.max_steps for a run that long)",
+                  c.time.end_time, steps, dt, c.time.max_steps);
+    throw InputError(c.file + text);
+  }
+  const auto at_least_a_step = [&](bool given, double interval, const char* key) {
+    if (!given || interval >= dt) return;
+    std::snprintf(text, sizeof text, ": %s: %g s is shorter than the time step (%g s, %s)", key,
+                  interval, dt, step_key);
+    throw InputError(c.file + text);
+  };
+  at_least_a_step(c.output.interval_given, c.output.interval, "/output/interval");
+  at_least_a_step(c.output.timeseries_interval_given, c.output.timeseries_interval,
+                  "/output/timeseries_interval");
 }
 
 }  // namespace pfm

@@ -101,11 +101,14 @@ struct TimeSpec {
   double end_time = 0.0;
   double cfl = 0.5;
   std::optional<double> dt;
+  /// Most time steps a run may take (check_run_length()): more is taken for a unit mistake.
+  double max_steps = 1e7;
 };
 
 struct OutputSpec {
-  double interval = 0.0;             ///< s
-  double timeseries_interval = 0.0;  ///< s
+  double interval = 0.0;                                           ///< s
+  double timeseries_interval = 0.0;                                ///< s
+  bool interval_given = false, timeseries_interval_given = false;  ///< in the case file
   /// Write the nodal forces of the detected-boundary loads at each output step
   /// (nodal_loads_<step>.csv, thesis figure 6.6).
   bool nodal_loads = false;
@@ -142,6 +145,13 @@ struct Case {
 Case read_case(const std::string& path);
 /// Validate an already-parsed document (file is used in messages only).
 Case parse_case(const nlohmann::json& document, const std::string& file);
+
+/// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its
+/// time step `dt` (s, from the case's dt or its CFL number): a step that is not a positive finite
+/// number, an end time needing more than time.max_steps steps, an output or time-series interval
+/// given below the step (each would output at every step, and one below the time's rounding
+/// would never advance).
+void check_run_length(const Case& c, double dt);
 
 /// The largest P-wave speed sqrt(M / rho) of the case's materials at their initial density
 /// rho = unit weight / g (g = 9.81 m/s^2 when gravity is off), m/s: with the cell or element size

@@ -78,6 +78,7 @@ int run_case(const Case& c, const RunOptions& options) {
   ThreadGovernor governor(options.threads);
   const int threads = governor.threads();
   MpmSolver solver(c);  // may throw InputError: nothing created yet
+  check_run_length(c, solver.dt());
   BoundaryCoupling coupling(c);
   const std::string dir = options.out_dir;
   const std::string checkpoint_path = dir + "/checkpoint.h5";

@@ -179,6 +179,28 @@ RUN_CASES = [
     ("two_documents", json.dumps(BASE).encode() * 2, "invalid JSON"),
     # Deep nesting: refused without exhausting the stack.
     ("deeply_nested", nested(200000), "nested"),
+    # Valid numbers that cannot give a useful run (issue 22, item 4): refused once the time
+    # step is known, before anything is written (one of 1e-300 s never advanced the output
+    # time and hung the run; the others ran 0 steps and reported "completed").
+    (
+        "output_interval_1e-300",
+        mutate(["output", "interval"], 1e-300),
+        "/output/interval",
+    ),
+    (
+        "timeseries_interval_1e-11",
+        mutate(["output", "timeseries_interval"], 1e-11),
+        "/output/timeseries_interval",
+    ),
+    ("end_time_1e30", mutate(["time", "end_time"], 1e30), "/time/end_time"),
+    ("cfl_1e-320", mutate(["time", "cfl"], 1e-320), "/time/end_time"),
+    ("dt_1e-30", mutate(["time", "dt"], 1e-30), "/time/end_time"),
+    (
+        "youngs_modulus_1e308",
+        mutate(["materials", 0, "youngs_modulus"], 1e308),
+        "/time/end_time",
+    ),
+    ("max_steps_0", mutate(["time", "max_steps"], 0), "/time/max_steps"),
 ]
 
 
