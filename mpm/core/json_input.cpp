@@ -4,7 +4,10 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 namespace pfm {
 
@@ -29,12 +32,89 @@ const char* type_name(const nlohmann::json& v) {
 }
 }  // namespace
 
+namespace {
+
+// The JSON pointer escape of a key (RFC 6901): ~ as ~0, / as ~1.
+std::string pointer_token(const std::string& key) {
+  std::string out;
+  for (const char c : key) {
+    if (c == '~') {
+      out += "~0";
+    } else if (c == '/') {
+      out += "~1";
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+// Parses `text`, refusing an object that names a key twice (nlohmann keeps the last silently): the
+// objects and arrays open at each point of the parse, with the keys seen and the current key or
+// index, give the JSON pointer of the duplicate.
+nlohmann::json parse_refusing_duplicate_keys(const std::string& text, const std::string& path) {
+  struct Frame {
+    bool array = false;
+    std::set<std::string> keys;
+    std::string key;
+    long index = -1;
+  };
+  std::vector<Frame> frames;
+  const auto element = [&] {
+    if (!frames.empty() && frames.back().array) ++frames.back().index;
+  };
+  using Event = nlohmann::json::parse_event_t;
+  const nlohmann::json::parser_callback_t callback = [&](int, Event event, nlohmann::json& parsed) {
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        element();
+        frames.push_back({});
+        frames.back().array = event == Event::array_start;
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        frames.pop_back();
+        break;
+      case Event::key: {
+        Frame& f = frames.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second) {
+          std::string pointer;
+          for (const Frame& g : frames) {
+            pointer.push_back('/');
+            pointer.append(g.array ? std::to_string(g.index) : pointer_token(g.key));
+          }
+          throw InputError(path + ": " + pointer + ": duplicate key (an object names it twice)");
+        }
+        break;
+      }
+      case Event::value:
+        element();
+        break;
+    }
+    return true;
+  };
+  return nlohmann::json::parse(text, callback);
+}
+
+}  // namespace
+
 nlohmann::json read_json_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  // Read up to the limit only: a device that never ends (/dev/zero) or a huge file is refused
+  // before it fills the memory.
+  constexpr std::size_t kMaxBytes = std::size_t{64} << 20;
+  std::string text;
+  char chunk[1 << 16];
+  while (in.read(chunk, sizeof chunk) || in.gcount() > 0) {
+    text.append(chunk, static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxBytes) {
+      throw InputError(path + ": larger than " + std::to_string(kMaxBytes >> 20) +
+                       " MB, not a case or configuration file");
+    }
+  }
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     throw InputError(path + ": file is empty, expected a JSON object");
   }
@@ -65,7 +145,7 @@ nlohmann::json read_json_file(const std::string& path) {
     }
   }
   try {
-    return nlohmann::json::parse(text);
+    return parse_refusing_duplicate_keys(text, path);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(path + ": invalid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
   } catch (const nlohmann::json::exception& e) {

@@ -201,6 +201,21 @@ RUN_CASES = [
         "/time/end_time",
     ),
     ("max_steps_0", mutate(["time", "max_steps"], 0), "/time/max_steps"),
+    # Duplicate keys (the JSON library kept the last one silently), with their JSON pointer.
+    (
+        "duplicate_top_level_key",
+        json.dumps(BASE).replace('"time": {', '"time": {"end_time": 1.0, ', 1).encode(),
+        "/time/end_time: duplicate key",
+    ),
+    (
+        "duplicate_key_in_an_array_element",
+        json.dumps(BASE)
+        .replace('"unit_weight": 20.0', '"unit_weight": 20.0, "unit_weight": 2.0', 1)
+        .encode(),
+        "/materials/0/unit_weight: duplicate key",
+    ),
+    # Larger than any case file (64 MB): refused before it is parsed.
+    ("oversized_file", b" " * ((64 << 20) + 1), "larger than 64 MB"),
 ]
 
 
@@ -222,6 +237,14 @@ def test_run_rejects_malformed_case(tmp_path, pfm_binary, name, content, expecte
     assert str(case) in result.stderr, result.stderr
     assert expected in result.stderr, result.stderr
     assert not out.exists(), "an output directory was left behind"
+
+
+def test_run_rejects_a_device_that_never_ends(tmp_path, pfm_binary):
+    out = tmp_path / "out"
+    result = run_binary(pfm_binary, ["run", "/dev/zero", "--out", str(out), "--quiet"])
+    assert result.returncode == 2, f"exit {result.returncode}: {result.stderr[-2000:]}"
+    assert "/dev/zero: larger than 64 MB" in result.stderr, result.stderr
+    assert not out.exists()
 
 
 def test_run_rejects_missing_file(tmp_path, pfm_binary):
