@@ -34,21 +34,6 @@ const char* type_name(const nlohmann::json& v) {
 
 namespace {
 
-// The JSON pointer escape of a key (RFC 6901): ~ as ~0, / as ~1.
-std::string pointer_token(const std::string& key) {
-  std::string out;
-  for (const char c : key) {
-    if (c == '~') {
-      out += "~0";
-    } else if (c == '/') {
-      out += "~1";
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
 // Parses `text`, refusing an object that names a key twice (nlohmann keeps the last silently): the
 // objects and arrays open at each point of the parse, with the keys seen and the current key or
 // index, give the JSON pointer of the duplicate.
@@ -83,7 +68,7 @@ nlohmann::json parse_refusing_duplicate_keys(const std::string& text, const std:
           std::string pointer;
           for (const Frame& g : frames) {
             pointer.push_back('/');
-            pointer.append(g.array ? std::to_string(g.index) : pointer_token(g.key));
+            pointer.append(g.array ? std::to_string(g.index) : escape_pointer_token(g.key));
           }
           throw InputError(path + ": " + pointer + ": duplicate key (an object names it twice)");
         }
