@@ -498,15 +498,19 @@ void check_run_length(const Case& c, double dt) {
                   c.time.end_time, steps, dt, c.time.max_steps);
     throw InputError(c.file + text);
   }
-  const auto at_least_a_step = [&](bool given, double interval, const char* key) {
-    if (!given || interval >= dt) return;
-    std::snprintf(text, sizeof text, ": %s: %g s is shorter than the time step (%g s, %s)", key,
-                  interval, dt, step_key);
+  // Particle outputs (HDF5) at every step are a mistake; the time series is recorded at most
+  // once a step, so an interval a little below the step just asks for every step, while one a
+  // hundred times below it asks for what no run can give.
+  const auto at_least = [&](bool given, double interval, double least, const char* key,
+                            const char* what) {
+    if (!given || interval >= least) return;
+    std::snprintf(text, sizeof text, ": %s: %g s is shorter than %s (the step is %g s, %s)", key,
+                  interval, what, dt, step_key);
     throw InputError(c.file + text);
   };
-  at_least_a_step(c.output.interval_given, c.output.interval, "/output/interval");
-  at_least_a_step(c.output.timeseries_interval_given, c.output.timeseries_interval,
-                  "/output/timeseries_interval");
+  at_least(c.output.interval_given, c.output.interval, dt, "/output/interval", "the time step");
+  at_least(c.output.timeseries_interval_given, c.output.timeseries_interval, 0.01 * dt,
+           "/output/timeseries_interval", "a hundredth of the time step");
 }
 
 }  // namespace pfm
