@@ -242,13 +242,6 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
       {"open", static_cast<int>(boundary.contours.size()) - n_closed},
       {"points_per_loop", points_per_loop},
       {"loop_closed", closed},
-      {"loop_classes",
-       {{"body", classes.bodies},
-        {"island", classes.islands},
-        {"real_hole", classes.real_holes},
-        {"spurious_loop", classes.spurious_loops},
-        {"spurious_island", classes.spurious_islands},
-        {"spurious_hole", classes.spurious_holes}}},
       {"class_of_loop", class_of_loop},
       {"timings_s",
        {{"field", timings.field},
@@ -258,6 +251,7 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
       {"field_evaluations", timings.field_evaluations},
       {"edge_points", timings.edge_point_count},
   };
+  for (const auto& [name, count] : classes.counts()) summary["loop_classes"][name] = count;
   if (config.method == DetectorMethod::kImproved) {
     const auto& parts = timings.field_parts;
     summary["timings_s"]["field_parts"] = {{"survey", parts.survey}, {"band", parts.band},

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "mpm/core/polygon.hpp"
 #include "mpm/detect/particle_bins.hpp"
@@ -58,9 +59,9 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
   if (n_loops == 0) return out;
   const ParticleBins bins(particles, spacing);
   const double radius = 0.5 * spacing;
-  double largest_area = 0.0;
   std::size_t body = n_loops;
-  std::vector<std::vector<int>> held(n_loops);  // the particles inside each material loop
+  std::vector<std::vector<int>> held(n_loops);           // the particles inside each island
+  std::vector<std::pair<double, std::size_t>> material;  // (area, loop) of the closed ones
   for (std::size_t c = 0; c < n_loops; ++c) {
     const Contour& contour = boundary.contours[c];
     if (!contour.closed || contour.points.size() < 3) {
@@ -72,20 +73,7 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     bounding_box(p, lo, hi);
     const double area = polygon_signed_area(p);
     if (area > 0.0) {
-      bins.for_each_slot_in_box(lo, hi, [&](int k) {
-        const int q = bins.particle_at(k);
-        const Vec2& x = particles[static_cast<std::size_t>(q)];
-        if (x.x() >= lo.x() && x.x() <= hi.x() && x.y() >= lo.y() && x.y() <= hi.y() &&
-            point_in_polygon(p, x)) {
-          held[c].push_back(q);
-        }
-      });
-      if (held[c].empty()) {
-        out.of_loop[c] = LoopClass::kSpuriousLoop;
-      } else if (area > largest_area) {
-        largest_area = area;
-        body = c;
-      }
+      material.emplace_back(area, c);
       continue;
     }
     // A hole: look for a free disk's centre on a lattice of a quarter spacing.
@@ -106,7 +94,33 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     }
     out.of_loop[c] = real ? LoopClass::kRealHole : LoopClass::kSpuriousHole;
   }
-  if (body < n_loops) out.of_loop[body] = LoopClass::kBody;
+  // Material loops by decreasing area: the first that holds a particle is the body, for which
+  // one particle found is enough (it may hold the whole cloud); the others list theirs.
+  std::stable_sort(material.begin(), material.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (const auto& [area, c] : material) {
+    const std::vector<Vec2>& p = boundary.contours[c].points;
+    Vec2 lo, hi;
+    bounding_box(p, lo, hi);
+    const bool first = body == n_loops;
+    bool found = false;
+    bins.for_each_slot_in_box(lo, hi, [&](int k) {
+      if (first && found) return;
+      const int q = bins.particle_at(k);
+      const Vec2& x = particles[static_cast<std::size_t>(q)];
+      if (x.x() >= lo.x() && x.x() <= hi.x() && x.y() >= lo.y() && x.y() <= hi.y() &&
+          point_in_polygon(p, x)) {
+        found = true;
+        if (!first) held[c].push_back(q);
+      }
+    });
+    if (!found) {
+      out.of_loop[c] = LoopClass::kSpuriousLoop;
+    } else if (first) {
+      body = c;
+      out.of_loop[c] = LoopClass::kBody;
+    }
+  }
   // An island whose points touch the points of the rest (closer than kContactSpacings) has
   // not separated: the field split material in contact (a row of points, a thin neck).
   std::vector<char> mine(particles.size(), 0);

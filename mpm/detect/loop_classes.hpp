@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mpm/core/types.hpp"
@@ -43,6 +44,15 @@ struct LoopClasses {
   long bodies = 0, islands = 0, spurious_loops = 0, spurious_islands = 0, real_holes = 0,
        spurious_holes = 0;
   long spurious() const { return spurious_loops + spurious_islands + spurious_holes; }
+  /// The counts by class name (loop_class_name()), for summaries.
+  std::array<std::pair<const char*, long>, 6> counts() const {
+    return {{{"body", bodies},
+             {"island", islands},
+             {"real_hole", real_holes},
+             {"spurious_loop", spurious_loops},
+             {"spurious_island", spurious_islands},
+             {"spurious_hole", spurious_holes}}};
+  }
 };
 
 /// Classifies every contour of `boundary` against the particle positions; `spacing` is the

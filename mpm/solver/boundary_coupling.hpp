@@ -83,6 +83,8 @@ class BoundaryCoupling {
   const DetectedBoundary& current_boundary();
   const DetectedBoundary& last_boundary() const { return boundary_; }
   const SurfaceLoadDiagnostics& diagnostics() const { return diagnostics_; }
+  /// The particles' spacing in the initial state, m (the loops' classes take it).
+  double initial_spacing() const { return initial_spacing_; }
   const CouplingTimes& times() const { return times_; }
   const DetectionTimings& last_detection_timings() const { return detection_timings_; }
   /// The nodal forces of the surface loads at the last step (kept when the case asks for

@@ -14,6 +14,7 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/provenance.hpp"
+#include "mpm/detect/loop_classes.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
@@ -172,6 +173,11 @@ int run_case(const Case& c, const RunOptions& options) {
       if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(dir);
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
       entry["boundary"] = name;
+      // What each loop is (loop_classes.hpp), counted at the output steps only: the body's
+      // test of the particles inside it costs about a detection.
+      const LoopClasses classes =
+          classify_loops(boundary, solver.particles().position, coupling.initial_spacing());
+      for (const auto& [kind, count] : classes.counts()) entry["loop_classes"][kind] = count;
     }
     if (c.output.nodal_loads && coupling.has_surface_loads()) {
       // The forces applied in the last step (thesis figure 6.6), with the nodal masses then.
@@ -296,6 +302,15 @@ int run_case(const Case& c, const RunOptions& options) {
         {"bridges", ct.bridges},
         {"spurious_loops_removed", ct.spurious_loops_removed},
         {"guard_refinement_passes", ct.guard_refinement_passes}};
+    // The loops' classes at the output steps, summed.
+    nlohmann::json totals = nlohmann::json::object();
+    for (const auto& entry : outputs) {
+      if (!entry.contains("loop_classes")) continue;
+      for (const auto& [kind, count] : entry["loop_classes"].items()) {
+        totals[kind] = totals.value(kind, 0L) + count.get<long>();
+      }
+    }
+    run["summary"]["detection"]["loop_classes_at_outputs"] = totals;
     nlohmann::json ends = nlohmann::json::array();
     for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
     if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
