@@ -999,7 +999,32 @@ class EdgeRoots {
       return static_cast<std::size_t>(h ^ (h >> 29));
     }
   };
-  using Memo = std::unordered_map<std::array<double, 4>, Vec2, EdgeHash>;
+  /// The roots a pass found: listed as they are found (cheap: most detections make one pass),
+  /// indexed by edge only when a later pass at the same refinement takes them again.
+  class Memo {
+   public:
+    void add(const std::array<double, 4>& edge, const Vec2& point) {
+      found_.emplace_back(edge, point);
+    }
+    /// Indexes what was found since the last call (a later root of an edge replaces an earlier).
+    void index() {
+      for (const auto& [edge, point] : found_) map_.insert_or_assign(edge, point);
+      found_.clear();
+    }
+    const Vec2* find(const std::array<double, 4>& edge) const {
+      const auto it = map_.find(edge);
+      return it == map_.end() ? nullptr : &it->second;
+    }
+    bool empty() const { return map_.empty(); }
+    void clear() {
+      found_.clear();
+      map_.clear();
+    }
+
+   private:
+    std::vector<std::pair<std::array<double, 4>, Vec2>> found_;
+    std::unordered_map<std::array<double, 4>, Vec2, EdgeHash> map_;
+  };
 
   /// `memo`: the roots of an earlier pass at the same refinement, taken again for the edges
   /// whose grid cell (of the edge's middle) is not set in `changed` (the field there is as it
@@ -1032,7 +1057,7 @@ class EdgeRoots {
       }
     });
     if (memo_ != nullptr) {
-      for (const std::size_t c : open) memo_->emplace(key(crossing[c]), point[c]);
+      for (const std::size_t c : open) memo_->add(key(crossing[c]), point[c]);
     }
     count_ += static_cast<long>(crossing.size());
     for (const long e : evaluations) evaluations_ += e;
@@ -1058,9 +1083,9 @@ class EdgeRoots {
     const int i = std::clamp(grid.cell_i(middle.x()), 0, grid.n_cells_x - 1);
     const int j = std::clamp(grid.cell_j(middle.y()), 0, grid.n_cells_y - 1);
     if ((*changed_)[static_cast<std::size_t>(j) * grid.n_cells_x + i]) return false;
-    const auto it = memo_->find(key(c));
-    if (it == memo_->end()) return false;
-    point = it->second;
+    const Vec2* found = memo_->find(key(c));
+    if (found == nullptr) return false;
+    point = *found;
     return true;
   }
 
@@ -1435,6 +1460,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     timings.refinement = r;
     if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
       kept_nodes->forget(changed);
+      memo.index();
     } else {
       kept_nodes.emplace(grid, r, field, config.level, field_evaluations);
       memo.clear();
