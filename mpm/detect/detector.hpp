@@ -95,18 +95,20 @@ struct ImprovedConfig {
   /// F * disk(guard_factor * initial_spacing / 2) in the material (the field is max(phi, guard));
   /// 0 disables. With the automatic refinement this guarantees that such a particle lies inside
   /// the detected region (isolated points, thin filaments, sharp tips): the contours are checked,
-  /// and if they leave a particle outside a second pass runs with cells that fit in the guards.
-  /// A particle with a larger phi is inside the exact level set, but the contour's chords can
-  /// still cut it off where the level set curves within a fine cell, or miss an island smaller
-  /// than a fine cell (a few stacked points): such particles are guarded for the second pass
-  /// (fuzz_detect found such islands, the 10,000 random clouds of the invariants test have
+  /// and a particle they leave outside gets a bridge in a second pass at the same refinement
+  /// (join_spurious_loops), or, if still outside (or with "keep"), a pass with cells that fit in
+  /// the guards. A particle with a larger phi is inside the exact level set, but the contour's
+  /// chords can still cut it off where the level set curves within a fine cell, or miss an island
+  /// smaller than a fine cell (a few stacked points): such particles are guarded for the second
+  /// pass (fuzz_detect found such islands, the 10,000 random clouds of the invariants test have
   /// none).
   double guard_factor = 0.6;
   double guard_margin = 0.02;
-  /// Field cell = grid cell / refinement. 0 = automatic: 4, and if the contours leave a particle
-  /// outside (the containment check tests every particle outside the interior cells, guarded or
-  /// not), a second pass at the smallest refinement >= 4 whose cells fit in every active guard
-  /// ellipse (cell diagonal <= smallest guard semi-axis), capped at max_refinement.
+  /// Field cell = grid cell / refinement. 0 = automatic: 4 (the bridges' pass too), and if the
+  /// contours still leave a particle outside (the containment check tests every particle outside
+  /// the interior cells, guarded or not), a last pass at the smallest refinement >= 4 whose cells
+  /// fit in every active guard ellipse (cell diagonal <= smallest guard semi-axis), capped at
+  /// max_refinement.
   int refinement = 0;
   int max_refinement = 32;
   SaddleRule saddle_rule = SaddleRule::kAsymptoticDecider;

@@ -676,13 +676,14 @@ std::vector<char> guard_candidates(std::span<const Vec2> positions, const Grid& 
   return candidate;
 }
 
-// The refinement of contour pass `pass` (0 or 1). Automatic (config.refinement <= 0): a field
-// cell whose diagonal fits in the smallest guard semi-axis has all four corners in the guard
-// ellipse of any particle inside it, which is then inside the contour. The first pass tries the
-// base refinement (4) whatever the guards; the containment check (particles_left_out()) tests
-// the guarded particles too, and the second pass takes the guards' refinement if any particle is
-// outside. A few guarded corner particles of a long face would otherwise refine the whole band
-// (300k-point block: 13 ms at refinement 10, 8 ms at 4).
+// The refinement of contour pass `pass` (0, 1 or, joining spurious loops, 2). Automatic
+// (config.refinement <= 0): a field cell whose diagonal fits in the smallest guard semi-axis has
+// all four corners in the guard ellipse of any particle inside it, which is then inside the
+// contour. The first pass tries the base refinement (4) whatever the guards, and so does the
+// bridges' pass; the containment check (particles_left_out()) tests the guarded particles too,
+// and the last pass takes the guards' refinement if any particle is still outside. A few guarded
+// corner particles of a long face would otherwise refine the whole band (300k-point block: 13 ms at
+// refinement 10, 8 ms at 4).
 int pass_refinement(const ImprovedConfig& config, int pass, const ImprovedField& field, double h) {
   if (config.refinement > 0) return config.refinement;
   // Joining the spurious loops, the second pass (the bridges) keeps the first's refinement.
@@ -1339,7 +1340,9 @@ double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double>
 
 // The pipeline: survey (0), band (0), field setup, coarse screening (1), guards (2), then per
 // contour pass the fine cells (3), the contours with their edge points (4) and the containment
-// check (5); a second pass, with the particles left outside guarded, only if there are any.
+// check (5); a second pass, with bridges (join_spurious_loops) or the particles left outside
+// guarded, only if a particle is outside or an island is in contact; a third at the guards'
+// refinement if a particle is still outside; then the spurious loops are removed.
 DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
                                  const ImprovedConfig& config, DetectionTimings& timings) {
   const double h = grid.cell_size;
@@ -1440,8 +1443,8 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
       candidate.empty() ? positions.size() : std::count(candidate.begin(), candidate.end(), 1));
   lap(parts.guards);
 
-  // Steps 3-5 run twice when the contours of the first pass leave a particle outside (step 5):
-  // those particles are then guarded.
+  // Steps 3-5 run again when the contours of the first pass leave a particle outside (step 5) or
+  // split material in contact: bridges, then, for a particle still outside, guards.
   const double guard_reach =
       ImprovedField::reference_guard_reach(config, cloud.initial_spacing) * survey.largest_stretch;
   double edge_seconds = 0.0, connection_seconds = 0.0;
