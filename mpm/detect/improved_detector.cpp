@@ -1240,7 +1240,7 @@ std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> posit
 // the support of each newly guarded particle's guard (within `guard_reach` m of it) and of each
 // bridge (2.5 fine cells, `cell` m, about its segment), each widened by a millionth of a cell
 // against rounding at its rim (the guards and bridges add exactly 0 beyond their supports).
-std::vector<char> cells_changed_by(const Grid& grid, const ImprovedField& field,
+std::vector<char> cells_changed_by(const Grid& grid, std::span<const Vec2> positions,
                                    std::span<const std::size_t> guarded,
                                    std::span<const std::array<std::size_t, 2>> pairs,
                                    double guard_reach, double cell) {
@@ -1260,7 +1260,6 @@ std::vector<char> cells_changed_by(const Grid& grid, const ImprovedField& field,
       for (int i = i0; i <= i1; ++i) changed[static_cast<std::size_t>(j) * ncx + i] = 1;
     }
   };
-  const auto positions = field.positions();
   const Vec2 guard = Vec2::Constant(guard_reach), support = Vec2::Constant(2.5 * cell);
   for (const std::size_t p : guarded) {
     mark(positions[p] - guard.cwiseMax(support), positions[p] + guard.cwiseMax(support));
@@ -1272,13 +1271,11 @@ std::vector<char> cells_changed_by(const Grid& grid, const ImprovedField& field,
   return changed;
 }
 
-// Removes the loops the particle spacing cannot resolve (classify_loops()): every spurious hole,
-// with the loops inside it (their region becomes material: it held no free disk of one spacing),
-// and every material loop that holds no particle. Returns the number of loops removed.
-long remove_spurious_loops(DetectedBoundary& boundary, std::span<const Vec2> positions,
-                           double spacing) {
-  if (boundary.contours.size() < 2) return 0;
-  const LoopClasses classes = classify_loops(boundary, positions, spacing);
+// Removes the loops the particle spacing cannot resolve (`classes`, classify_loops() of
+// `boundary`): every spurious hole, with the loops inside it (their region becomes material: it
+// held no free disk of one spacing), and every material loop that holds no particle. Returns the
+// number of loops removed.
+long remove_spurious_loops(DetectedBoundary& boundary, const LoopClasses& classes) {
   const std::size_t n = boundary.contours.size();
   std::vector<char> drop(n, 0);
   for (std::size_t c = 0; c < n; ++c) {
@@ -1452,12 +1449,15 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   DetectedBoundary boundary;
   // A pass at the refinement of the pass before keeps that pass's fine nodes and edge roots
   // outside the grid cells where the field changed (`changed`: the supports of the guards and
-  // bridges added, and a ring of cells); the contours are bitwise those of a pass that evaluates
-  // everything anew.
+  // bridges added); the contours are bitwise those of a pass that evaluates everything anew.
   std::optional<FineNodes> kept_nodes;
   EdgeRoots::Memo memo;
   std::vector<char> changed;
+  // The loops' classes of the last pass's contours, when they were taken (for the bridges).
+  std::optional<LoopClasses> classes;
+  const bool join = config.join_spurious_loops && config.guard_factor > 0.0;
   for (int pass = 0;; ++pass) {
+    classes.reset();
     lap.restart();
     const int r = pass_refinement(config, pass, field, h);
     timings.refinement = r;
@@ -1504,40 +1504,38 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     edge_points += roots.count();
     root_evaluations += roots.evaluations();
     connection_seconds += seconds_since(contour_start) - roots.seconds();
+    // Pass 0 is followed, joining spurious loops, by the bridges' pass (if a particle is outside
+    // or an island is in contact), and any pass before the last by one at the guards'
+    // refinement if a particle is outside.
     if (config.guard_factor <= 0.0) break;
-    if (pass == 0 && config.join_spurious_loops) {
-      // The second pass bridges the particles left outside and the islands in contact, at the
-      // same refinement.
-      const LoopClasses classes = boundary.contours.size() > 1
-                                      ? classify_loops(boundary, positions, cloud.initial_spacing)
-                                      : LoopClasses{};
-      const auto pairs = bridge_pairs(positions, left_out, classes, cloud.initial_spacing);
+    const bool bridging = pass == 0 && join;
+    std::vector<std::array<std::size_t, 2>> pairs;
+    if (bridging) {
+      if (boundary.contours.size() > 1) {
+        classes = classify_loops(boundary, positions, cloud.initial_spacing);
+      }
+      pairs =
+          bridge_pairs(positions, left_out, classes.value_or(LoopClasses{}), cloud.initial_spacing);
       if (left_out.empty() && pairs.empty()) break;
-      timings.particles_outside_first_contours = static_cast<long>(left_out.size());
-      const std::size_t guarded_before = field.n_guarded();
-      field.add_guards(left_out);
-      timings.particles_guarded_after_contouring =
-          static_cast<long>(field.n_guarded() - guarded_before);
-      field.add_bridges(left_out, pairs, h / r);
-      timings.bridges = static_cast<long>(field.n_bridges());
-      changed = cells_changed_by(grid, field, left_out, pairs, guard_reach, h / r);
-      continue;
+    } else if (left_out.empty() || pass == (join ? 2 : 1)) {
+      break;
     }
-    // The pass at the guards' refinement, if any particle is outside.
-    if (left_out.empty() || pass == (config.join_spurious_loops ? 2 : 1)) break;
-    if (!config.join_spurious_loops) {
-      timings.particles_outside_first_contours = static_cast<long>(left_out.size());
-    }
+    if (pass == 0) timings.particles_outside_first_contours = static_cast<long>(left_out.size());
     const std::size_t guarded_before = field.n_guarded();
     field.add_guards(left_out);
-    changed = cells_changed_by(grid, field, left_out, {}, guard_reach, h / r);
     timings.particles_guarded_after_contouring +=
         static_cast<long>(field.n_guarded() - guarded_before);
-    timings.guard_refinement_passes += 1;
+    if (bridging) {
+      field.add_bridges(left_out, pairs, h / r);
+      timings.bridges = static_cast<long>(field.n_bridges());
+    } else {
+      timings.guard_refinement_passes += 1;
+    }
+    changed = cells_changed_by(grid, positions, left_out, pairs, guard_reach, h / r);
   }
-  if (config.join_spurious_loops && config.guard_factor > 0.0) {
-    timings.spurious_loops_removed =
-        remove_spurious_loops(boundary, positions, cloud.initial_spacing);
+  if (join && boundary.contours.size() > 1) {
+    if (!classes) classes = classify_loops(boundary, positions, cloud.initial_spacing);
+    timings.spurious_loops_removed = remove_spurious_loops(boundary, *classes);
   }
   timings.edge_points = edge_seconds;
   timings.connection = connection_seconds;
