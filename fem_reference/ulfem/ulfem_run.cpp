@@ -233,8 +233,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
                       {"stress", st.stress}}}};
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
-  run["summary"]["threads"] = {
-      {"policy", governor.policy()}, {"fewest", governor.fewest()}, {"most", governor.most()}};
+  run["summary"]["threads"] = governor.summary();
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }

@@ -39,10 +39,12 @@ class ThreadGovernor {
   /// Looks at the load again once `period` has passed since the last look (cheap otherwise).
   void update();
   int threads() const { return threads_; }
-  int fewest() const { return fewest_; }
-  int most() const { return most_; }
   /// "fixed" (given by the user) or "load" (follows the machine's load).
   const char* policy() const { return automatic_ ? "load" : "fixed"; }
+  /// {policy, fewest, most}, for a run's summary.
+  nlohmann::json summary() const {
+    return {{"policy", policy()}, {"fewest", fewest_}, {"most", most_}};
+  }
 
  private:
   bool automatic_;

@@ -173,8 +173,8 @@ int run_case(const Case& c, const RunOptions& options) {
       if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(dir);
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
       entry["boundary"] = name;
-      // What each loop is (loop_classes.hpp), counted at the output steps only: the body's
-      // test of the particles inside it costs about a detection.
+      // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
+      // for a free disk and an island's contacts cost more than a step where they occur).
       const LoopClasses classes =
           classify_loops(boundary, solver.particles().position, coupling.initial_spacing());
       for (const auto& [kind, count] : classes.counts()) entry["loop_classes"][kind] = count;
@@ -317,8 +317,7 @@ int run_case(const Case& c, const RunOptions& options) {
   }
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
-  run["summary"]["threads"] = {
-      {"policy", governor.policy()}, {"fewest", governor.fewest()}, {"most", governor.most()}};
+  run["summary"]["threads"] = governor.summary();
   write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
   return status;
 }

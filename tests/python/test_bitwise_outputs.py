@@ -55,3 +55,6 @@ def test_two_runs_write_the_same_bytes(pfm_binary, tmp_path, case, extra):
     b = json.loads((second / "run.json").read_text())
     assert a["outputs"] == b["outputs"]
     assert a["summary"]["energy"] == b["summary"]["energy"]
+    # --threads fixes the count: the run records it, never changed.
+    assert a["summary"]["threads"] == {"policy": "fixed", "fewest": 1, "most": 1}
+    assert b["summary"]["threads"] == {"policy": "fixed", "fewest": 2, "most": 2}
