@@ -133,21 +133,19 @@ pfm::ParticleCloud cloud_of(const Fixture& f) {
   return {p.position, p.volume, p.deformation_gradient, f.initial_spacing};
 }
 
-// Times one detection per benchmark iteration by `clock` (after before_each(), timed too), and
-// sets the counters both benchmarks share (detect_ms, ratio_to_step, ...). `last`: the last
-// detection's boundary points and timings.
+// Times one detection of `cloud` on `grid` per benchmark iteration by `clock` (after
+// before_each(), timed too), and sets the counters the benchmarks share (detect_ms,
+// ratio_to_step, ...). `last`: the last detection's boundary points and timings.
 template <class BeforeEach>
-void time_detections(benchmark::State& state, const Fixture& f, double step_seconds,
-                     const pfm::DetectorConfig& config, pfm::DetectorState& detector_state,
-                     double (*clock)(), BeforeEach before_each, long& points,
-                     pfm::DetectionTimings& last) {
-  const pfm::ParticleCloud cloud = cloud_of(f);
+void time_detections(benchmark::State& state, const pfm::ParticleCloud& cloud,
+                     const pfm::Grid& grid, double step_seconds, const pfm::DetectorConfig& config,
+                     pfm::DetectorState& detector_state, double (*clock)(), BeforeEach before_each,
+                     long& points, pfm::DetectionTimings& last) {
   double seconds = 0.0;
   for (auto _ : state) {
     const double start = clock();
     before_each();
-    const pfm::DetectedBoundary b =
-        pfm::detect(cloud, f.solver->grid(), config, detector_state, &last);
+    const pfm::DetectedBoundary b = pfm::detect(cloud, grid, config, detector_state, &last);
     const double elapsed = clock() - start;
     state.SetIterationTime(elapsed);
     seconds += elapsed;
@@ -156,22 +154,24 @@ void time_detections(benchmark::State& state, const Fixture& f, double step_seco
     benchmark::DoNotOptimize(points);
   }
   const double per_detection = seconds / static_cast<double>(std::max<long>(state.iterations(), 1));
-  state.counters["particles"] = static_cast<double>(f.particles.size());
+  state.counters["particles"] = static_cast<double>(cloud.position.size());
   state.counters["step_ms"] = 1e3 * step_seconds;
   state.counters["detect_ms"] = 1e3 * per_detection;
   state.counters["ratio_to_step"] = per_detection / step_seconds;
 }
 
 // time_detections() of the improved detector with its defaults; the last detection's timings.
-pfm::DetectionTimings time_improved_detections(benchmark::State& state, const Fixture& f,
-                                               double step_seconds, double (*clock)()) {
+pfm::DetectionTimings time_improved_detections(benchmark::State& state,
+                                               const pfm::ParticleCloud& cloud,
+                                               const pfm::Grid& grid, double step_seconds,
+                                               double (*clock)()) {
   pfm::DetectorConfig config;
   config.method = pfm::DetectorMethod::kImproved;
   pfm::DetectorState detector_state;
   pfm::DetectionTimings timings;
   long points = 0;
   time_detections(
-      state, f, step_seconds, config, detector_state, clock, [] {}, points, timings);
+      state, cloud, grid, step_seconds, config, detector_state, clock, [] {}, points, timings);
   return timings;
 }
 
@@ -221,8 +221,8 @@ void detect_on_one_thread(benchmark::State& state, int scale, const pfm::Detecto
       pfm::advect_surface_markers(detector_state, grid, nodes.velocity, nodes.mass, 0.0);
     }
   };
-  time_detections(state, f, f.step_seconds, config, detector_state, thread_seconds, advect, points,
-                  timings);
+  time_detections(state, cloud_of(f), grid, f.step_seconds, config, detector_state, thread_seconds,
+                  advect, points, timings);
   const double iterations = static_cast<double>(std::max<long>(state.iterations(), 1));
   // Memory the detection took back from the system (0 when its freed scratch is reused).
   state.counters["page_faults"] =
@@ -284,7 +284,7 @@ void BM_DetectThreads(benchmark::State& state) {
   const double step = step_wall_seconds(scale, threads);
   Fixture& f = fixture(scale);
   omp_set_num_threads(threads);
-  time_improved_detections(state, f, step, wall_seconds);
+  time_improved_detections(state, cloud_of(f), f.solver->grid(), step, wall_seconds);
   state.counters["threads"] = threads;
   state.SetLabel("improved, " + std::to_string(f.particles.size()) + " points, " +
                  std::to_string(threads) + " thread(s), wall clock");
@@ -415,23 +415,9 @@ void BM_DetectFailureState(benchmark::State& state) {
   omp_set_num_threads(1);
   const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
                                  f.particles.deformation_gradient, f.spacing};
-  pfm::DetectorConfig config;
-  config.method = pfm::DetectorMethod::kImproved;
-  pfm::DetectionTimings timings;
-  double seconds = 0.0;
-  for (auto _ : state) {
-    pfm::DetectorState detector_state;
-    const double start = thread_seconds();
-    benchmark::DoNotOptimize(pfm::detect(cloud, f.grid, config, detector_state, &timings));
-    const double elapsed = thread_seconds() - start;
-    state.SetIterationTime(elapsed);
-    seconds += elapsed;
-  }
-  const double per_detection = seconds / static_cast<double>(std::max<long>(state.iterations(), 1));
-  state.counters["particles"] = static_cast<double>(f.particles.position.size());
-  state.counters["detect_ms"] = 1e3 * per_detection;
-  state.counters["step_ms"] = 1e3 * f.step_seconds;
-  state.counters["ratio_to_step"] = per_detection / f.step_seconds;
+  const pfm::DetectionTimings timings =
+      time_improved_detections(state, cloud, f.grid, f.step_seconds, thread_seconds);
+  const double per_detection = 1e-3 * state.counters["detect_ms"];
   state.counters["detect_t0_ms"] = 1e3 * f.detect_at_start_seconds;
   state.counters["ratio_to_t0"] = per_detection / f.detect_at_start_seconds;
   set_improved_counters(state, timings);
