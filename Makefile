@@ -15,7 +15,7 @@ DEB_PYTHON_PREFIX := $(basename $(notdir $(PYTHON)))-
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas shapely skimage pytest hypothesis jinja2 h5py \
   meshio gmsh dolfinx distributed
 DEB_PACKAGES := cmake make g++ git clang-format black \
-  libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev \
+  libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
   $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 

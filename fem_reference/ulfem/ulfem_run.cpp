@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -16,25 +17,6 @@
 
 namespace pfm::ulfem {
 
-namespace {
-
-void write_doubles(hid_t group, const char* name, const std::vector<double>& data, std::size_t rows,
-                   std::size_t cols) {
-  hsize_t dims[2] = {rows, cols};
-  const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const hid_t set = H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT,
-                               UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-  if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
-  if (rows > 0 &&
-      H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0) {
-    throw std::runtime_error(std::string("HDF5: cannot write ") + name);
-  }
-  H5Dclose(set);
-  H5Sclose(space);
-}
-
-}  // namespace
-
 std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& positions) {
   std::ostringstream out;
   out << "loop,x,y\n";
@@ -48,27 +30,29 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
   return out.str();
 }
 
-MeshSeriesWriter::MeshSeriesWriter(std::string directory, const QuadMesh& mesh)
-    : directory_(std::move(directory)), n_nodes_(mesh.n_nodes()), n_elements_(mesh.n_elements()) {
+MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh)
+    : h5_path_(folder.file("mesh.h5")),
+      xdmf_path_(folder.file("mesh.xdmf")),
+      n_nodes_(mesh.n_nodes()),
+      n_elements_(mesh.n_elements()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const std::string path = directory_ + "/mesh.h5";
-  file_ =
-      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
-  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+  file_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(),
+                    H5P_DEFAULT);
+  if (file_ < 0) throw_io_error("cannot create", h5_path_, errno);
   std::vector<long long> topology;
   for (const auto& element : mesh.element_nodes) {
     for (int n : element) topology.push_back(n);
   }
   hsize_t dims[2] = {n_elements_, 4};
   const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const hid_t set = H5Dcreate2(static_cast<hid_t>(file_), "topology", H5T_STD_I64LE, space,
-                               H5P_DEFAULT, UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-  if (set < 0 ||
-      H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, topology.data()) < 0) {
-    throw std::runtime_error("HDF5: cannot write the mesh topology");
-  }
-  H5Dclose(set);
+  const H5Handle set(
+      H5Dcreate2(static_cast<hid_t>(file_), "topology", H5T_STD_I64LE, space, H5P_DEFAULT,
+                 UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT),
+      H5Dclose);
   H5Sclose(space);
+  if (!set.ok() ||
+      H5Dwrite(set.get(), H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, topology.data()) < 0)
+    throw_io_error("HDF5 cannot write the mesh topology in", h5_path_, errno);
 }
 
 MeshSeriesWriter::~MeshSeriesWriter() {
@@ -80,9 +64,11 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
                              const std::vector<Vec2>& velocity) {
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
-  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+                       H5Gclose);
+  if (!group.ok())
+    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
   std::vector<double> buffer(3 * n_nodes_, 0.0);
   auto put = [&](const std::vector<Vec2>& v, const char* dataset) {
     for (std::size_t n = 0; n < n_nodes_; ++n) {
@@ -90,15 +76,13 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
       buffer[3 * n + 1] = v[n].y();
       buffer[3 * n + 2] = 0.0;
     }
-    write_doubles(group, dataset, buffer, n_nodes_, 3);
+    write_h5_dataset(group.get(), h5_path_, dataset, buffer, n_nodes_, 3);
   };
   put(position, "geometry");
   put(displacement, "displacement");
   put(velocity, "velocity");
-  H5Gclose(group);
-  if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0) {
-    throw std::runtime_error("HDF5: cannot flush mesh.h5");
-  }
+  if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0)
+    throw_io_error(std::string("HDF5 cannot write ") + name + " in", h5_path_, errno);
   times_.push_back(time);
   groups_.push_back(name);
   write_xdmf();
@@ -128,7 +112,7 @@ void MeshSeriesWriter::write_xdmf() const {
     x << "</Grid>\n";
   }
   x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(directory_ + "/mesh.xdmf", x.str());
+  write_file_atomically(xdmf_path_, x.str());
 }
 
 int run_ulfem_case(const Case& c, const RunOptions& options) {
@@ -136,7 +120,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   const int threads = governor.threads();
   UlFemSolver solver(c);  // may throw InputError: nothing created yet
   check_run_length(c, solver.dt());
-  prepare_output_directory(options.out_dir);
+  OutputFolder folder(options.out_dir, output_folder_mode(options));
   const std::string dir = options.out_dir;
 
   nlohmann::json run;
@@ -144,7 +128,13 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   run["provenance"]["solver"] = "ulfem";
   run["case"] = c.source;
   run["status"] = "running";
-  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  try {
+    const std::string text = run.dump(2) + "\n";
+    write_file_atomically(folder.file("run.json"), text);
+    folder.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
 
   // The MPM's columns (mpm/solver/run.cpp); with loads also its load diagnostics, summed over
   // every load of the case (the UL-FEM applies them all on the mesh edges, nothing is lost).
@@ -161,15 +151,15 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   try {
     solver.initialise_stress();
     initial_steps = solver.initial_stress_steps();
-    ParticleSeriesWriter particle_writer(dir);
-    MeshSeriesWriter mesh_writer(dir, solver.mesh());
+    ParticleSeriesWriter particle_writer(folder);
+    MeshSeriesWriter mesh_writer(folder, solver.mesh());
     auto output = [&](double t) {
       particle_writer.write(t, solver.step_count(), solver.particles());
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
                         solver.node_state().velocity);
       char name[48];
       std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
-      write_file_atomically(dir + "/" + name, boundary_csv(solver.mesh(), solver.node_position()));
+      write_file_atomically(folder.file(name), boundary_csv(solver.mesh(), solver.node_position()));
       outputs.push_back({{"step", solver.step_count()}, {"time", t}, {"boundary", name}});
     };
     output(solver.time());
@@ -189,18 +179,24 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
       }
       if (t >= next_output - eps || last) {
         output(t);
-        write_file_atomically(dir + "/timeseries.csv", series.text());
+        write_file_atomically(folder.file("timeseries.csv"), series.text());
         while (next_output <= t + eps) next_output += c.output.interval;
       }
     }
-    write_file_atomically(dir + "/final_particles.csv", particles_csv(solver.particles()));
+    write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
     status = kExitSimulationError;
     message = e.what();
     std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
               << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
   }
-  write_file_atomically(dir + "/timeseries.csv", series.text());
+  try {
+    write_file_atomically(folder.file("timeseries.csv"), series.text());
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -234,7 +230,12 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
   run["summary"]["threads"] = governor.summary();
-  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  try {
+    folder.release_reserve();  // the disk it kept is the final run.json's
+    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
   return status;
 }
 

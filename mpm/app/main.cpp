@@ -1,15 +1,21 @@
 // pfm-mpm: the command-line tool.
 //
-//   pfm-mpm run CASE.json --out DIR [--solver mpm|ulfem] [--threads N] [--quiet]
+//   pfm-mpm run CASE.json --out DIR [--overwrite] [--solver mpm|ulfem] [--threads N] [--quiet]
 //               [--checkpoint-steps N] [--checkpoint-seconds T]
 //   pfm-mpm run --restart DIR [--threads N]      continue a killed run from its checkpoint
 //   pfm-mpm validate CASE.json
-//   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR [--threads N]
+//   pfm-mpm detect PARTICLES.csv --config DETECT.json --out DIR [--overwrite] [--threads N]
 //
-// Exit codes: 0 success, 2 bad input (nothing written), 3 the simulation stopped (NaN, CFL,
-// a particle leaving the grid); the outputs up to the last good step are kept.
+// Exit codes (mpm/solver/run.hpp): 0 success; 2 bad input or a refused request (nothing
+// written or removed); 3 the simulation stopped (NaN, CFL, a particle leaving the grid), the
+// outputs up to the last good step kept; 4 a write failed or memory ran out (run.json marked
+// "failed" when it can be, the last checkpoint kept); 1 only for an unforeseen error (a bug).
+#include <hdf5.h>
+
 #include <CLI/CLI.hpp>
+#include <filesystem>
 #include <iostream>
+#include <new>
 
 #include "fem_reference/ulfem/ulfem_run.hpp"
 #include "mpm/core/heap_policy.hpp"
@@ -19,6 +25,9 @@
 #include "mpm/solver/run.hpp"
 
 int main(int argc, char** argv) {
+  // HDF5's own exit handler closes files again that a failed write left half-closed, and
+  // crashes doing so; every file is closed by its writer, so the handler is not needed.
+  H5dont_atexit();
   pfm::keep_freed_memory();  // scratch freed by a step or a detection is reused, not refaulted
   CLI::App app{"pfm-mpm: MPM with moving-boundary detection and loads (units kN, m, s, t, kPa)"};
   app.require_subcommand(1);
@@ -44,6 +53,9 @@ int main(int argc, char** argv) {
   run->add_option("--threads", options.threads, "threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   run->add_flag("--quiet", quiet, "no progress line");
+  run->add_flag("--overwrite", options.overwrite,
+                "write into a folder that holds other files (they are kept; only this "
+                "program's earlier files are replaced)");
   std::string solver_name = "mpm";
   run->add_option("--solver", solver_name,
                   "mpm (default) or ulfem (updated-Lagrangian FEM on a gmsh mesh)")
@@ -56,6 +68,9 @@ int main(int argc, char** argv) {
   detect->add_option("--config", detect_config, "detector configuration (JSON)")->required();
   detect->add_option("--out", detect_out, "output directory")->required();
   int detect_threads = 0;
+  bool detect_overwrite = false;
+  detect->add_flag("--overwrite", detect_overwrite,
+                   "write into a folder that holds other files (they are kept)");
   detect->add_option("--threads", detect_threads, "threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
 
@@ -80,13 +95,14 @@ int main(int argc, char** argv) {
     }
     if (*detect) {
       return pfm::run_detect_command(particles_csv, detect_config, detect_out, detect_threads,
-                                     command_line);
+                                     command_line, detect_overwrite);
     }
     options.progress = !quiet;
     if (!restart_dir.empty()) {
       if (!case_file.empty() || !options.out_dir.empty())
         throw pfm::InputError("--restart DIR takes the case and the output directory from DIR");
       if (solver_name != "mpm") throw pfm::InputError("--restart: only the MPM solver restarts");
+      if (options.overwrite) throw pfm::InputError("--restart continues a run: no --overwrite");
       const nlohmann::json run_json = pfm::read_json_file(restart_dir + "/run.json");
       if (!run_json.contains("case") || !run_json.contains("provenance"))
         throw pfm::InputError(restart_dir + "/run.json: not a pfm-mpm run (no case)");
@@ -94,6 +110,12 @@ int main(int argc, char** argv) {
         throw pfm::InputError(restart_dir + ": the run has completed; nothing to restart");
       const pfm::Case c =
           pfm::parse_case(run_json.at("case"), run_json.at("provenance").value("case_file", ""));
+      // The original run's checkpoint settings, unless the restart gives its own.
+      const nlohmann::json saved = run_json.value("checkpoint", nlohmann::json::object());
+      if (run->count("--checkpoint-steps") == 0)
+        options.checkpoint_steps = saved.value("steps", options.checkpoint_steps);
+      if (run->count("--checkpoint-seconds") == 0)
+        options.checkpoint_seconds = saved.value("seconds", options.checkpoint_seconds);
       options.out_dir = restart_dir;
       options.restart = true;
       const int status = pfm::run_case(c, options);
@@ -113,8 +135,17 @@ int main(int argc, char** argv) {
   } catch (const pfm::SimulationError& e) {
     std::cerr << "pfm-mpm: simulation error: " << e.what() << "\n";
     return pfm::kExitSimulationError;
+  } catch (const pfm::IoError& e) {
+    std::cerr << "pfm-mpm: write failed: " << e.what() << "\n";
+    return pfm::kExitIoError;
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::cerr << "pfm-mpm: file system error: " << e.what() << "\n";
+    return pfm::kExitIoError;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "pfm-mpm: out of memory (a smaller grid or fewer particles?)\n";
+    return pfm::kExitIoError;
   } catch (const std::exception& e) {
-    std::cerr << "pfm-mpm: failure: " << e.what() << "\n";
-    return pfm::kExitFailure;
+    std::cerr << "pfm-mpm: internal error (please report it): " << e.what() << "\n";
+    return pfm::kExitInternalError;
   }
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/output_folder.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/detect/loop_classes.hpp"
@@ -34,21 +35,6 @@ std::vector<std::string> split(const std::string& line) {
   while (std::getline(in, field, ',')) fields.push_back(trim(field));
   if (!line.empty() && line.back() == ',') fields.emplace_back();
   return fields;
-}
-
-// Writes `text` to dir/name through a temporary file and a rename.
-void write_atomically(const std::filesystem::path& dir, const std::string& name,
-                      const std::string& text) {
-  const auto final_path = dir / name;
-  const auto temporary = dir / ("." + name + ".tmp");
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(temporary.string() + ": cannot write");
-    out << text;
-    out.flush();
-    if (!out) throw InputError(temporary.string() + ": write failed");
-  }
-  std::filesystem::rename(temporary, final_path);
 }
 
 }  // namespace
@@ -130,7 +116,8 @@ ParticleTable read_particle_csv(const std::string& path) {
 }
 
 int run_detect_command(const std::string& particles_csv, const std::string& config_json,
-                       const std::string& out_dir, int threads, const std::string& command_line) {
+                       const std::string& out_dir, int threads, const std::string& command_line,
+                       bool overwrite) {
   if (threads < 0) throw InputError("--threads: expected a count >= 1 (0: every core)");
   // 1. Input: configuration, then particles; nothing is created before both are valid.
   nlohmann::json json = read_json_file(config_json);
@@ -264,10 +251,10 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
     summary["guard_refinement_passes"] = timings.guard_refinement_passes;
     summary["spurious_loops_removed"] = timings.spurious_loops_removed;
   }
-  const std::filesystem::path dir(out_dir);
-  std::filesystem::create_directories(dir);
-  write_atomically(dir, "boundary.csv", csv);
-  write_atomically(dir, "summary.json", summary.dump(2) + "\n");
+  OutputFolder folder(out_dir,
+                      overwrite ? OutputFolder::Mode::kOverwrite : OutputFolder::Mode::kNew);
+  write_file_atomically(folder.file("boundary.csv"), csv);
+  write_file_atomically(folder.file("summary.json"), summary.dump(2) + "\n");
   return 0;
 }
 

@@ -37,6 +37,6 @@ ParticleTable read_particle_csv(const std::string& path);
 /// line, the thread count, the start time and the units.
 int run_detect_command(const std::string& particles_csv, const std::string& config_json,
                        const std::string& out_dir, int threads = 0,
-                       const std::string& command_line = "");
+                       const std::string& command_line = "", bool overwrite = false);
 
 }  // namespace pfm

@@ -224,44 +224,71 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/load_ends", ends);
 }
 
+namespace {
+
+/// Polylines saved as points (x, y pairs), counts and closed flags; InputError naming the dataset
+/// when the counts are not whole, do not add up to the points, or a flag is not 0 or 1.
+void read_polylines(const CheckpointFile& file, const std::string& prefix,
+                    std::vector<std::vector<Vec2>>& lines, std::vector<bool>& closed) {
+  const std::vector<double>& points = file.get(prefix + "points");
+  const std::vector<double>& counts = file.get(prefix + "counts");
+  const std::vector<double>& flags = file.get(prefix + "closed", counts.size());
+  double total = 0.0;
+  for (const double count : counts) {
+    if (!(count >= 0.0 && count == std::floor(count)))
+      file.fail(prefix + "counts", "a count is not a whole number");
+    total += count;
+  }
+  if (2.0 * total != static_cast<double>(points.size()))
+    file.fail(prefix + "counts", "the counts do not add up to the points");
+  lines.clear();
+  closed.clear();
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    if (flags[k] != 0.0 && flags[k] != 1.0) file.fail(prefix + "closed", "a flag is not 0 or 1");
+    std::vector<Vec2> line;
+    for (std::size_t i = 0; i < static_cast<std::size_t>(counts[k]); ++i, next += 2)
+      line.emplace_back(points[next], points[next + 1]);
+    lines.push_back(std::move(line));
+    closed.push_back(flags[k] == 1.0);
+  }
+}
+
+}  // namespace
+
 void BoundaryCoupling::restore(const CheckpointFile& file) {
+  const std::size_t n = solver_->particles().size();
+  const long step = solver_->step_count();
+  for (const char* name : {"coupling/detector/shape", "coupling/detector/previous_deformation"}) {
+    const std::size_t size = file.get(name).size();
+    if (size != 0 && size != 4 * n) file.fail(name, "is not one 2 x 2 matrix per particle");
+  }
   detector_state_.shape = unflatten<Mat2>(file.get("coupling/detector/shape"));
   detector_state_.previous_deformation =
       unflatten<Mat2>(file.get("coupling/detector/previous_deformation"));
-  detector_state_.n_calls = static_cast<std::size_t>(file.scalar("coupling/detector/n_calls"));
-  {
-    const std::vector<double>& points = file.get("coupling/detector/marker_points");
-    const std::vector<double>& counts = file.get("coupling/detector/marker_counts");
-    const std::vector<double>& closed = file.get("coupling/detector/marker_closed");
-    detector_state_.markers.clear();
-    detector_state_.markers_closed.clear();
-    std::size_t next = 0;
-    for (std::size_t k = 0; k < counts.size(); ++k) {
-      std::vector<Vec2> line;
-      for (std::size_t i = 0; i < static_cast<std::size_t>(counts[k]); ++i, next += 2)
-        line.emplace_back(points.at(next), points.at(next + 1));
-      detector_state_.markers.push_back(std::move(line));
-      detector_state_.markers_closed.push_back(closed.at(k) != 0.0);
-    }
-    detector_state_.markers_placed = file.scalar("coupling/detector/markers_placed") != 0.0;
-  }
-  const std::vector<double>& points = file.get("coupling/boundary/points");
-  const std::vector<double>& counts = file.get("coupling/boundary/counts");
-  const std::vector<double>& closed = file.get("coupling/boundary/closed");
+  detector_state_.n_calls =
+      static_cast<std::size_t>(file.integer("coupling/detector/n_calls", 0, 1L << 52));
+  read_polylines(file, "coupling/detector/marker_", detector_state_.markers,
+                 detector_state_.markers_closed);
+  detector_state_.markers_placed = file.integer("coupling/detector/markers_placed", 0, 1) == 1;
+  std::vector<std::vector<Vec2>> lines;
+  std::vector<bool> closed;
+  read_polylines(file, "coupling/boundary/", lines, closed);
   boundary_.contours.clear();
-  std::size_t next = 0;
-  for (std::size_t k = 0; k < counts.size(); ++k) {
+  for (std::size_t k = 0; k < lines.size(); ++k) {
     Contour contour;
-    contour.closed = closed.at(k) != 0.0;
-    for (std::size_t i = 0; i < static_cast<std::size_t>(counts[k]); ++i, next += 2)
-      contour.points.emplace_back(points.at(next), points.at(next + 1));
+    contour.points = std::move(lines[k]);
+    contour.closed = closed[k];
     boundary_.contours.push_back(std::move(contour));
   }
-  detected_at_step_ = static_cast<long>(file.scalar("coupling/detected_at_step"));
-  const std::vector<double>& ends = file.get("coupling/load_ends");
-  if (ends.size() != 4 * loads_.size())
-    throw InputError("checkpoint: coupling/load_ends does not match the case's loads");
+  detected_at_step_ = file.integer("coupling/detected_at_step", -1, step);
+  const std::vector<double>& ends = file.get("coupling/load_ends", 4 * loads_.size());
   for (std::size_t k = 0; k < loads_.size(); ++k) {
+    for (int e = 0; e < 2; ++e) {
+      const double id = ends[4 * k + static_cast<std::size_t>(e)];
+      if (!(id >= -1.0 && id < static_cast<double>(n) && id == std::floor(id)))
+        file.fail("coupling/load_ends", "a load's end particle is not a particle of the case");
+    }
     loads_[k].end_particle = {static_cast<long>(ends[4 * k]), static_cast<long>(ends[4 * k + 1])};
     loads_[k].end_x0 = {ends[4 * k + 2], ends[4 * k + 3]};
   }

@@ -1,34 +1,22 @@
 #include "mpm/solver/checkpoint.hpp"
 
 #include <hdf5.h>
+#include <zlib.h>
 
+#include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/output_folder.hpp"
 #include "mpm/solver/hdf5_untimed.hpp"
 
 namespace pfm {
 
 namespace {
-
-/// Closes an HDF5 handle when it goes out of scope.
-class Handle {
- public:
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Handle() {
-    if (id_ >= 0) close_(id_);
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  hid_t get() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
 
 // Dataset names are stored with '/' replaced, so that the file stays flat.
 std::string encode(const std::string& name) {
@@ -44,16 +32,32 @@ std::string decode(const std::string& name) {
   return out;
 }
 
-void write_array(hid_t file, const std::string& name, hid_t file_type, hid_t memory_type,
-                 const void* data, std::size_t count) {
+const std::string kChecksums = "t:checksums";
+
+void write_array(hid_t file, const std::string& path, const std::string& name, hid_t file_type,
+                 hid_t memory_type, const void* data, std::size_t count) {
   hsize_t dims[1] = {count};
-  const Handle space(H5Screate_simple(1, dims, nullptr), H5Sclose);
-  const Handle set(H5Dcreate2(file, name.c_str(), file_type, space.get(), H5P_DEFAULT,
-                              UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT),
-                   H5Dclose);
-  if (!set.ok()) throw std::runtime_error("checkpoint: cannot create dataset " + name);
+  const H5Handle space(H5Screate_simple(1, dims, nullptr), H5Sclose);
+  const H5Handle set(H5Dcreate2(file, name.c_str(), file_type, space.get(), H5P_DEFAULT,
+                                UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT),
+                     H5Dclose);
+  if (!set.ok()) throw_io_error("HDF5 cannot create dataset " + name + " in", path, errno);
   if (count > 0 && H5Dwrite(set.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
-    throw std::runtime_error("checkpoint: cannot write dataset " + name);
+    throw_io_error("HDF5 cannot write dataset " + name + " in", path, errno);
+}
+
+std::string crc_hex(const void* data, std::size_t bytes) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  const auto* p = static_cast<const Bytef*>(data);
+  while (bytes > 0) {  // crc32 takes at most 4 GB a call
+    const auto chunk = static_cast<uInt>(std::min<std::size_t>(bytes, 1u << 30));
+    crc = crc32(crc, p, chunk);
+    p += chunk;
+    bytes -= chunk;
+  }
+  char text[16];
+  std::snprintf(text, sizeof text, "%08lx", static_cast<unsigned long>(crc));
+  return text;
 }
 
 struct ReadContext {
@@ -78,17 +82,42 @@ bool CheckpointFile::has(const std::string& name) const {
   return numbers_.count(name) > 0 || texts_.count(name) > 0;
 }
 
+void CheckpointFile::fail(const std::string& name, const std::string& message) const {
+  throw InputError(file_ + ": checkpoint dataset " + name + ": " + message);
+}
+
 const std::vector<double>& CheckpointFile::get(const std::string& name) const {
   const auto it = numbers_.find(name);
   if (it == numbers_.end()) throw InputError(file_ + ": checkpoint has no dataset " + name);
+  for (std::size_t k = 0; k < it->second.size(); ++k)
+    if (!std::isfinite(it->second[k]))
+      fail(name, "holds a value that is not finite (at index " + std::to_string(k) + ")");
   return it->second;
 }
 
-double CheckpointFile::scalar(const std::string& name) const {
+const std::vector<double>& CheckpointFile::get(const std::string& name, std::size_t size) const {
   const std::vector<double>& values = get(name);
-  if (values.size() != 1)
-    throw InputError(file_ + ": checkpoint dataset " + name + " is not a single value");
-  return values[0];
+  if (values.size() != size) {
+    fail(name,
+         "holds " + std::to_string(values.size()) + " values, expected " + std::to_string(size));
+  }
+  return values;
+}
+
+double CheckpointFile::scalar(const std::string& name, double lo, double hi) const {
+  const double value = get(name, 1)[0];
+  if (!(value >= lo && value <= hi)) {
+    std::ostringstream message;
+    message << "value " << value << " is outside [" << lo << ", " << hi << "]";
+    fail(name, message.str());
+  }
+  return value;
+}
+
+long CheckpointFile::integer(const std::string& name, long lo, long hi) const {
+  const double value = scalar(name, static_cast<double>(lo), static_cast<double>(hi));
+  if (value != std::floor(value)) fail(name, "is not an integer");
+  return static_cast<long>(value);
 }
 
 const std::string& CheckpointFile::text(const std::string& name) const {
@@ -100,23 +129,37 @@ const std::string& CheckpointFile::text(const std::string& name) const {
 void CheckpointFile::write(const std::string& path) const {
   const std::string temporary = path + ".tmp";
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  {
-    const Handle file(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
-                                UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT),
-                      H5Fclose);
-    if (!file.ok()) throw std::runtime_error("cannot create " + temporary);
+  try {
+    const H5Handle file(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
+                                  UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT),
+                        H5Fclose);
+    if (!file.ok()) throw_io_error("cannot create", temporary, errno);
+    std::string checksums;
     for (const auto& [name, values] : numbers_) {
-      write_array(file.get(), "n:" + encode(name), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, values.data(),
+      const std::string stored = "n:" + encode(name);
+      write_array(file.get(), temporary, stored, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, values.data(),
                   values.size());
+      checksums += stored + " " + crc_hex(values.data(), values.size() * sizeof(double)) + "\n";
     }
     for (const auto& [name, text] : texts_) {
-      write_array(file.get(), "t:" + encode(name), H5T_STD_U8LE, H5T_NATIVE_UCHAR, text.data(),
+      const std::string stored = "t:" + encode(name);
+      write_array(file.get(), temporary, stored, H5T_STD_U8LE, H5T_NATIVE_UCHAR, text.data(),
                   text.size());
+      checksums += stored + " " + crc_hex(text.data(), text.size()) + "\n";
     }
+    write_array(file.get(), temporary, kChecksums, H5T_STD_U8LE, H5T_NATIVE_UCHAR, checksums.data(),
+                checksums.size());
     if (H5Fflush(file.get(), H5F_SCOPE_GLOBAL) < 0)
-      throw std::runtime_error("cannot flush " + temporary);
+      throw_io_error("HDF5 cannot write", temporary, errno);
+  } catch (...) {
+    std::remove(temporary.c_str());
+    throw;
   }
-  std::filesystem::rename(temporary, path);
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    std::remove(temporary.c_str());
+    throw_io_error("cannot rename to", path, error);
+  }
 }
 
 CheckpointFile CheckpointFile::read(const std::string& path) {
@@ -124,14 +167,14 @@ CheckpointFile CheckpointFile::read(const std::string& path) {
   result.file_ = path;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   if (!std::filesystem::exists(path)) throw InputError(path + ": no checkpoint");
-  const Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  const H5Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.ok()) throw InputError(path + ": not a readable HDF5 checkpoint");
   ReadContext context{&result, &result.numbers_, &result.texts_, path, ""};
   auto visit = [](hid_t group, const char* raw_name, const H5L_info_t*, void* data) -> herr_t {
     auto* c = static_cast<ReadContext*>(data);
     const std::string name(raw_name);
-    const Handle set(H5Dopen2(group, raw_name, H5P_DEFAULT), H5Dclose);
-    const Handle space(H5Dget_space(set.get()), H5Sclose);
+    const H5Handle set(H5Dopen2(group, raw_name, H5P_DEFAULT), H5Dclose);
+    const H5Handle space(H5Dget_space(set.get()), H5Sclose);
     if (!set.ok() || !space.ok() || H5Sget_simple_extent_ndims(space.get()) != 1) {
       c->error = "unexpected object " + name;
       return -1;
@@ -164,6 +207,38 @@ CheckpointFile CheckpointFile::read(const std::string& path) {
     throw InputError(path + ": corrupt checkpoint" +
                      (context.error.empty() ? "" : " (" + context.error + ")"));
   }
+  // Every dataset against its checksum, and every listed dataset present.
+  const auto listed = result.texts_.find(kChecksums.substr(2));
+  if (listed == result.texts_.end())
+    throw InputError(path + ": not a checkpoint of this version (no dataset checksums)");
+  std::map<std::string, std::string> expected;
+  std::istringstream lines(listed->second);
+  std::string stored, crc;
+  while (lines >> stored >> crc) expected[stored] = crc;
+  for (const auto& [stored_name, want] : expected) {
+    const std::string name =
+        decode(stored_name.substr(std::min<std::size_t>(2, stored_name.size())));
+    std::string have;
+    if (stored_name.rfind("n:", 0) == 0 && result.numbers_.count(name) > 0) {
+      const std::vector<double>& values = result.numbers_.at(name);
+      have = crc_hex(values.data(), values.size() * sizeof(double));
+    } else if (stored_name.rfind("t:", 0) == 0 && result.texts_.count(name) > 0) {
+      const std::string& text = result.texts_.at(name);
+      have = crc_hex(text.data(), text.size());
+    } else {
+      throw InputError(path + ": checkpoint dataset " + name + " is missing");
+    }
+    if (have != want) {
+      throw InputError(path + ": checkpoint dataset " + name + " is damaged (its checksum is " +
+                       have + ", the file lists " + want + ")");
+    }
+  }
+  const std::size_t n_datasets = result.numbers_.size() + result.texts_.size() - 1;
+  if (expected.size() != n_datasets) {
+    throw InputError(path + ": checkpoint holds " + std::to_string(n_datasets) +
+                     " datasets, its checksums list " + std::to_string(expected.size()));
+  }
+  result.texts_.erase(listed);
   return result;
 }
 
@@ -189,32 +264,43 @@ void put_particles(CheckpointFile& file, const Particles& p) {
 }
 
 void get_particles(const CheckpointFile& file, Particles& p) {
-  const std::size_t n = file.get("particles/mass").size();
-  auto sized = [&](const std::string& name, std::size_t per_particle) {
-    const std::vector<double>& values = file.get("particles/" + name);
-    if (values.size() != n * per_particle)
-      throw InputError("checkpoint: particles/" + name + " has the wrong length");
-    return values;
+  const std::size_t n = p.size();  // the case's fill
+  const auto field = [&](const std::string& name, std::size_t per_particle) {
+    return file.get("particles/" + name, n * per_particle);
   };
-  p.position = unflatten<Vec2>(sized("position", 2));
-  p.reference_position = unflatten<Vec2>(sized("reference_position", 2));
-  p.velocity = unflatten<Vec2>(sized("velocity", 2));
-  p.mass = sized("mass", 1);
-  p.volume = sized("volume", 1);
-  p.initial_volume = sized("initial_volume", 1);
-  p.half_length = unflatten<Vec2>(sized("half_length", 2));
-  p.stress = unflatten<Stress>(sized("stress", 4));
-  p.deformation_gradient = unflatten<Mat2>(sized("deformation_gradient", 4));
-  const std::vector<double> plastic = sized("plastic_strain", 1);
-  const std::vector<double> material = sized("material", 1);
-  const std::vector<double> body = sized("body", 1);
-  p.state.assign(n, PointState{});
-  p.material.assign(n, 0);
-  p.body.assign(n, 0);
+  // Fixed at the fill: the checkpoint's must be the case's, bit for bit.
+  const auto same = [&](const std::string& name, const std::vector<double>& fill) {
+    if (field(name, fill.size() / std::max<std::size_t>(n, 1)) != fill)
+      file.fail("particles/" + name, "differs from the case's particles (another case?)");
+  };
+  std::vector<double> material(n), body(n);
   for (std::size_t k = 0; k < n; ++k) {
+    material[k] = p.material[k];
+    body[k] = p.body[k];
+  }
+  same("reference_position", flatten(p.reference_position));
+  same("mass", p.mass);
+  same("initial_volume", p.initial_volume);
+  same("half_length", flatten(p.half_length));
+  same("material", material);
+  same("body", body);
+
+  p.position = unflatten<Vec2>(field("position", 2));
+  p.velocity = unflatten<Vec2>(field("velocity", 2));
+  p.volume = field("volume", 1);
+  p.stress = unflatten<Stress>(field("stress", 4));
+  p.deformation_gradient = unflatten<Mat2>(field("deformation_gradient", 4));
+  const std::vector<double>& plastic = field("plastic_strain", 1);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!(p.volume[k] > 0.0))
+      file.fail("particles/volume", "particle " + std::to_string(k) + " has a volume <= 0");
+    if (!(p.deformation_gradient[k].determinant() > 0.0)) {
+      file.fail("particles/deformation_gradient",
+                "particle " + std::to_string(k) + " has det F <= 0");
+    }
+    if (!(plastic[k] >= 0.0))
+      file.fail("particles/plastic_strain", "particle " + std::to_string(k) + " is negative");
     p.state[k].plastic_strain = plastic[k];
-    p.material[k] = static_cast<int>(material[k]);
-    p.body[k] = static_cast<int>(body[k]);
   }
 }
 
@@ -229,7 +315,7 @@ EnergyLedger get_energy_ledger(const CheckpointFile& file) {
   EnergyLedger ledger;
   const auto fields = ledger.fields();
   for (std::size_t k = 0; k < fields.size(); ++k)
-    *fields[k] = file.scalar("solver/energy/" + std::string(EnergyLedger::kNames[k]));
+    *fields[k] = file.scalar("solver/energy/" + std::string(EnergyLedger::kNames[k]));  // finite
   return ledger;
 }
 

@@ -3,9 +3,15 @@
 // the uninterrupted run ends.
 //
 // The file is a flat set of named datasets: arrays of doubles (IEEE 754 binary64, so values
-// round-trip bitwise; integers are stored exactly below 2^53) and texts (bytes). It is written
-// to checkpoint.h5.tmp and renamed, so a reader sees the previous checkpoint or the new one,
-// never half of one.
+// round-trip bitwise; integers are stored exactly below 2^53) and texts (bytes), and the text
+// "checksums": one line "<dataset> <CRC-32 of its bytes, 8 hex digits>" per dataset (zlib's
+// CRC-32, as Python's zlib.crc32). It is written to checkpoint.h5.tmp and renamed, so a reader
+// sees the previous checkpoint or the new one, never half of one.
+//
+// Reading verifies every checksum and that the listed datasets are all there; a restart then
+// validates every restored value (finite, in range, sizes and indices consistent with the case)
+// as the case reader validates input. Any failure is an InputError naming the file and the
+// dataset (exit 2), so a damaged checkpoint is refused, never continued.
 #pragma once
 
 #include <map>
@@ -25,15 +31,24 @@ class CheckpointFile {
   void put_text(const std::string& name, const std::string& text);
 
   bool has(const std::string& name) const;
-  /// The array `name`; InputError naming the file and the dataset when it is missing.
+  /// The array `name`; InputError naming the file and the dataset when it is missing or holds a
+  /// value that is not finite (no state of a run that went on is).
   const std::vector<double>& get(const std::string& name) const;
-  /// A single value (an array of length 1).
-  double scalar(const std::string& name) const;
+  /// The array `name` with `size` values.
+  const std::vector<double>& get(const std::string& name, std::size_t size) const;
+  /// A single value (an array of length 1), in [lo, hi].
+  double scalar(const std::string& name, double lo = -1e300, double hi = 1e300) const;
+  /// A single value that is an integer in [lo, hi].
+  long integer(const std::string& name, long lo, long hi) const;
   const std::string& text(const std::string& name) const;
+  /// Throws InputError "<file>: checkpoint dataset <name>: <message>".
+  [[noreturn]] void fail(const std::string& name, const std::string& message) const;
 
-  /// Writes `path`.tmp, then renames it to `path`.
+  /// Writes `path`.tmp, then renames it to `path`; IoError when a write fails (the temporary
+  /// is removed, the previous checkpoint stays).
   void write(const std::string& path) const;
-  /// Reads a checkpoint; InputError when the file is missing, unreadable or not a checkpoint.
+  /// Reads a checkpoint; InputError when the file is missing, unreadable, not a checkpoint, or
+  /// a dataset is missing or fails its checksum.
   static CheckpointFile read(const std::string& path);
 
  private:
@@ -44,7 +59,10 @@ class CheckpointFile {
 
 /// Every particle field under "particles/<field>".
 void put_particles(CheckpointFile& file, const Particles& particles);
-/// Restores every particle field; InputError if a field is missing or its length differs.
+/// Restores every particle field over `particles`, which hold the case's fill: InputError if a
+/// field is missing, has another length, or a value is out of range (volume, det F <= 0), or
+/// a field fixed at the fill (reference position, mass, initial volume, material, body) differs
+/// from the case's.
 void get_particles(const CheckpointFile& file, Particles& particles);
 
 /// The energy ledger under "solver/energy/<term>" (EnergyLedger::kNames).

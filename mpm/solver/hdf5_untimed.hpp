@@ -1,12 +1,20 @@
-// HDF5 creation properties without object times: by default HDF5 stamps every dataset (and, on
-// request, group) with the second it was made, so two runs of the same input wrote files that
-// differed in those bytes. With these, the same input and thread count give byte-identical
-// .h5 files.
+// HDF5 helpers. Creation properties without object times: by default HDF5 stamps every dataset
+// (and, on request, group) with the second it was made, so two runs of the same input wrote files
+// that differed in those bytes. With these, the same input and thread count give byte-identical .h5
+// files.
 #pragma once
 
 #include <hdf5.h>
 
+#include <string>
+#include <vector>
+
 namespace pfm {
+
+/// Writes `data` (rows x cols doubles, row-major; 1-D when cols is 1) as dataset `name` of
+/// `group` in the output file `file`; IoError naming the file and dataset when HDF5 fails.
+void write_h5_dataset(hid_t group, const std::string& file, const char* name,
+                      const std::vector<double>& data, std::size_t rows, std::size_t cols);
 
 /// A creation property list of `kind` (H5P_FILE_CREATE, H5P_GROUP_CREATE, H5P_DATASET_CREATE)
 /// that does not record object times; closed at the end of its scope (a temporary lives to the
@@ -25,6 +33,23 @@ class UntimedCreation {
 
  private:
   hid_t id_;
+};
+
+/// Closes an HDF5 handle when it goes out of scope (also when a write throws).
+class H5Handle {
+ public:
+  H5Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~H5Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  H5Handle(const H5Handle&) = delete;
+  H5Handle& operator=(const H5Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
 };
 
 }  // namespace pfm

@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mpm/core/json_input.hpp"
 #include "mpm/solver/hdf5_untimed.hpp"
 
 namespace pfm {
@@ -55,22 +57,31 @@ void TimeSeriesTable::restore(const std::string& text) {
 
 namespace {
 
-void check(herr_t status, const char* what) {
-  if (status < 0) throw std::runtime_error(std::string("HDF5 error: ") + what);
+// A failed HDF5 call on an output file: IoError with the file, the object and the system's
+// reason (HDF5 leaves errno as its last system call set it: ENOSPC on a full disk).
+void check(long status, const std::string& file, const std::string& what) {
+  if (status < 0) throw_io_error("HDF5 cannot write " + what + " in", file, errno);
 }
 
-void write_dataset(hid_t group, const char* name, const std::vector<double>& data, std::size_t rows,
-                   std::size_t cols) {
+}  // namespace
+
+void write_h5_dataset(hid_t group, const std::string& file, const char* name,
+                      const std::vector<double>& data, std::size_t rows, std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
   const hid_t set = H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT,
                                UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-  if (set < 0) throw std::runtime_error(std::string("HDF5: cannot create dataset ") + name);
-  if (rows > 0)
-    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()), name);
-  H5Dclose(set);
+  const int error = errno;
   H5Sclose(space);
+  if (set < 0)
+    throw_io_error(std::string("HDF5 cannot create dataset ") + name + " in", file, error);
+  const herr_t status =
+      rows > 0 ? H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) : 0;
+  H5Dclose(set);
+  check(status, file, name);
 }
+
+namespace {
 
 std::string fmt(double v) {
   char buffer[32];
@@ -86,36 +97,38 @@ std::string step_group(long step) {
 
 /// Rebuilds `directory`/`file_name` with only the objects `names` of the old file (copied in
 /// order), written to a temporary file and renamed; returns the reopened file (read-write).
-hid_t rebuild_keeping(const std::string& directory, const std::string& file_name,
-                      const std::vector<std::string>& names) {
+hid_t rebuild_keeping(const std::string& path, const std::vector<std::string>& names) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const std::string path = directory + "/" + file_name, temporary = path + ".rebuild";
+  const std::string temporary = path + ".rebuild";
   const hid_t old_file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (old_file < 0) throw std::runtime_error("restart: cannot open " + path);
+  if (old_file < 0) throw InputError(path + ": missing or not a readable HDF5 file (restart)");
   const hid_t new_file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
                                    UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (new_file < 0) {
+    const int error = errno;
     H5Fclose(old_file);
-    throw std::runtime_error("restart: cannot create " + temporary);
+    throw_io_error("cannot create", temporary, error);
   }
   for (const std::string& name : names) {
     if (H5Ocopy(old_file, name.c_str(), new_file, name.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) {
       H5Fclose(old_file);
       H5Fclose(new_file);
-      throw std::runtime_error("restart: " + path + " has no readable " + name);
+      std::remove(temporary.c_str());
+      throw InputError(path + ": has no readable " + name + " (restart)");
     }
   }
   H5Fclose(old_file);
-  H5Fclose(new_file);
-  std::filesystem::rename(temporary, path);
+  if (H5Fclose(new_file) < 0) throw_io_error("cannot write", temporary, errno);
+  if (std::rename(temporary.c_str(), path.c_str()) != 0)
+    throw_io_error("cannot rename to", path, errno);
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-  if (file < 0) throw std::runtime_error("restart: cannot reopen " + path);
+  if (file < 0) throw_io_error("cannot reopen", path, errno);
   return file;
 }
 
 std::size_t dataset_rows(hid_t file, const std::string& name) {
   const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
-  if (set < 0) throw std::runtime_error("restart: no dataset " + name);
+  if (set < 0) throw InputError("restart: the output file has no dataset " + name);
   const hid_t space = H5Dget_space(set);
   hsize_t dims[2] = {0, 0};
   H5Sget_simple_extent_dims(space, dims, nullptr);
@@ -126,34 +139,21 @@ std::size_t dataset_rows(hid_t file, const std::string& name) {
 
 }  // namespace
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("error while writing " + temporary);
-  }
-  std::filesystem::rename(temporary, path);
-}
-
-ParticleSeriesWriter::ParticleSeriesWriter(std::string directory)
-    : directory_(std::move(directory)) {
+ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder)
+    : h5_path_(folder.file("particles.h5")), xdmf_path_(folder.file("particles.xdmf")) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const std::string path = directory_ + "/particles.h5";
-  file_ =
-      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
-  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+  file_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(),
+                    H5P_DEFAULT);
+  if (file_ < 0) throw_io_error("cannot create", h5_path_, errno);
 }
 
-ParticleSeriesWriter::ParticleSeriesWriter(std::string directory,
+ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder,
                                            const std::vector<std::pair<double, long>>& keep)
-    : directory_(std::move(directory)) {
+    : h5_path_(folder.file("particles.h5")), xdmf_path_(folder.file("particles.xdmf")) {
   std::vector<std::string> names;
   if (!keep.empty()) names.push_back("connectivity");
   for (const auto& [time, step] : keep) names.push_back(step_group(step));
-  file_ = rebuild_keeping(directory_, "particles.h5", names);
+  file_ = rebuild_keeping(h5_path_, names);
   for (const auto& [time, step] : keep) {
     times_.push_back(time);
     groups_.push_back(step_group(step));
@@ -177,19 +177,22 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     const hid_t set =
         H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space, H5P_DEFAULT,
                    UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-    if (set < 0) throw std::runtime_error("HDF5: cannot create dataset connectivity");
-    if (!connectivity.empty()) {
-      check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, connectivity.data()),
-            "connectivity");
-    }
-    H5Dclose(set);
+    const int error = errno;
     H5Sclose(space);
+    if (set < 0) throw_io_error("HDF5 cannot create dataset connectivity in", h5_path_, error);
+    const herr_t status = connectivity.empty() ? 0
+                                               : H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL,
+                                                          H5P_DEFAULT, connectivity.data());
+    H5Dclose(set);
+    check(status, h5_path_, "connectivity");
   }
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
-  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+                       H5Gclose);
+  if (!group.ok())
+    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
   const std::size_t n = particles.size();
   std::vector<double> buffer;
   auto vec3 = [&](auto get) {
@@ -205,34 +208,33 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     for (std::size_t p = 0; p < n; ++p) buffer[p] = get(p);
   };
   vec3([&](std::size_t p) { return particles.position[p]; });
-  write_dataset(group, "position", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "position", buffer, n, 3);
   vec3(
       [&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
-  write_dataset(group, "displacement", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "displacement", buffer, n, 3);
   vec3([&](std::size_t p) { return particles.velocity[p]; });
-  write_dataset(group, "velocity", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "velocity", buffer, n, 3);
   const char* stress_names[4] = {"sxx", "syy", "sxy", "szz"};
   for (int k = 0; k < 4; ++k) {
     scalar([&](std::size_t p) { return particles.stress[p][k]; });
-    write_dataset(group, stress_names[k], buffer, n, 1);
+    write_h5_dataset(group.get(), h5_path_, stress_names[k], buffer, n, 1);
   }
   scalar([&](std::size_t p) { return particles.state[p].plastic_strain; });
-  write_dataset(group, "eps_p", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "eps_p", buffer, n, 1);
   scalar([&](std::size_t p) { return particles.volume[p]; });
-  write_dataset(group, "volume", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "volume", buffer, n, 1);
   scalar([&](std::size_t p) { return static_cast<double>(p); });
-  write_dataset(group, "id", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "id", buffer, n, 1);
   scalar([&](std::size_t p) { return static_cast<double>(particles.material[p]); });
-  write_dataset(group, "material", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "material", buffer, n, 1);
   scalar([&](std::size_t p) { return static_cast<double>(particles.body[p]); });
-  write_dataset(group, "body", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "body", buffer, n, 1);
   const char* gradient_names[4] = {"F11", "F12", "F21", "F22"};
   for (int k = 0; k < 4; ++k) {
     scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
-    write_dataset(group, gradient_names[k], buffer, n, 1);
+    write_h5_dataset(group.get(), h5_path_, gradient_names[k], buffer, n, 1);
   }
-  H5Gclose(group);
-  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), "flush");
+  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
   times_.push_back(time);
   groups_.push_back(name);
   counts_.push_back(n);
@@ -271,24 +273,23 @@ void ParticleSeriesWriter::write_xdmf() const {
     x << "</Grid>\n";
   }
   x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(directory_ + "/particles.xdmf", x.str());
+  write_file_atomically(xdmf_path_, x.str());
 }
 
-BoundarySeriesWriter::BoundarySeriesWriter(std::string directory)
-    : directory_(std::move(directory)) {
+BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder)
+    : h5_path_(folder.file("boundary.h5")), xdmf_path_(folder.file("boundary.xdmf")) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const std::string path = directory_ + "/boundary.h5";
-  file_ =
-      H5Fcreate(path.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
-  if (file_ < 0) throw std::runtime_error("cannot create " + path);
+  file_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(),
+                    H5P_DEFAULT);
+  if (file_ < 0) throw_io_error("cannot create", h5_path_, errno);
 }
 
-BoundarySeriesWriter::BoundarySeriesWriter(std::string directory,
+BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder,
                                            const std::vector<std::pair<double, long>>& keep)
-    : directory_(std::move(directory)) {
+    : h5_path_(folder.file("boundary.h5")), xdmf_path_(folder.file("boundary.xdmf")) {
   std::vector<std::string> names;
   for (const auto& [time, step] : keep) names.push_back(step_group(step));
-  file_ = rebuild_keeping(directory_, "boundary.h5", names);
+  file_ = rebuild_keeping(h5_path_, names);
   for (const auto& [time, step] : keep) {
     times_.push_back(time);
     groups_.push_back(step_group(step));
@@ -320,27 +321,29 @@ void BoundarySeriesWriter::write(double time, long step,
   }
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const hid_t group = H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                 UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT);
-  if (group < 0) throw std::runtime_error(std::string("HDF5: cannot create group ") + name);
+  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
+                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+                       H5Gclose);
+  if (!group.ok())
+    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
   const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
-  write_dataset(group, "position", position, n_points, 3);
-  write_dataset(group, "loop", loop_of_point, n_points, 1);
+  write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3);
+  write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1);
   {
     hsize_t dims[2] = {n_segments, 2};
     const hid_t space = H5Screate_simple(2, dims, nullptr);
-    const hid_t set = H5Dcreate2(group, "segments", H5T_STD_I64LE, space, H5P_DEFAULT,
+    const hid_t set = H5Dcreate2(group.get(), "segments", H5T_STD_I64LE, space, H5P_DEFAULT,
                                  UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-    if (set < 0) throw std::runtime_error("HDF5: cannot create dataset segments");
-    if (n_segments > 0) {
-      check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, segments.data()),
-            "segments");
-    }
-    H5Dclose(set);
+    const int error = errno;
     H5Sclose(space);
+    if (set < 0) throw_io_error("HDF5 cannot create dataset segments in", h5_path_, error);
+    const herr_t status = n_segments > 0 ? H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL,
+                                                    H5P_DEFAULT, segments.data())
+                                         : 0;
+    H5Dclose(set);
+    check(status, h5_path_, "segments");
   }
-  H5Gclose(group);
-  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), "flush");
+  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
   times_.push_back(time);
   groups_.push_back(name);
   points_.push_back(n_points);
@@ -370,7 +373,7 @@ void BoundarySeriesWriter::write_xdmf() const {
       << "/loop</DataItem></Attribute>\n</Grid>\n";
   }
   x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(directory_ + "/boundary.xdmf", x.str());
+  write_file_atomically(xdmf_path_, x.str());
 }
 
 std::string particles_csv(const Particles& particles) {

@@ -8,13 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "mpm/core/output_folder.hpp"
 #include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/particles.hpp"
 
 namespace pfm {
-
-/// Write `text` to `path` atomically (temporary file in the same directory, then rename).
-void write_file_atomically(const std::string& path, const std::string& text);
 
 /// `v` with 17 significant digits (reads back to the same double).
 std::string format_exact(double v);
@@ -68,10 +66,10 @@ class TimeSeriesTable {
 /// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start).
 class ParticleSeriesWriter {
  public:
-  explicit ParticleSeriesWriter(std::string directory);
+  explicit ParticleSeriesWriter(OutputFolder& folder);
   /// Resumes the series of a restarted run: particles.h5 is rebuilt with only the given
   /// output steps (time, step) of the old file, in that order (later steps are dropped).
-  ParticleSeriesWriter(std::string directory, const std::vector<std::pair<double, long>>& keep);
+  ParticleSeriesWriter(OutputFolder& folder, const std::vector<std::pair<double, long>>& keep);
   ~ParticleSeriesWriter();
   ParticleSeriesWriter(const ParticleSeriesWriter&) = delete;
   ParticleSeriesWriter& operator=(const ParticleSeriesWriter&) = delete;
@@ -82,7 +80,7 @@ class ParticleSeriesWriter {
 
  private:
   void write_xdmf() const;
-  std::string directory_;
+  std::string h5_path_, xdmf_path_;
   long file_ = -1;  // hid_t
   std::vector<double> times_;
   std::vector<std::string> groups_;
@@ -95,9 +93,9 @@ class ParticleSeriesWriter {
 /// point indices), loop (P, the loop number of each point, as in the boundary CSV).
 class BoundarySeriesWriter {
  public:
-  explicit BoundarySeriesWriter(std::string directory);
+  explicit BoundarySeriesWriter(OutputFolder& folder);
   /// Resumes the series of a restarted run (as ParticleSeriesWriter).
-  BoundarySeriesWriter(std::string directory, const std::vector<std::pair<double, long>>& keep);
+  BoundarySeriesWriter(OutputFolder& folder, const std::vector<std::pair<double, long>>& keep);
   ~BoundarySeriesWriter();
   BoundarySeriesWriter(const BoundarySeriesWriter&) = delete;
   BoundarySeriesWriter& operator=(const BoundarySeriesWriter&) = delete;
@@ -108,7 +106,7 @@ class BoundarySeriesWriter {
 
  private:
   void write_xdmf() const;
-  std::string directory_;
+  std::string h5_path_, xdmf_path_;
   long file_ = -1;  // hid_t
   std::vector<double> times_;
   std::vector<std::string> groups_;

@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <optional>
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
@@ -56,23 +55,24 @@ class Progress {
 
 }  // namespace
 
-void prepare_output_directory(const std::string& out_dir) {
-  if (out_dir.empty()) throw InputError("--out: an output directory is required");
-  std::error_code error;
-  if (fs::exists(out_dir, error)) {
-    if (!fs::is_directory(out_dir))
-      throw InputError("--out " + out_dir + ": exists and is not a directory");
-    if (!fs::is_empty(out_dir)) {
-      if (!fs::exists(fs::path(out_dir) / "run.json")) {
-        throw InputError(
-            "--out " + out_dir +
-            ": directory exists and is not a pfm-mpm output directory (no run.json); " +
-            "refusing to overwrite it");
-      }
-      fs::remove_all(out_dir);
-    }
+OutputFolder::Mode output_folder_mode(const RunOptions& options) {
+  if (options.restart) return OutputFolder::Mode::kResume;
+  return options.overwrite ? OutputFolder::Mode::kOverwrite : OutputFolder::Mode::kNew;
+}
+
+int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error) {
+  std::cerr << "pfm-mpm: write failed: " << error.what() << "\n";
+  folder.release_reserve();
+  run["status"] = "failed";
+  run["error"] = std::string("write failed: ") + error.what();
+  run["provenance"]["finished_utc"] = utc_now();
+  try {
+    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
+  } catch (const IoError&) {
+    std::cerr << "pfm-mpm: run.json could not be marked failed either\n";
   }
-  fs::create_directories(out_dir);
+  folder.remove_temporaries();
+  return kExitIoError;
 }
 
 int run_case(const Case& c, const RunOptions& options) {
@@ -81,27 +81,24 @@ int run_case(const Case& c, const RunOptions& options) {
   MpmSolver solver(c);  // may throw InputError: nothing created yet
   check_run_length(c, solver.dt());
   BoundaryCoupling coupling(c);
+  OutputFolder folder(options.out_dir, output_folder_mode(options),
+                      options.restart ? "--restart" : "--out");
   const std::string dir = options.out_dir;
   const std::string checkpoint_path = dir + "/checkpoint.h5";
 
   nlohmann::json run;
-  std::optional<CheckpointFile> restart;
   if (options.restart) {
-    // Continue from the latest checkpoint: nothing is touched until it has been read.
-    restart = CheckpointFile::read(checkpoint_path);
     run = read_json_file(dir + "/run.json");
     run["status"] = "running";
-    run["restarts"].push_back({{"utc", utc_now()},
-                               {"from_step", static_cast<long>(restart->scalar("solver/step"))},
-                               {"command", options.command_line},
-                               {"threads", threads}});
+    run.erase("error");
   } else {
-    prepare_output_directory(options.out_dir);
     run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
     run["case"] = c.source;
     run["status"] = "running";
   }
-  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  // What --restart takes again unless it is given other settings.
+  run["checkpoint"] = {{"steps", options.checkpoint_steps},
+                       {"seconds", options.checkpoint_seconds}};
 
   TimeSeriesTable series(coupling.has_surface_loads());
   auto record = [&](const MpmSolver& s) {
@@ -127,34 +124,46 @@ int run_case(const Case& c, const RunOptions& options) {
     file.put("run/next_series", next_series);
     file.put_text("run/timeseries", series.text());
     file.put_text("run/outputs", outputs.dump());
-    file.write(checkpoint_path);
+    file.write(folder.file("checkpoint.h5"));
   };
+  const long n_steps = static_cast<long>(std::ceil(c.time.end_time / solver.dt() - 1e-9));
   auto restore_checkpoint = [&](const CheckpointFile& file) {
-    // The solver's work arrays are sized for the case's particles.
-    const std::size_t filled = solver.particles().size();
-    get_particles(file, solver.mutable_particles());
-    if (solver.particles().size() != solver.particles().mass.size())
-      throw InputError(checkpoint_path + ": inconsistent particle arrays");
-    if (solver.particles().size() != filled) {
-      throw InputError(checkpoint_path + ": holds " + std::to_string(solver.particles().size()) +
-                       " particles, the case fills " + std::to_string(filled));
-    }
+    // Every value as the case reader would check it (checkpoint.hpp): a damaged checkpoint is
+    // refused with the dataset's name, never continued.
+    get_particles(file, solver.mutable_particles());  // the case's fill is there to compare
     SolverCounters n;
-    n.time = file.scalar("solver/time");
-    n.step = static_cast<long>(file.scalar("solver/step"));
     n.dt = file.scalar("solver/dt");
-    n.damping = file.scalar("solver/damping");
-    n.loads_active = file.scalar("solver/loads_active") != 0.0;
-    n.gravity_full = file.scalar("solver/gravity_full") != 0.0;
-    n.initial_stress_steps = static_cast<long>(file.scalar("solver/initial_stress_steps"));
+    if (n.dt != solver.dt()) file.fail("solver/dt", "is not the case's time step");
+    n.step = file.integer("solver/step", 0, n_steps - 1);
+    n.time = file.scalar("solver/time", 0.0, c.time.end_time);
+    if (std::abs(n.time - static_cast<double>(n.step) * n.dt) > 1e-6 * (n.time + n.dt))
+      file.fail("solver/time", "is not the step count times the time step");
+    n.damping = file.scalar("solver/damping", 0.0, 1e300);
+    n.loads_active = file.integer("solver/loads_active", 0, 1) == 1;
+    n.gravity_full = file.integer("solver/gravity_full", 0, 1) == 1;
+    n.initial_stress_steps =
+        file.integer("solver/initial_stress_steps", 0, static_cast<long>(c.time.max_steps));
     n.energy = get_energy_ledger(file);
     solver.restore(n);
     coupling.attach(solver);
     coupling.restore(file);
-    next_output = file.scalar("run/next_output");
-    next_series = file.scalar("run/next_series");
-    series.restore(file.text("run/timeseries"));
-    outputs = nlohmann::json::parse(file.text("run/outputs"));
+    const double past = n.time - n.dt;
+    next_output = file.scalar("run/next_output", past, n.time + c.output.interval + n.dt);
+    next_series =
+        file.scalar("run/next_series", past, n.time + c.output.timeseries_interval + n.dt);
+    const std::string& table = file.text("run/timeseries");
+    const std::string header = series.text();
+    if (table.compare(0, header.size(), header) != 0)
+      file.fail("run/timeseries", "does not start with this run's column names");
+    series.restore(table);
+    outputs = nlohmann::json::parse(file.text("run/outputs"), nullptr, false);
+    bool valid = outputs.is_array();
+    for (const auto& entry : valid ? outputs : nlohmann::json::array()) {
+      valid = valid && entry.is_object() && entry.contains("step") && entry.contains("time") &&
+              entry["step"].is_number_integer() && entry["time"].is_number() &&
+              entry["step"].get<long>() >= 0 && entry["step"].get<long>() <= n.step;
+    }
+    if (!valid) file.fail("run/outputs", "is not the list of output steps before the checkpoint");
   };
   auto write_output = [&](ParticleSeriesWriter& writer) {
     writer.write(solver.time(), solver.step_count(), solver.particles());
@@ -163,14 +172,14 @@ int run_case(const Case& c, const RunOptions& options) {
       const DetectedBoundary& boundary = coupling.current_boundary();
       char name[40];
       std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
-      write_file_atomically(dir + "/" + name, boundary_csv(boundary));
+      write_file_atomically(folder.file(name), boundary_csv(boundary));
       std::vector<std::vector<Vec2>> loops;
       std::vector<bool> closed;
       for (const Contour& contour : boundary.contours) {
         loops.push_back(contour.points);
         closed.push_back(contour.closed);
       }
-      if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(dir);
+      if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(folder);
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
       entry["boundary"] = name;
       // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
@@ -194,30 +203,46 @@ int run_case(const Case& c, const RunOptions& options) {
       }
       char name[40];
       std::snprintf(name, sizeof name, "nodal_loads_%08ld.csv", solver.step_count());
-      write_file_atomically(dir + "/" + name, csv.str());
+      write_file_atomically(folder.file(name), csv.str());
       entry["nodal_loads"] = name;
     }
     outputs.push_back(entry);
   };
+
+  std::unique_ptr<ParticleSeriesWriter> writer_owner;
+  if (options.restart) {
+    // Nothing is touched until the checkpoint has been read and validated.
+    restore_checkpoint(CheckpointFile::read(checkpoint_path));
+    run["restarts"].push_back({{"utc", utc_now()},
+                               {"from_step", solver.step_count()},
+                               {"command", options.command_line},
+                               {"threads", threads}});
+  }
+  try {
+    if (options.restart) {
+      std::vector<std::pair<double, long>> keep;
+      for (const auto& entry : outputs)
+        keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
+      writer_owner = std::make_unique<ParticleSeriesWriter>(folder, keep);
+      if (coupling.detection_enabled())
+        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, keep);
+    }
+    const std::string text = run.dump(2) + "\n";
+    write_file_atomically(folder.file("run.json"), text);
+    folder.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
 
   const auto wall_start = std::chrono::steady_clock::now();
   long initial_steps = 0;
   int status = kExitOk;
   std::string message;
   try {
-    std::unique_ptr<ParticleSeriesWriter> writer_owner;
-    if (restart) {
-      restore_checkpoint(*restart);
-      std::vector<std::pair<double, long>> keep;
-      for (const auto& entry : outputs)
-        keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
-      writer_owner = std::make_unique<ParticleSeriesWriter>(dir, keep);
-      if (coupling.detection_enabled())
-        boundary_writer = std::make_unique<BoundarySeriesWriter>(dir, keep);
-    } else {
+    if (!options.restart) {
       solver.initialise_stress();
       coupling.attach(solver);
-      writer_owner = std::make_unique<ParticleSeriesWriter>(dir);
+      writer_owner = std::make_unique<ParticleSeriesWriter>(folder);
       write_output(*writer_owner);
       record(solver);
     }
@@ -225,7 +250,6 @@ int run_case(const Case& c, const RunOptions& options) {
     ParticleSeriesWriter& writer = *writer_owner;
     const double end = c.time.end_time;
     const double eps = 1e-9 * solver.dt();
-    const long n_steps = static_cast<long>(std::ceil(end / solver.dt() - 1e-9));
     Progress progress(options.progress);
     auto last_checkpoint = std::chrono::steady_clock::now();
     for (long k = solver.step_count(); k < n_steps; ++k) {
@@ -238,7 +262,7 @@ int run_case(const Case& c, const RunOptions& options) {
       }
       if (t >= next_output - eps || k + 1 == n_steps) {
         write_output(writer);
-        write_file_atomically(dir + "/timeseries.csv", series.text());
+        write_file_atomically(folder.file("timeseries.csv"), series.text());
         while (next_output <= t + eps) next_output += c.output.interval;
       }
       const bool by_steps =
@@ -253,14 +277,22 @@ int run_case(const Case& c, const RunOptions& options) {
       }
       progress.update(solver.step_count(), t, end);
     }
-    write_file_atomically(dir + "/final_particles.csv", particles_csv(solver.particles()));
+    write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
     status = kExitSimulationError;
     message = e.what();
     std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
               << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+  } catch (const IoError& e) {
+    writer_owner.reset();  // closes the HDF5 files before run.json is marked
+    boundary_writer.reset();
+    return fail_on_write_fault(folder, run, e);
   }
-  write_file_atomically(dir + "/timeseries.csv", series.text());
+  try {
+    write_file_atomically(folder.file("timeseries.csv"), series.text());
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -318,7 +350,12 @@ int run_case(const Case& c, const RunOptions& options) {
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
   run["summary"]["threads"] = governor.summary();
-  write_file_atomically(dir + "/run.json", run.dump(2) + "\n");
+  try {
+    folder.release_reserve();  // the disk it kept is the final run.json's
+    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
   return status;
 }
 

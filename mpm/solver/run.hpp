@@ -10,10 +10,14 @@
 //                         detected boundary, columns loop,x,y (mpm/detect/contour.hpp order)
 //   boundary.h5/.xdmf     the same boundaries as polylines (ParaView: open beside particles)
 //   checkpoint.h5         the complete state at the latest checkpoint (for --restart)
+//   .pfm-mpm-files        the files this program wrote here (the only ones it ever removes)
+//   .pfm-mpm.lock         held while a run or restart uses the folder (mpm/core/output_folder.hpp)
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 
+#include "mpm/core/output_folder.hpp"
 #include "mpm/solver/case.hpp"
 
 namespace pfm {
@@ -29,23 +33,32 @@ struct RunOptions {
   double checkpoint_seconds = 600.0;
   /// Continue the run in out_dir from its checkpoint (the case comes from its run.json).
   bool restart = false;
+  /// Write into an out_dir that holds files which are not this program's (they are kept).
+  bool overwrite = false;
 };
 
-/// Exit codes of the command-line tool.
+/// Exit codes of the command-line tools (README "Exit codes"). 1 is left to what no handler
+/// foresaw (a bug), so that a handled condition never exits 1.
 enum ExitCode : int {
   kExitOk = 0,
-  kExitFailure = 1,
-  kExitInputError = 2,
-  kExitSimulationError = 3
+  kExitInternalError = 1,    ///< an unforeseen exception: a bug to report
+  kExitInputError = 2,       ///< bad input or a refused request (nothing written or removed)
+  kExitSimulationError = 3,  ///< the simulation stopped; outputs up to the last good step kept
+  kExitIoError = 4           ///< a write failed (full disk, unwritable folder) or memory ran out
 };
 
-/// Prepare the output directory: create it, or clear it if it holds a previous run (run.json);
-/// InputError if it exists with other content.
-void prepare_output_directory(const std::string& out_dir);
+/// The output folder of a new run (OutputFolder::Mode::kNew, or kOverwrite with
+/// options.overwrite) or of a restart (kResume).
+OutputFolder::Mode output_folder_mode(const RunOptions& options);
 
-/// Run a validated case. Returns kExitOk, or kExitSimulationError after writing run.json with
-/// status "failed" and keeping the outputs written so far. InputError propagates (nothing is
-/// created when the case or options are invalid).
+/// Ends a run that a write fault stopped: prints the reason, marks run.json "failed" with it
+/// when that write still succeeds, removes the folder's temporaries. Returns kExitIoError.
+int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error);
+
+/// Run a validated case. Returns kExitOk, kExitSimulationError after writing run.json with
+/// status "failed" and keeping the outputs written so far, or kExitIoError after a write fault
+/// (fail_on_write_fault). InputError propagates (nothing is created when the case or options
+/// are invalid).
 int run_case(const Case& c, const RunOptions& options);
 
 }  // namespace pfm

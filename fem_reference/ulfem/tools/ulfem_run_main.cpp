@@ -2,7 +2,10 @@
 //
 //   pfm-ulfem CASE.json OUT_DIR [THREADS]
 //
-// Exit codes as pfm-mpm: 0 done, 2 bad input (nothing written), 3 the simulation stopped.
+// Exit codes as pfm-mpm (mpm/solver/run.hpp): 0 done, 2 bad input, 3 the simulation stopped,
+// 4 a write failed.
+#include <hdf5.h>
+
 #include <iostream>
 #include <string>
 
@@ -12,6 +15,7 @@
 #include "mpm/solver/mpm_solver.hpp"
 
 int main(int argc, char** argv) {
+  H5dont_atexit();           // as pfm-mpm (mpm/app/main.cpp)
   pfm::keep_freed_memory();  // as pfm-mpm: its runs and this one on the same heap policy
   if (argc < 3) {
     std::cerr << "usage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
@@ -32,8 +36,11 @@ int main(int argc, char** argv) {
   } catch (const pfm::InputError& e) {
     std::cerr << "pfm-ulfem: error: " << e.what() << "\n";
     return pfm::kExitInputError;
+  } catch (const pfm::IoError& e) {
+    std::cerr << "pfm-ulfem: write failed: " << e.what() << "\n";
+    return pfm::kExitIoError;
   } catch (const std::exception& e) {
-    std::cerr << "pfm-ulfem: failure: " << e.what() << "\n";
-    return pfm::kExitFailure;
+    std::cerr << "pfm-ulfem: internal error (please report it): " << e.what() << "\n";
+    return pfm::kExitInternalError;
   }
 }
