@@ -1,7 +1,9 @@
-// Closed polygons (no repeated closing vertex): signed area and point containment, shared by
-// the case reader, the body fill and the detector's loop classes.
+// Closed polygons (no repeated closing vertex): signed area, point containment and the segment
+// test of the case reader's simplicity check, shared by the case reader, the body fill and the
+// detector's loop classes.
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include "mpm/core/types.hpp"
@@ -33,6 +35,25 @@ inline bool point_in_polygon(const std::vector<Vec2>& polygon, const Vec2& x) {
     }
   }
   return inside;
+}
+
+/// (b - a) x (c - a): positive when c lies to the left of a -> b.
+inline double orient(const Vec2& a, const Vec2& b, const Vec2& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+/// Whether segments p1-p2 and q1-q2 share a point (crossing, touching or overlapping).
+inline bool segments_intersect(const Vec2& p1, const Vec2& p2, const Vec2& q1, const Vec2& q2) {
+  const auto in_box = [](const Vec2& a, const Vec2& b, const Vec2& p) {
+    return std::min(a.x(), b.x()) <= p.x() && p.x() <= std::max(a.x(), b.x()) &&
+           std::min(a.y(), b.y()) <= p.y() && p.y() <= std::max(a.y(), b.y());
+  };
+  const double d1 = orient(q1, q2, p1), d2 = orient(q1, q2, p2);
+  const double d3 = orient(p1, p2, q1), d4 = orient(p1, p2, q2);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0)))
+    return true;
+  return (d1 == 0 && in_box(q1, q2, p1)) || (d2 == 0 && in_box(q1, q2, p2)) ||
+         (d3 == 0 && in_box(p1, p2, q1)) || (d4 == 0 && in_box(p1, p2, q2));
 }
 
 }  // namespace pfm

@@ -1,6 +1,8 @@
 #include "mpm/core/provenance.hpp"
 
 #include <omp.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -74,6 +76,24 @@ int other_runnable_threads() {
     fewest = fewest < 0 ? others : std::min(fewest, others);
   }
   return fewest;
+}
+
+double available_memory_bytes() {
+  double bytes =
+      static_cast<double>(sysconf(_SC_PHYS_PAGES)) * static_cast<double>(sysconf(_SC_PAGESIZE));
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key, unit;
+  double kilobytes = 0.0;
+  while (meminfo >> key >> kilobytes >> unit) {
+    if (key == "MemAvailable:") {
+      bytes = kilobytes * 1024.0;
+      break;
+    }
+  }
+  rlimit limit{};
+  if (getrlimit(RLIMIT_AS, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
+    bytes = std::min(bytes, static_cast<double>(limit.rlim_cur));
+  return bytes;
 }
 
 int threads_for_load(int cores, int busy) {

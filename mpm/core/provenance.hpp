@@ -17,6 +17,10 @@ std::string utc_now();
 /// a moment is not a busy job); 0 where /proc cannot be read.
 int other_runnable_threads();
 
+/// Memory this process could take without swapping, bytes: /proc/meminfo's MemAvailable (the
+/// physical memory where that is not readable), at most the address-space limit (ulimit -v).
+double available_memory_bytes();
+
 /// The thread count for `cores` cores of which `busy` are kept busy by other processes: the
 /// cores left, at least one. Two threads sharing one core with another busy job are slower than
 /// one: a step waits at each of its dozen synchronisations for the thread the job delays

@@ -18,7 +18,7 @@ namespace pfm {
 
 namespace {
 
-// At most as many grid nodes as the case reader allows (mpm/solver/case.cpp).
+// The detection grid holds fields only (no solver arrays): at most 5e7 nodes.
 constexpr double kMaxGridNodes = 5e7;
 
 std::string trim(const std::string& s) {

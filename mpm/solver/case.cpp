@@ -9,6 +9,8 @@
 
 #include "mpm/boundary/load_input.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/polygon.hpp"
+#include "mpm/core/provenance.hpp"
 
 namespace pfm {
 
@@ -106,26 +108,6 @@ MaterialRecord parse_material(const JsonView& v) {
   return record;
 }
 
-// Cross product sign of (b - a) x (c - a).
-double orient(const Vec2& a, const Vec2& b, const Vec2& c) {
-  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
-}
-
-bool on_segment(const Vec2& a, const Vec2& b, const Vec2& p) {
-  return std::min(a.x(), b.x()) <= p.x() && p.x() <= std::max(a.x(), b.x()) &&
-         std::min(a.y(), b.y()) <= p.y() && p.y() <= std::max(a.y(), b.y());
-}
-
-bool segments_intersect(const Vec2& p1, const Vec2& p2, const Vec2& q1, const Vec2& q2) {
-  const double d1 = orient(q1, q2, p1), d2 = orient(q1, q2, p2);
-  const double d3 = orient(p1, p2, q1), d4 = orient(p1, p2, q2);
-  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) {
-    return true;
-  }
-  return (d1 == 0 && on_segment(q1, q2, p1)) || (d2 == 0 && on_segment(q1, q2, p2)) ||
-         (d3 == 0 && on_segment(p1, p2, q1)) || (d4 == 0 && on_segment(p1, p2, q2));
-}
-
 std::vector<Vec2> parse_polygon(const JsonView& body, const Grid& grid) {
   std::vector<Vec2> polygon;
   const bool has_rectangle = body.has("rectangle"), has_polygon = body.has("polygon");
@@ -198,17 +180,37 @@ double largest_wave_speed(const Case& c) {
   return speed;
 }
 
+double estimated_particles(const Case& c) {
+  double count = 0.0;
+  const double cell_area = c.grid.cell_size * c.grid.cell_size;
+  for (const BodySpec& body : c.bodies) {
+    const double per_cell = static_cast<double>(body.points_per_cell) * body.points_per_cell;
+    count += std::abs(polygon_signed_area(body.polygon)) / cell_area * per_cell;
+  }
+  return count;
+}
+
+double estimated_memory_bytes(const Case& c) {
+  const double nodes = (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0);
+  return nodes * kBytesPerGridNode + estimated_particles(c) * kBytesPerParticle;
+}
+
+// Shamos and Hoey's sweep (1976): a line sweeps the edges left to right, holding those it crosses
+// ordered by height; the first intersection, if any, is between two edges that are neighbours
+// in that order at some moment, so each edge is tested only against its neighbours when it
+// enters and against each other when an edge between them leaves: O(n log n). Edges sharing a
+// vertex may touch there; every other contact (crossing, a vertex on an edge, a collinear
+// overlap) counts.
 bool polygon_self_intersects(const std::vector<Vec2>& polygon) {
   const std::size_t n = polygon.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = i + 1; j < n; ++j) {
-      if ((polygon[i] - polygon[j]).norm() == 0.0) return true;  // repeated vertex
-      const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
-      if (adjacent) continue;
-      if (segments_intersect(polygon[i], polygon[(i + 1) % n], polygon[j], polygon[(j + 1) % n])) {
-        return true;
-      }
-    }
+  const auto before = [](const Vec2& a, const Vec2& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  };
+  {
+    std::vector<Vec2> sorted = polygon;
+    std::sort(sorted.begin(), sorted.end(), before);
+    for (std::size_t k = 1; k < n; ++k)
+      if (sorted[k] == sorted[k - 1]) return true;  // a vertex repeats
   }
   // Adjacent edges folding back onto each other (collinear overlap).
   for (std::size_t i = 0; i < n; ++i) {
@@ -216,6 +218,76 @@ bool polygon_self_intersects(const std::vector<Vec2>& polygon) {
     const Vec2& b = polygon[i];
     const Vec2& c = polygon[(i + 1) % n];
     if (orient(a, b, c) == 0.0 && (a - b).dot(c - b) > 0.0) return true;
+  }
+
+  struct Edge {
+    Vec2 left, right;  // lexicographically ordered ends
+  };
+  std::vector<Edge> edges(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 &a = polygon[i], &b = polygon[(i + 1) % n];
+    edges[i] = before(a, b) ? Edge{a, b} : Edge{b, a};
+  }
+  struct Event {
+    Vec2 at;
+    int starts;  // 0: the edge leaves (processed first at a point), 1: it enters
+    std::size_t edge;
+  };
+  std::vector<Event> events;
+  events.reserve(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    events.push_back({edges[i].left, 1, i});
+    events.push_back({edges[i].right, 0, i});
+  }
+  std::sort(events.begin(), events.end(), [&](const Event& e, const Event& f) {
+    if (e.at != f.at) return before(e.at, f.at);
+    return e.starts != f.starts ? e.starts < f.starts : e.edge < f.edge;
+  });
+
+  double sweep_x = 0.0;
+  bool overlap = false;
+  // Height at the sweep line (a vertical edge, there only at its x: its lower end), then slope.
+  const auto height = [&](std::size_t e) {
+    const Edge& s = edges[e];
+    if (sweep_x == s.left.x()) return s.left.y();
+    if (sweep_x == s.right.x()) return s.right.y();
+    return s.left.y() +
+           (s.right.y() - s.left.y()) * (sweep_x - s.left.x()) / (s.right.x() - s.left.x());
+  };
+  const auto slope = [&](std::size_t e) {
+    const Edge& s = edges[e];
+    const double dx = s.right.x() - s.left.x();
+    return dx == 0.0 ? std::numeric_limits<double>::infinity() : (s.right.y() - s.left.y()) / dx;
+  };
+  const auto below = [&](std::size_t a, std::size_t b) {
+    const double ya = height(a), yb = height(b);
+    if (ya != yb) return ya < yb;
+    const double sa = slope(a), sb = slope(b);
+    if (sa != sb) return sa < sb;
+    overlap = overlap || a != b;  // collinear through one point
+    return a < b;
+  };
+  const auto touch = [&](std::size_t a, std::size_t b) {
+    if ((a + 1) % n == b || (b + 1) % n == a) return false;  // a shared vertex
+    return segments_intersect(edges[a].left, edges[a].right, edges[b].left, edges[b].right);
+  };
+  std::set<std::size_t, decltype(below)> crossing(below);
+  std::vector<std::set<std::size_t, decltype(below)>::iterator> place(n);
+  for (const Event& e : events) {
+    sweep_x = e.at.x();
+    if (e.starts == 1) {
+      const auto it = crossing.insert(e.edge).first;
+      if (overlap) return true;
+      place[e.edge] = it;
+      if (it != crossing.begin() && touch(*std::prev(it), e.edge)) return true;
+      if (std::next(it) != crossing.end() && touch(*std::next(it), e.edge)) return true;
+    } else {
+      const auto it = place[e.edge];
+      if (it != crossing.begin() && std::next(it) != crossing.end() &&
+          touch(*std::prev(it), *std::next(it)))
+        return true;
+      crossing.erase(it);
+    }
   }
   return false;
 }
@@ -237,7 +309,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   // Grid.
   {
     const JsonView g = root.at("grid");
-    g.expect_object({"origin", "cell_size", "n_cells"});
+    g.expect_object({"origin", "cell_size", "n_cells", "max_nodes"});
     if (g.has("origin")) c.grid.origin = g.at("origin").as_vec2();
     c.grid.cell_size = g.at("cell_size").as_number();
     g.at("cell_size").require(c.grid.cell_size > 0.0, "must be > 0");
@@ -247,10 +319,21 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     c.grid.n_cells_y = n.at(std::size_t{1}).as_int();
     n.at(std::size_t{0}).require(c.grid.n_cells_x >= 1, "must be >= 1");
     n.at(std::size_t{1}).require(c.grid.n_cells_y >= 1, "must be >= 1");
-    n.require((static_cast<long long>(c.grid.n_cells_x) + 1) *
-                      (static_cast<long long>(c.grid.n_cells_y) + 1) <=
-                  50'000'000,
-              "more than 5e7 grid nodes");
+    c.max_grid_nodes = g.number_or("max_nodes", c.max_grid_nodes);
+    if (g.has("max_nodes")) {
+      g.at("max_nodes")
+          .require(c.max_grid_nodes >= 1.0 && c.max_grid_nodes <= 2e9,
+                   "must be in [1, 2e9] (node indices are 32-bit)");
+    }
+    const double nodes = (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0);
+    if (!(nodes <= c.max_grid_nodes)) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "%.3g grid nodes, more than grid.max_nodes (%.3g): a unit mistake? (raise "
+                    "grid.max_nodes for a grid that large)",
+                    nodes, c.max_grid_nodes);
+      n.fail(text);
+    }
   }
 
   // Materials.
@@ -293,6 +376,19 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                            ? Placement::kGauss
                            : Placement::kEqual;
       c.bodies.push_back(std::move(body));
+    }
+  }
+  {
+    // Before a byte of the run is allocated: the machine must hold it.
+    const double need = estimated_memory_bytes(c), have = available_memory_bytes();
+    if (need > have) {
+      char text[240];
+      std::snprintf(text, sizeof text,
+                    "the run would need about %.3g GB of memory (%.3g grid nodes, about %.3g "
+                    "material points), more than the %.3g GB this machine has available",
+                    need / 1e9, (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0),
+                    estimated_particles(c), have / 1e9);
+      root.at("grid").at("n_cells").fail(text);
     }
   }
 

@@ -126,6 +126,8 @@ struct Case {
   nlohmann::json source;
   std::string title;
   Grid grid;
+  /// Most grid nodes (grid.max_nodes): more is taken for a unit mistake.
+  double max_grid_nodes = 1e7;
   std::vector<MaterialRecord> materials;
   std::vector<BodySpec> bodies;
   GravitySpec gravity;
@@ -141,7 +143,19 @@ struct Case {
   std::optional<DetectionSpec> detection;
 };
 
-/// Read and validate a case file. Throws InputError naming the file and JSON pointer.
+/// Memory of the MPM's arrays, per grid node (GridState's mass, momentum, forces, velocity,
+/// acceleration and fixity, and the MUSL remap's velocity and momentum) and per material point
+/// (Particles' fields, the shape-function stencils, binning and energy blocks), bytes. Their
+/// sum estimates a run's memory before it is allocated (estimated_memory_bytes()).
+inline constexpr double kBytesPerGridNode = 124.0;
+inline constexpr double kBytesPerParticle = 400.0;
+/// Material points the bodies will hold (area / h^2 x points_per_cell^2).
+double estimated_particles(const Case& c);
+double estimated_memory_bytes(const Case& c);
+
+/// Read and validate a case file. Throws InputError naming the file and JSON pointer. Refuses a
+/// grid of more than grid.max_nodes nodes, and a case whose estimated memory exceeds what the
+/// machine has available (available_memory_bytes()).
 Case read_case(const std::string& path);
 /// Validate an already-parsed document (file is used in messages only).
 Case parse_case(const nlohmann::json& document, const std::string& file);

@@ -201,6 +201,23 @@ RUN_CASES = [
         "/time/end_time",
     ),
     ("max_steps_0", mutate(["time", "max_steps"], 0), "/time/max_steps"),
+    # A grid of 4.9e7 nodes for 80 points validated for 28 s in 6 GB; one that the machine cannot
+    # hold is refused with the memory it would need.
+    (
+        "grid_7000_squared",
+        mutate(["grid", "n_cells"], [7000, 7000]),
+        "/grid/n_cells: 4.9e+07 grid nodes, more than grid.max_nodes",
+    ),
+    (
+        "grid_beyond_the_memory",
+        mutate(["grid"], {**BASE["grid"], "n_cells": [40000, 40000], "max_nodes": 2e9}),
+        "GB of memory",
+    ),
+    (
+        "max_nodes_0",
+        mutate(["grid"], {**BASE["grid"], "max_nodes": 0}),
+        "/grid/max_nodes",
+    ),
     # Duplicate keys (the JSON library kept the last one silently), with their JSON pointer.
     (
         "duplicate_top_level_key",
