@@ -191,6 +191,9 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
               << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
   } catch (const IoError& e) {
     return fail_on_write_fault(folder, run, e);
+  } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
+    mark_failed(folder, run, e.what());
+    throw;
   }
   try {
     write_file_atomically(folder.file("timeseries.csv"), series.text());

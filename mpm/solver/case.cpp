@@ -594,6 +594,13 @@ void check_run_length(const Case& c, double dt) {
                   c.time.end_time, steps, dt, c.time.max_steps);
     throw InputError(c.file + text);
   }
+  if (!(steps > 1e-9)) {  // the drivers run ceil(end_time / dt - 1e-9) steps
+    std::snprintf(text, sizeof text,
+                  ": /time/end_time: %g s is not a time step's worth (the step is %g s, %s): the "
+                  "run would take 0 steps (check the units: kPa, kN/m^3, m/s^2)",
+                  c.time.end_time, dt, step_key);
+    throw InputError(c.file + text);
+  }
   // Particle outputs (HDF5) at every step are a mistake; the time series is recorded at most
   // once a step, so an interval a little below the step just asks for every step, while one a
   // hundred times below it asks for what no run can give.

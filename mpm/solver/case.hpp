@@ -162,7 +162,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 
 /// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its
 /// time step `dt` (s, from the case's dt or its CFL number): a step that is not a positive finite
-/// number, an end time needing more than time.max_steps steps, an output interval given below the
+/// number, an end time needing more than time.max_steps steps or less than one, an output
+/// interval given below the
 /// step, a time-series interval given below a hundredth of it (one below the time's rounding
 /// never advanced: the run hung).
 void check_run_length(const Case& c, double dt);

@@ -60,18 +60,22 @@ OutputFolder::Mode output_folder_mode(const RunOptions& options) {
   return options.overwrite ? OutputFolder::Mode::kOverwrite : OutputFolder::Mode::kNew;
 }
 
-int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error) {
-  std::cerr << "pfm-mpm: write failed: " << error.what() << "\n";
+void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& reason) noexcept {
   folder.release_reserve();
-  run["status"] = "failed";
-  run["error"] = std::string("write failed: ") + error.what();
-  run["provenance"]["finished_utc"] = utc_now();
   try {
+    run["status"] = "failed";
+    run["error"] = reason;
+    run["provenance"]["finished_utc"] = utc_now();
     write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
-  } catch (const IoError&) {
+  } catch (const std::exception&) {
     std::cerr << "pfm-mpm: run.json could not be marked failed either\n";
   }
   folder.remove_temporaries();
+}
+
+int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error) {
+  std::cerr << "pfm-mpm: write failed: " << error.what() << "\n";
+  mark_failed(folder, run, std::string("write failed: ") + error.what());
   return kExitIoError;
 }
 
@@ -287,6 +291,11 @@ int run_case(const Case& c, const RunOptions& options) {
     writer_owner.reset();  // closes the HDF5 files before run.json is marked
     boundary_writer.reset();
     return fail_on_write_fault(folder, run, e);
+  } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
+    writer_owner.reset();
+    boundary_writer.reset();
+    mark_failed(folder, run, e.what());
+    throw;
   }
   try {
     write_file_atomically(folder.file("timeseries.csv"), series.text());

@@ -51,8 +51,10 @@ enum ExitCode : int {
 /// options.overwrite) or of a restart (kResume).
 OutputFolder::Mode output_folder_mode(const RunOptions& options);
 
-/// Ends a run that a write fault stopped: prints the reason, marks run.json "failed" with it
-/// when that write still succeeds, removes the folder's temporaries. Returns kExitIoError.
+/// Marks run.json "failed" with `reason` when that write still succeeds (the folder's reserve is
+/// given back first) and removes the folder's temporaries.
+void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& reason) noexcept;
+/// Ends a run that a write fault stopped: prints the reason, mark_failed(). Returns kExitIoError.
 int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error);
 
 /// Run a validated case. Returns kExitOk, kExitSimulationError after writing run.json with

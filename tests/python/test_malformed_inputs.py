@@ -201,6 +201,11 @@ RUN_CASES = [
         "/time/end_time",
     ),
     ("max_steps_0", mutate(["time", "max_steps"], 0), "/time/max_steps"),
+    (
+        "unit_weight_1e300_g_1e10",
+        mutate(["materials", 0, "unit_weight"], 1e300) | {"gravity": {"g": 1e10}},
+        "/time/end_time: 5 s is not a time step's worth",
+    ),
     # A grid of 4.9e7 nodes for 80 points validated for 28 s in 6 GB; one that the machine cannot
     # hold is refused with the memory it would need.
     (

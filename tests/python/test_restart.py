@@ -121,6 +121,11 @@ def test_killed_run_restarts_bitwise(pfm_binary, tmp_path):
         capture_output=True,
     )
     assert_same_outputs(reference, killed)
+    # The restart kept the original run's checkpoint settings (every 4 steps): it went on
+    # writing checkpoints past the one it started from.
+    settings = json.loads((killed / "run.json").read_text())["checkpoint"]
+    assert settings["steps"] == 4
+    assert checkpoint_step(killed / "checkpoint.h5") > step
 
 
 def test_restart_without_checkpoint_is_an_input_error(pfm_binary, tmp_path):
