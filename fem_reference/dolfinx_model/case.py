@@ -514,7 +514,11 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
     if "grid" not in root:
         _fail(file, "/grid", "missing key")
     grid = root["grid"]
-    _expect_object(grid, file, "/grid", {"origin", "cell_size", "n_cells"})
+    _expect_object(grid, file, "/grid", {"origin", "cell_size", "n_cells", "max_nodes"})
+    node_count = dict(check=lambda v: 1 <= v <= 2e9, what="must be in [1, 2e9]")
+    _number(grid, "max_nodes", file, "/grid", default=1e7, **node_count)
+    if "max_nodes" in grid:
+        ignored.append("/grid/max_nodes: the MPM's grid only")
     origin = _point(grid.get("origin", [0, 0]), file, "/grid/origin")
     cell_size = _number(grid, "cell_size", file, "/grid", required=True, rule=_POSITIVE)
     if "n_cells" not in grid:
@@ -617,7 +621,7 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             },
         )
         _int(b, "points_per_cell", file, p, 2, 1, 8)
-        _choice(b, "placement", file, p, ("equal", "gauss"))
+        _choice(b, "placement", file, p, ("equal", "gauss", "conforming"))
         for key in ("points_per_cell", "placement"):
             if key in b:
                 ignored.append(f"{p}/{key}: MPM material points only")
@@ -717,8 +721,16 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
 
     solver = root.get("solver", {})
     _expect_object(
-        solver, file, "/solver", {"scheme", "shape_function", "damping", "pic_fraction"}
+        solver,
+        file,
+        "/solver",
+        {"scheme", "shape_function", "damping", "damping_form", "pic_fraction"},
     )
+    _choice(solver, "damping_form", file, "/solver", ("per_axis", "along_velocity"))
+    if solver.get("damping_form", "per_axis") != "per_axis":
+        ignored.append(
+            "/solver/damping_form: the explicit dolfinx model damps per axis"
+        )
     _choice(solver, "scheme", file, "/solver", ("musl", "usl"))
     _choice(solver, "shape_function", file, "/solver", ("linear", "gimp"))
     _number(

@@ -499,7 +499,8 @@ void UlFemSolver::update_nodes() {
     }
     update_node(m, nodes_.momentum[n], nodes_.internal_force[n], nodes_.external_force[n],
                 m * gravity, nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY, counters_.damping,
-                counters_.dt, nodes_.velocity[n], nodes_.acceleration[n], step);
+                case_.solver.damping_form, counters_.dt, nodes_.velocity[n], nodes_.acceleration[n],
+                step);
   }
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;

@@ -7,6 +7,74 @@
 
 namespace pfm {
 
+namespace {
+
+/// Area and first moment of a polygon (shoelace), m^2 and m^3.
+struct Piece {
+  double area = 0.0;
+  Vec2 moment = Vec2::Zero();
+  bool whole = false;          ///< a whole sub-square (fill_bodies)
+  Vec2 centre = Vec2::Zero();  ///< its equal-placement point
+};
+
+Piece piece_of(const std::vector<Vec2>& polygon) {
+  Piece piece;
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Vec2& a = polygon[k];
+    const Vec2& b = polygon[(k + 1) % polygon.size()];
+    const double twice = a.x() * b.y() - b.x() * a.y();
+    piece.area += 0.5 * twice;
+    piece.moment += twice / 6.0 * (a + b);
+  }
+  return piece;
+}
+
+/// The part of `polygon` inside the box [lo, hi] (Sutherland and Hodgman's clipping against
+/// each side in turn: for a simple polygon, convex or not, the result has the area and the
+/// centroid of the intersection, possibly with zero-width parts along the box).
+std::vector<Vec2> clip_to_box(std::vector<Vec2> polygon, const Vec2& lo, const Vec2& hi) {
+  std::vector<Vec2> out;
+  for (int side = 0; side < 4 && !polygon.empty(); ++side) {
+    const int axis = side / 2;
+    const bool upper = side % 2 == 1;
+    const double bound = upper ? hi[axis] : lo[axis];
+    const auto inside = [&](const Vec2& x) { return upper ? x[axis] <= bound : x[axis] >= bound; };
+    out.clear();
+    for (std::size_t k = 0; k < polygon.size(); ++k) {
+      const Vec2& a = polygon[k];
+      const Vec2& b = polygon[(k + 1) % polygon.size()];
+      if (inside(a)) out.push_back(a);
+      if (inside(a) != inside(b)) {
+        Vec2 x = a + (bound - a[axis]) / (b[axis] - a[axis]) * (b - a);
+        x[axis] = bound;
+        out.push_back(x);
+      }
+    }
+    polygon.swap(out);
+  }
+  return polygon;
+}
+
+/// Whether the segment a-b meets the closed box [lo, hi] (Liang and Barsky's clipping).
+bool segment_meets_box(const Vec2& a, const Vec2& b, const Vec2& lo, const Vec2& hi) {
+  double t0 = 0.0, t1 = 1.0;
+  const Vec2 d = b - a;
+  for (int axis = 0; axis < 2; ++axis) {
+    if (d[axis] == 0.0) {
+      if (a[axis] < lo[axis] || a[axis] > hi[axis]) return false;
+      continue;
+    }
+    double ta = (lo[axis] - a[axis]) / d[axis], tb = (hi[axis] - a[axis]) / d[axis];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 void Particles::reserve(std::size_t n) {
   position.reserve(n);
   reference_position.reserve(n);
@@ -61,7 +129,7 @@ void placement_points_1d(Placement placement, int n, std::vector<double>& positi
                          std::vector<double>& weight) {
   position.assign(static_cast<std::size_t>(n), 0.0);
   weight.assign(static_cast<std::size_t>(n), 1.0 / n);
-  if (placement == Placement::kEqual) {
+  if (placement != Placement::kGauss) {  // equal spacing (conforming: inside the polygon)
     for (int a = 0; a < n; ++a) position[static_cast<std::size_t>(a)] = (a + 0.5) / n;
     return;
   }
@@ -108,23 +176,91 @@ Particles fill_bodies(const Case& c) {
               i1 = std::min(grid.n_cells_x - 1, grid.cell_i(hi.x()));
     const int j0 = std::max(0, grid.cell_j(lo.y())),
               j1 = std::min(grid.n_cells_y - 1, grid.cell_j(hi.y()));
+    const int n = body.points_per_cell, columns = i1 - i0 + 1;
+    const double full = h * h / (n * n);  // a sub-square (equal and conforming placement)
+    // Conforming placement: the cells that the polygon's edges touch are filled with the pieces
+    // of their sub-squares inside the polygon.
+    std::vector<char> cut;
+    if (body.placement == Placement::kConforming) {
+      cut.assign(static_cast<std::size_t>(columns) * static_cast<std::size_t>(j1 - j0 + 1), 0);
+      for (std::size_t k = 0; k < body.polygon.size(); ++k) {
+        const Vec2& a = body.polygon[k];
+        const Vec2& e = body.polygon[(k + 1) % body.polygon.size()];
+        const Vec2 low = a.cwiseMin(e), high = a.cwiseMax(e);
+        for (int j = std::max(j0, grid.cell_j(low.y())); j <= std::min(j1, grid.cell_j(high.y()));
+             ++j) {
+          for (int i = std::max(i0, grid.cell_i(low.x())); i <= std::min(i1, grid.cell_i(high.x()));
+               ++i) {
+            if (segment_meets_box(a, e, grid.node_position(i, j), grid.node_position(i + 1, j + 1)))
+              cut[static_cast<std::size_t>((j - j0) * columns + (i - i0))] = 1;
+          }
+        }
+      }
+    }
+    const auto add = [&](const Vec2& x, double v) {
+      for (std::size_t other = 0; other < b; ++other)
+        if (point_in_polygon(c.bodies[other].polygon, x)) return;  // the first body's
+      particles.add(x, v, density, half_size, body.material, static_cast<int>(b));
+    };
     // Cell by cell, row by row, so particle ids follow the cells (good memory locality).
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
         const Vec2 corner = grid.node_position(i, j);
-        for (int bj = 0; bj < body.points_per_cell; ++bj) {
-          for (int ai = 0; ai < body.points_per_cell; ++ai) {
-            const Vec2 x = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
-                                             local[static_cast<std::size_t>(bj)]);
-            if (!point_in_polygon(body.polygon, x)) continue;
-            bool taken = false;
-            for (std::size_t other = 0; other < b; ++other) {
-              taken = taken || point_in_polygon(c.bodies[other].polygon, x);
+        const bool conform =
+            !cut.empty() && cut[static_cast<std::size_t>((j - j0) * columns + (i - i0))];
+        if (!conform) {
+          for (int bj = 0; bj < n; ++bj) {
+            for (int ai = 0; ai < n; ++ai) {
+              const Vec2 x = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
+                                               local[static_cast<std::size_t>(bj)]);
+              if (point_in_polygon(body.polygon, x)) {
+                add(x, h * h * weight[static_cast<std::size_t>(ai)] *
+                           weight[static_cast<std::size_t>(bj)]);
+              }
             }
-            if (taken) continue;
-            const double v =
-                h * h * weight[static_cast<std::size_t>(ai)] * weight[static_cast<std::size_t>(bj)];
-            particles.add(x, v, density, half_size, body.material, static_cast<int>(b));
+          }
+          continue;
+        }
+        // The sub-squares' parts inside the polygon; a part below a quarter of a sub-square
+        // joins the nearest other part of its cell (areas and first moments add, so the sums
+        // stay exact), lest a sliver make a point of almost no mass.
+        const std::vector<Vec2> in_cell =
+            clip_to_box(body.polygon, corner, grid.node_position(i + 1, j + 1));
+        std::vector<Piece> pieces;
+        for (int bj = 0; bj < n && !in_cell.empty(); ++bj) {
+          for (int ai = 0; ai < n; ++ai) {
+            const Vec2 sub = corner + h / n * Vec2(ai, bj);
+            Piece piece = piece_of(clip_to_box(in_cell, sub, sub + Vec2(h / n, h / n)));
+            if (!(piece.area > 1e-12 * full)) continue;  // outside, or a rounding sliver
+            piece.whole = piece.area >= (1.0 - 1e-12) * full;
+            piece.centre = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
+                                             local[static_cast<std::size_t>(bj)]);
+            pieces.push_back(piece);
+          }
+        }
+        while (pieces.size() > 1) {
+          std::size_t small = 0;
+          for (std::size_t k = 1; k < pieces.size(); ++k)
+            if (pieces[k].area < pieces[small].area) small = k;
+          if (pieces[small].area >= 0.25 * full) break;
+          const Vec2 at = pieces[small].moment / pieces[small].area;
+          std::size_t nearest = small == 0 ? 1 : 0;
+          for (std::size_t k = 0; k < pieces.size(); ++k) {
+            if (k != small &&
+                (pieces[k].moment / pieces[k].area - at).squaredNorm() <
+                    (pieces[nearest].moment / pieces[nearest].area - at).squaredNorm())
+              nearest = k;
+          }
+          pieces[nearest].area += pieces[small].area;
+          pieces[nearest].moment += pieces[small].moment;
+          pieces[nearest].whole = false;
+          pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(small));
+        }
+        for (const Piece& piece : pieces) {
+          if (piece.whole) {
+            add(piece.centre, full);  // a whole sub-square: as the equal placement
+          } else {
+            add(piece.moment / piece.area, piece.area);  // at the centroid of the part
           }
         }
       }

@@ -25,6 +25,14 @@ void placement_points_1d(Placement placement, int n, std::vector<double>& positi
 /// inside several bodies belongs to the first. Volume = cell area x the point's weight
 /// (1/n^2 for equal spacing, the Gauss weight product for Gauss placement); mass = density x
 /// volume with density = unit weight / g (g = 9.81 m/s^2 when gravity is 0).
+///
+/// Conforming placement: as equal spacing, but each of the n x n sub-squares of a cell that the
+/// polygon's edges cut holds one point at the centroid of its part inside the polygon, with
+/// that part's area as its volume. The points' volumes then add up to the polygon's area and
+/// their first moment to its first moment, and the point sums of the shape functions'
+/// gradients (linear within a sub-square) are the integrals over the polygon, exactly: a
+/// uniform stress balances a uniform traction on the polygon's edges node by node, which the
+/// staircase of whole sub-squares cannot (the free square of test_boundary_coupling).
 Particles fill_bodies(const Case& c);
 
 }  // namespace pfm

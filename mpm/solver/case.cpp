@@ -372,9 +372,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
         v.at("points_per_cell")
             .require(body.points_per_cell >= 1 && body.points_per_cell <= 8, "must be in 1..8");
       }
-      body.placement = v.choice_or("placement", {"equal", "gauss"}, "equal") == "gauss"
-                           ? Placement::kGauss
-                           : Placement::kEqual;
+      const std::string placement =
+          v.choice_or("placement", {"equal", "gauss", "conforming"}, "equal");
+      body.placement = placement == "gauss"        ? Placement::kGauss
+                       : placement == "conforming" ? Placement::kConforming
+                                                   : Placement::kEqual;
       c.bodies.push_back(std::move(body));
     }
   }
@@ -503,7 +505,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   }
 
   if (const auto s = root.find("solver")) {
-    s->expect_object({"scheme", "shape_function", "damping", "pic_fraction"});
+    s->expect_object({"scheme", "shape_function", "damping", "damping_form", "pic_fraction"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
     c.solver.shape_function = s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
@@ -514,6 +516,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
                                "must be in [0, 1)");
     }
+    c.solver.damping_form =
+        s->choice_or("damping_form", {"per_axis", "along_velocity"}, "per_axis") == "along_velocity"
+            ? DampingForm::kAlongVelocity
+            : DampingForm::kPerAxis;
     c.solver.pic_fraction = s->number_or("pic_fraction", 0.0);
     if (s->has("pic_fraction")) {
       s->at("pic_fraction")

@@ -13,6 +13,7 @@
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/shape_functions.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/solver/energy_ledger.hpp"
 
 namespace pfm {
 
@@ -22,7 +23,7 @@ struct MaterialRecord {
   double unit_weight = 0.0;  ///< kN/m^3
 };
 
-enum class Placement { kEqual, kGauss };
+enum class Placement { kEqual, kGauss, kConforming };
 
 struct BodySpec {
   std::string name;
@@ -91,6 +92,7 @@ struct SolverSpec {
   Scheme scheme = Scheme::kMUSL;
   ShapeFunctionKind shape_function = ShapeFunctionKind::kLinear;
   double damping = 0.0;  ///< local (Cundall) damping coefficient
+  DampingForm damping_form = DampingForm::kPerAxis;
   /// beta of the particle velocity update v_p' = (1 - beta) (v_p + dt sum N a) + beta sum N v':
   /// 0 = FLIP (the thesis), 1 = PIC. FLIP keeps velocity the grid cannot see (it moves no
   /// particle: jitter), PIC removes it each step at the cost of dissipation.

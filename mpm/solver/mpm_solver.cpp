@@ -517,7 +517,8 @@ void MpmSolver::update_grid() {
         continue;
       }
       update_node(m, momentum[n], internal[n], external[n], m * gravity, fixed[n] & kFixX,
-                  fixed[n] & kFixY, alpha, dt, velocity[n], acceleration[n], block);
+                  fixed[n] & kFixY, alpha, case_.solver.damping_form, dt, velocity[n],
+                  acceleration[n], block);
     }
     node_energy[k] = block;
   }

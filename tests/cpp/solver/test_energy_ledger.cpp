@@ -30,8 +30,9 @@ TEST(EnergyLedger, NodeUpdateSplitsItsKineticEnergyChangeByForce) {
     const unsigned fx = trial % 4 == 1, fy = trial % 4 == 2;
     NodeEnergy e;
     Vec2 v, a;
+    const DampingForm form = trial % 2 ? DampingForm::kAlongVelocity : DampingForm::kPerAxis;
     update_node(m, p, f_int, Vec2(f_ext.x(), f_ext.y() + gravity_y), gravity_y, fx, fy,
-                0.05 * (trial % 3), 0.01, v, a, e);
+                0.05 * (trial % 3), form, 0.01, v, a, e);
     const double change = e.kinetic_after - (e.kinetic_before + e.constraint);
     const double work = e.gravity + e.load + e.internal + e.damping;
     EXPECT_NEAR(change, work, 1e-15 * (1.0 + e.kinetic_after + e.kinetic_before));
