@@ -19,8 +19,24 @@ DEB_PACKAGES := cmake make g++ git clang-format black \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
   $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 
-.PHONY: deps build run test test-cpp test-python test-studies sanitize bench format clean study report \
-  study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks
+.PHONY: help deps build run test test-cpp test-python test-studies sanitize bench format clean study \
+  report study-boundary study-quadrature study-timing study-parametric study-convergence \
+  study-benchmarks
+.DEFAULT_GOAL := help
+
+help:
+	@echo "pfm-mpm: make TARGET (README.md)"
+	@echo "  run           build, run the default case ($(CASE)) and its comparison page into $(OUT)"
+	@echo "  test          build and run every test: C++ (also under ASan + UBSan), Python, quick studies"
+	@echo "  build         install missing Debian packages (deps) and build into $(BUILD_DIR)"
+	@echo "  deps          install the Debian packages the build, tests and studies need"
+	@echo "  bench         the benchmarks (pfm-bench, pfm-bench-detect)"
+	@echo "  study         every study; study-NAME one of boundary quadrature timing parametric"
+	@echo "                convergence benchmarks (QUICK=1 quick variants, SCHEDULER=tcp://... Dask)"
+	@echo "  report        the nightly accuracy report from the studies"
+	@echo "  fuzz          libFuzzer on the input readers and the detector (clang)"
+	@echo "  format        clang-format and black over the tracked sources"
+	@echo "  clean         remove $(BUILD_DIR) and $(SANITIZE_DIR)"
 
 SCHEDULER ?=
 STUDY_FLAGS = $(if $(SCHEDULER),--scheduler $(SCHEDULER),) $(if $(QUICK),--quick,)

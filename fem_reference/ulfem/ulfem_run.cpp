@@ -168,9 +168,11 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     const double eps = 1e-9 * solver.dt();
     double next_output = c.output.interval, next_series = c.output.timeseries_interval;
     // The step may shrink as elements are crushed (UlFemSolver::dt), so loop on time.
+    RunProgress progress(options.progress);
     while (solver.time() < end - eps) {
       governor.update();
       solver.step();
+      progress.update(solver.step_count(), solver.time(), end);
       const double t = solver.time();
       const bool last = t >= end - eps;
       if (t >= next_series - eps || last) {
@@ -239,6 +241,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   } catch (const IoError& e) {
     return fail_on_write_fault(folder, run, e);
   }
+  if (options.progress) print_run_summary(run, dir);
   return status;
 }
 

@@ -20,6 +20,7 @@
 #include "fem_reference/ulfem/ulfem_run.hpp"
 #include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/run.hpp"
@@ -30,6 +31,7 @@ int main(int argc, char** argv) {
   H5dont_atexit();
   pfm::keep_freed_memory();  // scratch freed by a step or a detection is reused, not refaulted
   CLI::App app{"pfm-mpm: MPM with moving-boundary detection and loads (units kN, m, s, t, kPa)"};
+  app.set_version_flag("--version", pfm::version_line());
   app.require_subcommand(1);
   std::string command_line;
   for (int k = 0; k < argc; ++k) command_line += (k ? " " : "") + std::string(argv[k]);

@@ -17,6 +17,9 @@
 #ifndef PFM_GIT_REVISION
 #define PFM_GIT_REVISION "unknown"
 #endif
+#ifndef PFM_VERSION
+#define PFM_VERSION "unknown"
+#endif
 #ifndef PFM_BUILD_TYPE
 #define PFM_BUILD_TYPE "unknown"
 #endif
@@ -122,9 +125,15 @@ void ThreadGovernor::update() {
   most_ = std::max(most_, threads_);
 }
 
+std::string version_line() {
+  return std::string("pfm-mpm ") + PFM_VERSION + " (git " + PFM_GIT_REVISION + ", " +
+         PFM_BUILD_TYPE + " build)";
+}
+
 nlohmann::json provenance(const nlohmann::json& inputs, const std::string& command_line,
                           int threads) {
   nlohmann::json p = {{"program", "pfm-mpm"},
+                      {"version", PFM_VERSION},
                       {"git_revision", PFM_GIT_REVISION},
                       {"build_type", PFM_BUILD_TYPE},
                       {"command", command_line},

@@ -57,8 +57,11 @@ class ThreadGovernor {
   int threads_, fewest_, most_;
 };
 
-/// {program, git_revision, build_type, command, threads, started_utc, units} and the members of
-/// `inputs`, which name the input files (e.g. {"case_file": path}).
+/// "pfm-mpm <version> (git <revision>, <build type> build)", for --version.
+std::string version_line();
+
+/// {program, version, git_revision, build_type, command, threads, started_utc, units} and the
+/// members of `inputs`, which name the input files (e.g. {"case_file": path}).
 nlohmann::json provenance(const nlohmann::json& inputs, const std::string& command_line,
                           int threads);
 

@@ -23,37 +23,41 @@ namespace pfm {
 
 namespace fs = std::filesystem;
 
-namespace {
+RunProgress::RunProgress(bool enabled)
+    : enabled_(enabled),
+      terminal_(isatty(STDERR_FILENO) && std::getenv("CI") == nullptr),
+      start_(std::chrono::steady_clock::now()),
+      last_(start_) {}
 
-class Progress {
- public:
-  explicit Progress(bool enabled)
-      : enabled_(enabled && isatty(STDERR_FILENO) && std::getenv("CI") == nullptr),
-        start_(std::chrono::steady_clock::now()) {}
-  void update(long step, double time, double end_time) {
-    if (!enabled_) return;
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_ < std::chrono::milliseconds(500)) return;
-    last_ = now;
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    const double fraction = std::min(1.0, time / end_time);
-    const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-    std::fprintf(stderr, "\r  step %ld  t = %.4f / %.4f s  (%5.1f %%)  ETA %.0f s   ", step, time,
-                 end_time, 100.0 * fraction, eta);
-    std::fflush(stderr);
-    printed_ = true;
-  }
-  ~Progress() {
-    if (printed_) std::fprintf(stderr, "\n");
-  }
+void RunProgress::update(long step, double time, double end_time) {
+  if (!enabled_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_ < (terminal_ ? std::chrono::milliseconds(500) : std::chrono::seconds(5))) return;
+  last_ = now;
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  const double fraction = std::min(1.0, time / end_time);
+  const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+  std::fprintf(stderr, "%s  step %ld  t = %.4f / %.4f s  (%5.1f %%)  %.0f steps/s  ETA %.0f s%s",
+               terminal_ ? "\r" : "", step, time, end_time, 100.0 * fraction,
+               elapsed > 0 ? static_cast<double>(step) / elapsed : 0.0, eta,
+               terminal_ ? "   " : "\n");
+  std::fflush(stderr);
+  rewritten_ = terminal_;
+}
 
- private:
-  bool enabled_;
-  bool printed_ = false;
-  std::chrono::steady_clock::time_point start_, last_{};
-};
+RunProgress::~RunProgress() {
+  if (rewritten_) std::fprintf(stderr, "\n");
+}
 
-}  // namespace
+void print_run_summary(const nlohmann::json& run, const std::string& dir) {
+  const nlohmann::json& s = run.at("summary");
+  std::fprintf(
+      stderr,
+      "pfm-mpm: %s: %ld steps to t = %.4g s in %.1f s of wall time (%.3g particle-steps/s); "
+      "results in %s\n",
+      run.value("status", "?").c_str(), s.value("n_steps", 0L), s.value("final_time_s", 0.0),
+      s.value("wall_time_s", 0.0), s.value("particle_steps_per_s", 0.0), dir.c_str());
+}
 
 OutputFolder::Mode output_folder_mode(const RunOptions& options) {
   if (options.restart) return OutputFolder::Mode::kResume;
@@ -254,7 +258,7 @@ int run_case(const Case& c, const RunOptions& options) {
     ParticleSeriesWriter& writer = *writer_owner;
     const double end = c.time.end_time;
     const double eps = 1e-9 * solver.dt();
-    Progress progress(options.progress);
+    RunProgress progress(options.progress);
     auto last_checkpoint = std::chrono::steady_clock::now();
     for (long k = solver.step_count(); k < n_steps; ++k) {
       governor.update();
@@ -365,6 +369,7 @@ int run_case(const Case& c, const RunOptions& options) {
   } catch (const IoError& e) {
     return fail_on_write_fault(folder, run, e);
   }
+  if (options.progress) print_run_summary(run, dir);
   return status;
 }
 

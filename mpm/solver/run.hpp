@@ -14,6 +14,7 @@
 //   .pfm-mpm.lock         held while a run or restart uses the folder (mpm/core/output_folder.hpp)
 #pragma once
 
+#include <chrono>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -46,6 +47,26 @@ enum ExitCode : int {
   kExitSimulationError = 3,  ///< the simulation stopped; outputs up to the last good step kept
   kExitIoError = 4           ///< a write failed (full disk, unwritable folder) or memory ran out
 };
+
+/// Progress of a run on stderr (none when disabled, `--quiet`): on a terminal one line rewritten
+/// every 0.5 s, in a pipe or a log a new line every 5 s; step, simulated time, share done, steps
+/// per second and the time left.
+class RunProgress {
+ public:
+  explicit RunProgress(bool enabled);
+  ~RunProgress();
+  RunProgress(const RunProgress&) = delete;
+  RunProgress& operator=(const RunProgress&) = delete;
+  void update(long step, double time, double end_time);
+
+ private:
+  bool enabled_, terminal_, rewritten_ = false;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+/// One line on stderr at the end of a run: its status, steps, simulated and wall time,
+/// particle-steps per second and where the results are (run.json's summary).
+void print_run_summary(const nlohmann::json& run, const std::string& dir);
 
 /// The output folder of a new run (OutputFolder::Mode::kNew, or kOverwrite with
 /// options.overwrite) or of a restart (kResume).
