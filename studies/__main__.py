@@ -14,9 +14,23 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import sys
 
 from studies import STUDY_NAMES
+
+# The studies need the Debian Python packages; another interpreter first on PATH cannot see them.
+_MISSING = [
+    name
+    for name in ("numpy", "pandas", "matplotlib", "scipy", "h5py")
+    if importlib.util.find_spec(name) is None
+]
+if _MISSING:
+    sys.exit(
+        f"studies: {sys.executable} cannot import {', '.join(_MISSING)}: run the studies with "
+        "the Debian interpreter, /usr/bin/python3 (make PYTHON=... to choose another), after "
+        "`make deps` (Debian packages python3-numpy, python3-pandas, ...)"
+    )
 
 
 def run_studies(names, quick: bool, jobs, scheduler) -> int:

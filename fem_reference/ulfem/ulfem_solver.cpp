@@ -637,11 +637,12 @@ void UlFemSolver::check_particles() {
   }
   // Courant condition on the current mesh, material speed added to the wave speed.
   if ((max_wave_speed_ + max_speed) * counters_.dt > min_element_length_) {
-    throw SimulationError(
-        "CFL condition violated at t = " + std::to_string(counters_.time) + " s (step " +
-        std::to_string(counters_.step) +
-        "): (c_p + |v|max) dt = " + std::to_string((max_wave_speed_ + max_speed) * counters_.dt) +
-        " m > smallest element length " + std::to_string(min_element_length_) + " m");
+    throw SimulationError("CFL condition violated at t = " + std::to_string(counters_.time) +
+                          " s (step " + std::to_string(counters_.step) + "): (c_p + |v|max) dt = " +
+                          std::to_string((max_wave_speed_ + max_speed) * counters_.dt) +
+                          " m > smallest element length " + std::to_string(min_element_length_) +
+                          " m: a unit mistake? (E and stresses in kPa, unit weight in kN/m^3, "
+                          "lengths in m)");
   }
 }
 

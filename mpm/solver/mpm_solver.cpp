@@ -733,7 +733,9 @@ void MpmSolver::check_particles() {
     throw SimulationError("CFL condition violated at t = " + std::to_string(counters_.time) +
                           " s (step " + std::to_string(counters_.step) + "): (c_p + |v|max) dt = " +
                           std::to_string((max_wave_speed_ + max_speed_) * counters_.dt) +
-                          " m > h = " + std::to_string(case_.grid.cell_size) + " m");
+                          " m > h = " + std::to_string(case_.grid.cell_size) +
+                          " m: a unit mistake? (E and stresses in kPa, unit weight in kN/m^3, "
+                          "lengths in m)");
   }
 }
 

@@ -223,6 +223,12 @@ RUN_CASES = [
         mutate(["grid"], {**BASE["grid"], "max_nodes": 0}),
         "/grid/max_nodes",
     ),
+    # A detected-boundary load type without apply_on: the message names the missing key.
+    (
+        "follower_pressure_without_apply_on",
+        mutate(["loads"], [{"type": "follower_pressure", "pressure": 10.0}]),
+        '/loads/0/type: "follower_pressure" acts on the detected boundary only: add "apply_on"',
+    ),
     # Duplicate keys (the JSON library kept the last one silently), with their JSON pointer.
     (
         "duplicate_top_level_key",
