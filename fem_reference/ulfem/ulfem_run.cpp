@@ -43,16 +43,7 @@ MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh)
   for (const auto& element : mesh.element_nodes) {
     for (int n : element) topology.push_back(n);
   }
-  hsize_t dims[2] = {n_elements_, 4};
-  const hid_t space = H5Screate_simple(2, dims, nullptr);
-  const H5Handle set(
-      H5Dcreate2(static_cast<hid_t>(file_), "topology", H5T_STD_I64LE, space, H5P_DEFAULT,
-                 UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT),
-      H5Dclose);
-  H5Sclose(space);
-  if (!set.ok() ||
-      H5Dwrite(set.get(), H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, topology.data()) < 0)
-    throw_io_error("HDF5 cannot write the mesh topology in", h5_path_, errno);
+  write_h5_dataset(static_cast<hid_t>(file_), h5_path_, "topology", topology, n_elements_, 4);
 }
 
 MeshSeriesWriter::~MeshSeriesWriter() {
@@ -69,6 +60,8 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
                        H5Gclose);
   if (!group.ok())
     throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
+  write_h5_attribute(group.get(), h5_path_, "time", time);
+  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   std::vector<double> buffer(3 * n_nodes_, 0.0);
   auto put = [&](const std::vector<Vec2>& v, const char* dataset) {
     for (std::size_t n = 0; n < n_nodes_; ++n) {

@@ -65,23 +65,63 @@ void check(long status, const std::string& file, const std::string& what) {
 
 }  // namespace
 
-void write_h5_dataset(hid_t group, const std::string& file, const char* name,
-                      const std::vector<double>& data, std::size_t rows, std::size_t cols) {
+namespace {
+
+void write_typed(hid_t group, const std::string& file, const char* name, hid_t file_type,
+                 hid_t memory_type, const void* data, std::size_t rows, std::size_t cols) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
-  const hid_t set = H5Dcreate2(group, name, H5T_IEEE_F64LE, space, H5P_DEFAULT,
-                               UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
+  UntimedCreation creation(H5P_DATASET_CREATE);
+  const hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT,
+                               creation.compressed(rows, cols).get(), H5P_DEFAULT);
   const int error = errno;
   H5Sclose(space);
   if (set < 0)
     throw_io_error(std::string("HDF5 cannot create dataset ") + name + " in", file, error);
   const herr_t status =
-      rows > 0 ? H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) : 0;
+      rows > 0 ? H5Dwrite(set, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) : 0;
   H5Dclose(set);
   check(status, file, name);
 }
 
+}  // namespace
+
+void write_h5_dataset(hid_t group, const std::string& file, const char* name,
+                      const std::vector<double>& data, std::size_t rows, std::size_t cols) {
+  write_typed(group, file, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), rows, cols);
+}
+
+void write_h5_dataset(hid_t group, const std::string& file, const char* name,
+                      const std::vector<long long>& data, std::size_t rows, std::size_t cols) {
+  write_typed(group, file, name, H5T_STD_I64LE, H5T_NATIVE_LLONG, data.data(), rows, cols);
+}
+
+void write_h5_attribute(hid_t object, const std::string& file, const char* name, double value) {
+  const H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  const H5Handle attribute(
+      H5Acreate2(object, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attribute.ok() || H5Awrite(attribute.get(), H5T_NATIVE_DOUBLE, &value) < 0)
+    throw_io_error(std::string("HDF5 cannot write attribute ") + name + " in", file, errno);
+}
+
+void write_h5_attribute(hid_t object, const std::string& file, const char* name,
+                        const std::string& value) {
+  const H5Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type.get(), std::max<std::size_t>(value.size(), 1));
+  const H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  const H5Handle attribute(
+      H5Acreate2(object, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attribute.ok() || H5Awrite(attribute.get(), type.get(), value.c_str()) < 0)
+    throw_io_error(std::string("HDF5 cannot write attribute ") + name + " in", file, errno);
+}
+
 namespace {
+
+// The "units" attribute of particles.h5 (and of the UL-FEM's mesh.h5).
+constexpr const char* kParticleUnits =
+    "kN, m, s, t, kPa; plane strain, tension positive: position, displacement m; velocity m/s; "
+    "sxx, syy, sxy, szz kPa; eps_p, F11..F22 -; volume m^2 per m; id, material, body integers; "
+    "group attributes time s, step";
 
 std::string fmt(double v) {
   char buffer[32];
@@ -168,23 +208,14 @@ ParticleSeriesWriter::~ParticleSeriesWriter() {
 
 void ParticleSeriesWriter::write(double time, long step, const Particles& particles) {
   if (times_.empty()) {
-    // Polyvertex connectivity 0 .. N-1, shared by every step (the particle count is fixed).
+    // Polyvertex connectivity 0 .. N-1, shared by every step (the particle count is fixed),
+    // and the units of the file's fields.
     std::vector<long long> connectivity(particles.size());
     for (std::size_t p = 0; p < connectivity.size(); ++p)
       connectivity[p] = static_cast<long long>(p);
-    hsize_t dims[1] = {connectivity.size()};
-    const hid_t space = H5Screate_simple(1, dims, nullptr);
-    const hid_t set =
-        H5Dcreate2(static_cast<hid_t>(file_), "connectivity", H5T_STD_I64LE, space, H5P_DEFAULT,
-                   UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-    const int error = errno;
-    H5Sclose(space);
-    if (set < 0) throw_io_error("HDF5 cannot create dataset connectivity in", h5_path_, error);
-    const herr_t status = connectivity.empty() ? 0
-                                               : H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL,
-                                                          H5P_DEFAULT, connectivity.data());
-    H5Dclose(set);
-    check(status, h5_path_, "connectivity");
+    write_h5_dataset(static_cast<hid_t>(file_), h5_path_, "connectivity", connectivity,
+                     connectivity.size(), 1);
+    write_h5_attribute(static_cast<hid_t>(file_), h5_path_, "units", kParticleUnits);
   }
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
@@ -193,8 +224,11 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
                        H5Gclose);
   if (!group.ok())
     throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
+  write_h5_attribute(group.get(), h5_path_, "time", time);
+  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   const std::size_t n = particles.size();
   std::vector<double> buffer;
+  std::vector<long long> integers(n);
   auto vec3 = [&](auto get) {
     buffer.assign(3 * n, 0.0);
     for (std::size_t p = 0; p < n; ++p) {
@@ -223,12 +257,12 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   write_h5_dataset(group.get(), h5_path_, "eps_p", buffer, n, 1);
   scalar([&](std::size_t p) { return particles.volume[p]; });
   write_h5_dataset(group.get(), h5_path_, "volume", buffer, n, 1);
-  scalar([&](std::size_t p) { return static_cast<double>(p); });
-  write_h5_dataset(group.get(), h5_path_, "id", buffer, n, 1);
-  scalar([&](std::size_t p) { return static_cast<double>(particles.material[p]); });
-  write_h5_dataset(group.get(), h5_path_, "material", buffer, n, 1);
-  scalar([&](std::size_t p) { return static_cast<double>(particles.body[p]); });
-  write_h5_dataset(group.get(), h5_path_, "body", buffer, n, 1);
+  for (std::size_t p = 0; p < n; ++p) integers[p] = static_cast<long long>(p);
+  write_h5_dataset(group.get(), h5_path_, "id", integers, n, 1);
+  for (std::size_t p = 0; p < n; ++p) integers[p] = particles.material[p];
+  write_h5_dataset(group.get(), h5_path_, "material", integers, n, 1);
+  for (std::size_t p = 0; p < n; ++p) integers[p] = particles.body[p];
+  write_h5_dataset(group.get(), h5_path_, "body", integers, n, 1);
   const char* gradient_names[4] = {"F11", "F12", "F21", "F22"};
   for (int k = 0; k < 4; ++k) {
     scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
@@ -265,10 +299,13 @@ void ParticleSeriesWriter::write_xdmf() const {
     }
     for (const char* scalar_name : {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material",
                                     "body", "F11", "F12", "F21", "F22"}) {
+      const std::string name = scalar_name;
+      const bool integer = name == "id" || name == "material" || name == "body";
       x << "<Attribute Name=\"" << scalar_name
         << "\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" << n
-        << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
-        << scalar_name << "</DataItem></Attribute>\n";
+        << "\" Format=\"HDF\" NumberType=\"" << (integer ? "Int" : "Float")
+        << "\" Precision=\"8\">particles.h5:/" << g << "/" << scalar_name
+        << "</DataItem></Attribute>\n";
     }
     x << "</Grid>\n";
   }
@@ -306,14 +343,14 @@ BoundarySeriesWriter::~BoundarySeriesWriter() {
 void BoundarySeriesWriter::write(double time, long step,
                                  const std::vector<std::vector<Vec2>>& loops,
                                  const std::vector<bool>& closed) {
-  std::vector<double> position, loop_of_point;
-  std::vector<long long> segments;
+  std::vector<double> position;
+  std::vector<long long> loop_of_point, segments;
   for (std::size_t k = 0; k < loops.size(); ++k) {
     const auto first = static_cast<long long>(loop_of_point.size());
     const auto count = static_cast<long long>(loops[k].size());
     for (const Vec2& x : loops[k]) {
       position.insert(position.end(), {x.x(), x.y(), 0.0});
-      loop_of_point.push_back(static_cast<double>(k));
+      loop_of_point.push_back(static_cast<long long>(k));
     }
     for (long long i = 0; i + 1 < count; ++i)
       segments.insert(segments.end(), {first + i, first + i + 1});
@@ -326,23 +363,12 @@ void BoundarySeriesWriter::write(double time, long step,
                        H5Gclose);
   if (!group.ok())
     throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
+  write_h5_attribute(group.get(), h5_path_, "time", time);
+  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
   write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3);
   write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1);
-  {
-    hsize_t dims[2] = {n_segments, 2};
-    const hid_t space = H5Screate_simple(2, dims, nullptr);
-    const hid_t set = H5Dcreate2(group.get(), "segments", H5T_STD_I64LE, space, H5P_DEFAULT,
-                                 UntimedCreation(H5P_DATASET_CREATE).get(), H5P_DEFAULT);
-    const int error = errno;
-    H5Sclose(space);
-    if (set < 0) throw_io_error("HDF5 cannot create dataset segments in", h5_path_, error);
-    const herr_t status = n_segments > 0 ? H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL,
-                                                    H5P_DEFAULT, segments.data())
-                                         : 0;
-    H5Dclose(set);
-    check(status, h5_path_, "segments");
-  }
+  write_h5_dataset(group.get(), h5_path_, "segments", segments, n_segments, 2);
   check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
   times_.push_back(time);
   groups_.push_back(name);
@@ -369,7 +395,7 @@ void BoundarySeriesWriter::write_xdmf() const {
       << "/position</DataItem></Geometry>\n"
       << "<Attribute Name=\"loop\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem "
       << "Dimensions=\"" << points_[s]
-      << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
+      << "\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">boundary.h5:/" << g
       << "/loop</DataItem></Attribute>\n</Grid>\n";
   }
   x << "</Grid>\n</Domain>\n</Xdmf>\n";

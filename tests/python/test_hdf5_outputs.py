@@ -1,0 +1,56 @@
+"""HDF5 outputs as readers expect them (issue "Fits the tools its users already use", item 2):
+every step group carries its time and step, the file its units; id, material, body and the
+boundary's loop are integers; datasets are gzip-compressed with byte shuffle; and h5py reads
+back at the last output step exactly what final_particles.csv and boundary_<step>.csv hold."""
+
+import json
+import subprocess
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_hdf5_steps_read_back_as_the_csv_files(pfm_binary, tmp_path):
+    case = json.loads(
+        (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
+    )
+    case["time"]["end_time"] = 0.5
+    case["output"] = {"interval": 0.25}
+    path = tmp_path / "case.json"
+    path.write_text(json.dumps(case))
+    out = tmp_path / "out"
+    subprocess.run(
+        [pfm_binary, "run", path, "--out", out, "--quiet"],
+        check=True,
+        capture_output=True,
+    )
+    outputs = json.loads((out / "run.json").read_text())["outputs"]
+    final = pd.read_csv(out / "final_particles.csv", float_precision="round_trip")
+    with h5py.File(out / "particles.h5", "r") as f:
+        assert "kPa" in f.attrs["units"].decode()
+        for entry in outputs:
+            group = f[f"step_{entry['step']:08d}"]
+            assert group.attrs["time"] == entry["time"]
+            assert group.attrs["step"] == entry["step"]
+        last = f[f"step_{outputs[-1]['step']:08d}"]
+        for name in ("id", "material", "body"):
+            assert last[name].dtype == np.int64, name
+        assert last["position"].compression == "gzip" and last["position"].shuffle
+        np.testing.assert_array_equal(last["position"][:, 0], final["x"])
+        np.testing.assert_array_equal(last["position"][:, 1], final["y"])
+        np.testing.assert_array_equal(last["velocity"][:, 0], final["vx"])
+        for name in ("sxx", "syy", "sxy", "szz", "eps_p", "volume", "F11", "F22"):
+            np.testing.assert_array_equal(last[name][:], final[name], err_msg=name)
+        np.testing.assert_array_equal(last["id"][:], final["id"])
+    boundary = pd.read_csv(out / outputs[-1]["boundary"], float_precision="round_trip")
+    with h5py.File(out / "boundary.h5", "r") as f:
+        last = f[f"step_{outputs[-1]['step']:08d}"]
+        assert last.attrs["time"] == outputs[-1]["time"]
+        assert last["loop"].dtype == np.int64 and last["segments"].dtype == np.int64
+        np.testing.assert_array_equal(last["position"][:, 0], boundary["x"])
+        np.testing.assert_array_equal(last["position"][:, 1], boundary["y"])
+        np.testing.assert_array_equal(last["loop"][:], boundary["loop"])
