@@ -19,7 +19,7 @@ DEB_PACKAGES := cmake make g++ git clang-format black \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
   $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 
-.PHONY: help deps build run test test-cpp test-python test-studies sanitize bench format clean study \
+.PHONY: help deps build run test format-check test-cpp test-python test-studies sanitize bench format clean study \
   report study-boundary study-quadrature study-timing study-parametric study-convergence \
   study-benchmarks
 .DEFAULT_GOAL := help
@@ -35,7 +35,7 @@ help:
 	@echo "                convergence benchmarks (QUICK=1 quick variants, SCHEDULER=tcp://... Dask)"
 	@echo "  report        the nightly accuracy report from the studies"
 	@echo "  fuzz          libFuzzer on the input readers and the detector (clang)"
-	@echo "  format        clang-format and black over the tracked sources"
+	@echo "  format        clang-format and black over the tracked sources (format-check: check only)"
 	@echo "  clean         remove $(BUILD_DIR) and $(SANITIZE_DIR)"
 
 SCHEDULER ?=
@@ -65,7 +65,12 @@ build: deps
 run: build
 	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies demo --case $(CASE) --out $(OUT)
 
-test: build test-cpp test-python test-studies test-sanitize
+test: build format-check test-cpp test-python test-studies test-sanitize
+
+# `make format` leaves the committed tree as it is: checked by `make test`.
+format-check:
+	@git ls-files '*.cpp' '*.hpp' | xargs clang-format --dry-run --Werror
+	@git ls-files '*.py' | xargs black -q --check
 
 test-cpp:
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600

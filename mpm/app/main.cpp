@@ -68,6 +68,20 @@ int main(int argc, char** argv) {
   detect->add_option("particles", particles_csv, "particle CSV with x,y,volume[,F11..F22]")
       ->required();
   detect->add_option("--config", detect_config, "detector configuration (JSON)")->required();
+  detect->footer(
+      "Configuration keys (every key, unit and default: mpm/detect/README.md; an example: "
+      "cases/detect/improved.json):\n"
+      "  method            \"improved\" (default), \"pfm\" (the thesis), \"smm\", \"vof\", "
+      "\"density\"\n"
+      "  improved, pfm, smm, vof, density   the chosen method's settings, e.g. improved: "
+      "profile, radius_factor, level, guard_factor, refinement, narrow_band, neighbour_shape, "
+      "max_stretch, spurious_loops\n"
+      "  initial_spacing   m, the particles' spacing in the reference state (default: sqrt of "
+      "the median volume)\n"
+      "  grid              {origin, cell_size, n_cells} (default: cell 2 x spacing around the "
+      "particles)\n"
+      "Without F11..F22 columns every particle's F is taken as the identity (a warning says "
+      "so).");
   detect->add_option("--out", detect_out, "output directory")->required();
   int detect_threads = 0;
   bool detect_overwrite = false;

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "mpm/core/json_input.hpp"
@@ -128,6 +129,13 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
   detector_json.erase("initial_spacing");
   const DetectorConfig config = parse_detector_config(JsonView(detector_json, config_json));
   const ParticleTable table = read_particle_csv(particles_csv);
+  std::vector<std::string> warnings;
+  if (table.deformation_gradient.empty()) {
+    warnings.push_back(particles_csv +
+                       ": no F11..F22 columns: every particle's F is taken as the identity (the "
+                       "kernels of a deformed body then keep their reference shape)");
+    std::cerr << "pfm-mpm detect: warning: " << warnings.back() << "\n";
+  }
 
   double spacing = 0.0;
   if (const auto v = root.find("initial_spacing")) {
@@ -216,6 +224,7 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
   made["finished_utc"] = utc_now();
   nlohmann::json summary = {
       {"provenance", made},
+      {"warnings", warnings},
       {"method", detector_method_name(config.method)},
       {"particles", table.position.size()},
       {"initial_spacing", spacing},

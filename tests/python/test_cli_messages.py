@@ -37,3 +37,32 @@ def test_a_run_ends_with_a_summary_line(pfm_binary, tmp_path):
             text=True,
         )
         assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+
+
+def test_the_example_detector_configuration_runs_and_missing_f_is_a_warning(
+    pfm_binary, tmp_path
+):
+    particles = tmp_path / "particles.csv"
+    rows = [
+        f"{0.125 + 0.25 * i},{0.125 + 0.25 * j},0.0625"
+        for i in range(8)
+        for j in range(4)
+    ]
+    particles.write_text("x,y,volume\n" + "\n".join(rows) + "\n")
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [
+            pfm_binary,
+            "detect",
+            particles,
+            "--config",
+            ROOT / "cases/detect/improved.json",
+        ]
+        + ["--out", out],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "no F11..F22 columns" in done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["loops"] == 1 and len(summary["warnings"]) == 1
