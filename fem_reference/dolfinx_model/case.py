@@ -771,8 +771,12 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
     dt = _number(tm, "dt", file, "/time", default=None, rule=_POSITIVE)
     output = root.get("output", {})
     _expect_object(
-        output, file, "/output", {"interval", "timeseries_interval", "nodal_loads"}
+        output,
+        file,
+        "/output",
+        {"interval", "timeseries_interval", "nodal_loads", "compression"},
     )
+    _choice(output, "compression", file, "/output", ("none", "gzip"))
     _number(output, "interval", file, "/output", rule=_POSITIVE)
     _number(output, "timeseries_interval", file, "/output", rule=_POSITIVE)
     _bool(output, "nodal_loads", file, "/output", False)

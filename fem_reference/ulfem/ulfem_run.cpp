@@ -30,9 +30,10 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
   return out.str();
 }
 
-MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh)
+MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh, bool compress)
     : h5_path_(folder.file("mesh.h5")),
       xdmf_path_(folder.file("mesh.xdmf")),
+      compress_(compress),
       n_nodes_(mesh.n_nodes()),
       n_elements_(mesh.n_elements()) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -43,7 +44,8 @@ MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh)
   for (const auto& element : mesh.element_nodes) {
     for (int n : element) topology.push_back(n);
   }
-  write_h5_dataset(static_cast<hid_t>(file_), h5_path_, "topology", topology, n_elements_, 4);
+  write_h5_dataset(static_cast<hid_t>(file_), h5_path_, "topology", topology, n_elements_, 4,
+                   compress_);
 }
 
 MeshSeriesWriter::~MeshSeriesWriter() {
@@ -69,7 +71,7 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
       buffer[3 * n + 1] = v[n].y();
       buffer[3 * n + 2] = 0.0;
     }
-    write_h5_dataset(group.get(), h5_path_, dataset, buffer, n_nodes_, 3);
+    write_h5_dataset(group.get(), h5_path_, dataset, buffer, n_nodes_, 3, compress_);
   };
   put(position, "geometry");
   put(displacement, "displacement");
@@ -144,8 +146,8 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   try {
     solver.initialise_stress();
     initial_steps = solver.initial_stress_steps();
-    ParticleSeriesWriter particle_writer(folder);
-    MeshSeriesWriter mesh_writer(folder, solver.mesh());
+    ParticleSeriesWriter particle_writer(folder, c.output.compress);
+    MeshSeriesWriter mesh_writer(folder, solver.mesh(), c.output.compress);
     auto output = [&](double t) {
       particle_writer.write(t, solver.step_count(), solver.particles());
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),

@@ -37,7 +37,7 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
 /// collection of Quadrilateral grids; ParaView and meshio open it).
 class MeshSeriesWriter {
  public:
-  MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh);
+  MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh, bool compress);
   ~MeshSeriesWriter();
   MeshSeriesWriter(const MeshSeriesWriter&) = delete;
   MeshSeriesWriter& operator=(const MeshSeriesWriter&) = delete;
@@ -49,6 +49,7 @@ class MeshSeriesWriter {
  private:
   void write_xdmf() const;
   std::string h5_path_, xdmf_path_;
+  bool compress_ = false;
   long file_ = -1;  // hid_t
   std::size_t n_nodes_ = 0, n_elements_ = 0;
   std::vector<double> times_;

@@ -555,8 +555,9 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
 
   c.output.interval = c.time.end_time / 20.0;
   if (const auto o = root.find("output")) {
-    o->expect_object({"interval", "timeseries_interval", "nodal_loads"});
+    o->expect_object({"interval", "timeseries_interval", "nodal_loads", "compression"});
     if (const auto nodal = o->find("nodal_loads")) c.output.nodal_loads = nodal->as_bool();
+    c.output.compress = o->choice_or("compression", {"none", "gzip"}, "none") == "gzip";
     c.output.interval = o->number_or("interval", c.output.interval);
     c.output.interval_given = o->has("interval");
     if (o->has("interval")) o->at("interval").require(c.output.interval > 0.0, "must be > 0");

@@ -114,6 +114,9 @@ struct OutputSpec {
   /// Write the nodal forces of the detected-boundary loads at each output step
   /// (nodal_loads_<step>.csv, thesis figure 6.6).
   bool nodal_loads = false;
+  /// gzip (level 1) + byte shuffle on the HDF5 datasets ("compression": "gzip"); off by default
+  /// (README "Outputs": 29 % fewer bytes for 18 ms per output of 3,384 points).
+  bool compress = false;
 };
 
 /// The "detection" block: the detector configuration of parse_detector_config (mpm/detect)

@@ -12,13 +12,16 @@
 
 namespace pfm {
 
-/// Writes `data` (rows x cols, row-major; 1-D when cols is 1) as the compressed dataset `name` of
-/// `group` in the output file `file`: doubles as IEEE binary64, integers as 64-bit integers;
-/// IoError naming the file and dataset when HDF5 fails.
+/// Writes `data` (rows x cols, row-major; 1-D when cols is 1) as dataset `name` of `group` in
+/// the output file `file`, compressed when `compress` (UntimedCreation::compressed): doubles as
+/// IEEE binary64, integers as 64-bit integers; IoError naming the file and dataset when HDF5
+/// fails.
 void write_h5_dataset(hid_t group, const std::string& file, const char* name,
-                      const std::vector<double>& data, std::size_t rows, std::size_t cols);
+                      const std::vector<double>& data, std::size_t rows, std::size_t cols,
+                      bool compress);
 void write_h5_dataset(hid_t group, const std::string& file, const char* name,
-                      const std::vector<long long>& data, std::size_t rows, std::size_t cols);
+                      const std::vector<long long>& data, std::size_t rows, std::size_t cols,
+                      bool compress);
 /// Attaches the attribute `name` = value (a double, or a string) to the object `object`.
 void write_h5_attribute(hid_t object, const std::string& file, const char* name, double value);
 void write_h5_attribute(hid_t object, const std::string& file, const char* name,
@@ -38,14 +41,14 @@ class UntimedCreation {
   UntimedCreation(const UntimedCreation&) = delete;
   UntimedCreation& operator=(const UntimedCreation&) = delete;
   hid_t get() const { return id_ >= 0 ? id_ : H5P_DEFAULT; }
-  /// For a dataset creation list: chunks of at most 65,536 rows, byte shuffle and gzip level 4
-  /// (output datasets: about half the bytes, README "Outputs"; `rows` > 0). Returns *this.
+  /// For a dataset creation list: chunks of at most 65,536 rows, byte shuffle and gzip level 1
+  /// (output.compression "gzip"; `rows` > 0). Returns *this.
   UntimedCreation& compressed(std::size_t rows, std::size_t cols) {
     if (id_ < 0 || rows == 0) return *this;
     const hsize_t chunk[2] = {std::min<hsize_t>(rows, 65536), cols};
     H5Pset_chunk(id_, cols == 1 ? 1 : 2, chunk);
     H5Pset_shuffle(id_);
-    H5Pset_deflate(id_, 4);
+    H5Pset_deflate(id_, 1);
     return *this;
   }
 

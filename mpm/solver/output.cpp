@@ -68,12 +68,14 @@ void check(long status, const std::string& file, const std::string& what) {
 namespace {
 
 void write_typed(hid_t group, const std::string& file, const char* name, hid_t file_type,
-                 hid_t memory_type, const void* data, std::size_t rows, std::size_t cols) {
+                 hid_t memory_type, const void* data, std::size_t rows, std::size_t cols,
+                 bool compress) {
   hsize_t dims[2] = {rows, cols};
   const hid_t space = H5Screate_simple(cols == 1 ? 1 : 2, dims, nullptr);
   UntimedCreation creation(H5P_DATASET_CREATE);
-  const hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT,
-                               creation.compressed(rows, cols).get(), H5P_DEFAULT);
+  if (compress) creation.compressed(rows, cols);
+  const hid_t set =
+      H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, creation.get(), H5P_DEFAULT);
   const int error = errno;
   H5Sclose(space);
   if (set < 0)
@@ -87,13 +89,17 @@ void write_typed(hid_t group, const std::string& file, const char* name, hid_t f
 }  // namespace
 
 void write_h5_dataset(hid_t group, const std::string& file, const char* name,
-                      const std::vector<double>& data, std::size_t rows, std::size_t cols) {
-  write_typed(group, file, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), rows, cols);
+                      const std::vector<double>& data, std::size_t rows, std::size_t cols,
+                      bool compress) {
+  write_typed(group, file, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, data.data(), rows, cols,
+              compress);
 }
 
 void write_h5_dataset(hid_t group, const std::string& file, const char* name,
-                      const std::vector<long long>& data, std::size_t rows, std::size_t cols) {
-  write_typed(group, file, name, H5T_STD_I64LE, H5T_NATIVE_LLONG, data.data(), rows, cols);
+                      const std::vector<long long>& data, std::size_t rows, std::size_t cols,
+                      bool compress) {
+  write_typed(group, file, name, H5T_STD_I64LE, H5T_NATIVE_LLONG, data.data(), rows, cols,
+              compress);
 }
 
 void write_h5_attribute(hid_t object, const std::string& file, const char* name, double value) {
@@ -179,17 +185,21 @@ std::size_t dataset_rows(hid_t file, const std::string& name) {
 
 }  // namespace
 
-ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder)
-    : h5_path_(folder.file("particles.h5")), xdmf_path_(folder.file("particles.xdmf")) {
+ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder, bool compress)
+    : h5_path_(folder.file("particles.h5")),
+      xdmf_path_(folder.file("particles.xdmf")),
+      compress_(compress) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   file_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(),
                     H5P_DEFAULT);
   if (file_ < 0) throw_io_error("cannot create", h5_path_, errno);
 }
 
-ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder,
+ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder, bool compress,
                                            const std::vector<std::pair<double, long>>& keep)
-    : h5_path_(folder.file("particles.h5")), xdmf_path_(folder.file("particles.xdmf")) {
+    : h5_path_(folder.file("particles.h5")),
+      xdmf_path_(folder.file("particles.xdmf")),
+      compress_(compress) {
   std::vector<std::string> names;
   if (!keep.empty()) names.push_back("connectivity");
   for (const auto& [time, step] : keep) names.push_back(step_group(step));
@@ -214,7 +224,7 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     for (std::size_t p = 0; p < connectivity.size(); ++p)
       connectivity[p] = static_cast<long long>(p);
     write_h5_dataset(static_cast<hid_t>(file_), h5_path_, "connectivity", connectivity,
-                     connectivity.size(), 1);
+                     connectivity.size(), 1, compress_);
     write_h5_attribute(static_cast<hid_t>(file_), h5_path_, "units", kParticleUnits);
   }
   char name[32];
@@ -242,31 +252,31 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     for (std::size_t p = 0; p < n; ++p) buffer[p] = get(p);
   };
   vec3([&](std::size_t p) { return particles.position[p]; });
-  write_h5_dataset(group.get(), h5_path_, "position", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "position", buffer, n, 3, compress_);
   vec3(
       [&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
-  write_h5_dataset(group.get(), h5_path_, "displacement", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "displacement", buffer, n, 3, compress_);
   vec3([&](std::size_t p) { return particles.velocity[p]; });
-  write_h5_dataset(group.get(), h5_path_, "velocity", buffer, n, 3);
+  write_h5_dataset(group.get(), h5_path_, "velocity", buffer, n, 3, compress_);
   const char* stress_names[4] = {"sxx", "syy", "sxy", "szz"};
   for (int k = 0; k < 4; ++k) {
     scalar([&](std::size_t p) { return particles.stress[p][k]; });
-    write_h5_dataset(group.get(), h5_path_, stress_names[k], buffer, n, 1);
+    write_h5_dataset(group.get(), h5_path_, stress_names[k], buffer, n, 1, compress_);
   }
   scalar([&](std::size_t p) { return particles.state[p].plastic_strain; });
-  write_h5_dataset(group.get(), h5_path_, "eps_p", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "eps_p", buffer, n, 1, compress_);
   scalar([&](std::size_t p) { return particles.volume[p]; });
-  write_h5_dataset(group.get(), h5_path_, "volume", buffer, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "volume", buffer, n, 1, compress_);
   for (std::size_t p = 0; p < n; ++p) integers[p] = static_cast<long long>(p);
-  write_h5_dataset(group.get(), h5_path_, "id", integers, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "id", integers, n, 1, compress_);
   for (std::size_t p = 0; p < n; ++p) integers[p] = particles.material[p];
-  write_h5_dataset(group.get(), h5_path_, "material", integers, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "material", integers, n, 1, compress_);
   for (std::size_t p = 0; p < n; ++p) integers[p] = particles.body[p];
-  write_h5_dataset(group.get(), h5_path_, "body", integers, n, 1);
+  write_h5_dataset(group.get(), h5_path_, "body", integers, n, 1, compress_);
   const char* gradient_names[4] = {"F11", "F12", "F21", "F22"};
   for (int k = 0; k < 4; ++k) {
     scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
-    write_h5_dataset(group.get(), h5_path_, gradient_names[k], buffer, n, 1);
+    write_h5_dataset(group.get(), h5_path_, gradient_names[k], buffer, n, 1, compress_);
   }
   check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
   times_.push_back(time);
@@ -313,17 +323,21 @@ void ParticleSeriesWriter::write_xdmf() const {
   write_file_atomically(xdmf_path_, x.str());
 }
 
-BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder)
-    : h5_path_(folder.file("boundary.h5")), xdmf_path_(folder.file("boundary.xdmf")) {
+BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder, bool compress)
+    : h5_path_(folder.file("boundary.h5")),
+      xdmf_path_(folder.file("boundary.xdmf")),
+      compress_(compress) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   file_ = H5Fcreate(h5_path_.c_str(), H5F_ACC_TRUNC, UntimedCreation(H5P_FILE_CREATE).get(),
                     H5P_DEFAULT);
   if (file_ < 0) throw_io_error("cannot create", h5_path_, errno);
 }
 
-BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder,
+BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder, bool compress,
                                            const std::vector<std::pair<double, long>>& keep)
-    : h5_path_(folder.file("boundary.h5")), xdmf_path_(folder.file("boundary.xdmf")) {
+    : h5_path_(folder.file("boundary.h5")),
+      xdmf_path_(folder.file("boundary.xdmf")),
+      compress_(compress) {
   std::vector<std::string> names;
   for (const auto& [time, step] : keep) names.push_back(step_group(step));
   file_ = rebuild_keeping(h5_path_, names);
@@ -366,9 +380,9 @@ void BoundarySeriesWriter::write(double time, long step,
   write_h5_attribute(group.get(), h5_path_, "time", time);
   write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
-  write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3);
-  write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1);
-  write_h5_dataset(group.get(), h5_path_, "segments", segments, n_segments, 2);
+  write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3, compress_);
+  write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1, compress_);
+  write_h5_dataset(group.get(), h5_path_, "segments", segments, n_segments, 2, compress_);
   check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
   times_.push_back(time);
   groups_.push_back(name);

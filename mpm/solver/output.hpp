@@ -66,10 +66,12 @@ class TimeSeriesTable {
 /// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start).
 class ParticleSeriesWriter {
  public:
-  explicit ParticleSeriesWriter(OutputFolder& folder);
+  /// `compress`: the datasets gzip-compressed (the case's output.compression).
+  ParticleSeriesWriter(OutputFolder& folder, bool compress);
   /// Resumes the series of a restarted run: particles.h5 is rebuilt with only the given
   /// output steps (time, step) of the old file, in that order (later steps are dropped).
-  ParticleSeriesWriter(OutputFolder& folder, const std::vector<std::pair<double, long>>& keep);
+  ParticleSeriesWriter(OutputFolder& folder, bool compress,
+                       const std::vector<std::pair<double, long>>& keep);
   ~ParticleSeriesWriter();
   ParticleSeriesWriter(const ParticleSeriesWriter&) = delete;
   ParticleSeriesWriter& operator=(const ParticleSeriesWriter&) = delete;
@@ -81,6 +83,7 @@ class ParticleSeriesWriter {
  private:
   void write_xdmf() const;
   std::string h5_path_, xdmf_path_;
+  bool compress_ = false;
   long file_ = -1;  // hid_t
   std::vector<double> times_;
   std::vector<std::string> groups_;
@@ -93,9 +96,10 @@ class ParticleSeriesWriter {
 /// point indices), loop (P, the loop number of each point, as in the boundary CSV).
 class BoundarySeriesWriter {
  public:
-  explicit BoundarySeriesWriter(OutputFolder& folder);
+  BoundarySeriesWriter(OutputFolder& folder, bool compress);
   /// Resumes the series of a restarted run (as ParticleSeriesWriter).
-  BoundarySeriesWriter(OutputFolder& folder, const std::vector<std::pair<double, long>>& keep);
+  BoundarySeriesWriter(OutputFolder& folder, bool compress,
+                       const std::vector<std::pair<double, long>>& keep);
   ~BoundarySeriesWriter();
   BoundarySeriesWriter(const BoundarySeriesWriter&) = delete;
   BoundarySeriesWriter& operator=(const BoundarySeriesWriter&) = delete;
@@ -107,6 +111,7 @@ class BoundarySeriesWriter {
  private:
   void write_xdmf() const;
   std::string h5_path_, xdmf_path_;
+  bool compress_ = false;
   long file_ = -1;  // hid_t
   std::vector<double> times_;
   std::vector<std::string> groups_;

@@ -187,7 +187,8 @@ int run_case(const Case& c, const RunOptions& options) {
         loops.push_back(contour.points);
         closed.push_back(contour.closed);
       }
-      if (!boundary_writer) boundary_writer = std::make_unique<BoundarySeriesWriter>(folder);
+      if (!boundary_writer)
+        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress);
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
       entry["boundary"] = name;
       // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
@@ -231,9 +232,9 @@ int run_case(const Case& c, const RunOptions& options) {
       std::vector<std::pair<double, long>> keep;
       for (const auto& entry : outputs)
         keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
-      writer_owner = std::make_unique<ParticleSeriesWriter>(folder, keep);
+      writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
       if (coupling.detection_enabled())
-        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, keep);
+        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
     }
     const std::string text = run.dump(2) + "\n";
     write_file_atomically(folder.file("run.json"), text);
@@ -250,7 +251,7 @@ int run_case(const Case& c, const RunOptions& options) {
     if (!options.restart) {
       solver.initialise_stress();
       coupling.attach(solver);
-      writer_owner = std::make_unique<ParticleSeriesWriter>(folder);
+      writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
       write_output(*writer_owner);
       record(solver);
     }
