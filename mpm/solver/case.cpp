@@ -495,10 +495,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       // types act on the detected boundary, which the user has most likely forgotten to name.
       if (v.has("type") && v.at("type").is_string() &&
           v.at("type").raw().get<std::string>() != "vertical_pressure") {
-        v.at("type").fail("\"" + v.at("type").raw().get<std::string>() +
-                          "\" acts on the detected boundary only: add \"apply_on\": "
-                          "\"detected_boundary\" (without apply_on a load is a "
-                          "\"vertical_pressure\" on the grid's top nodes)");
+        std::string message = v.at("type").raw().get<std::string>();
+        message.append(
+            " acts on the detected boundary only: add \"apply_on\": \"detected_boundary\" "
+            "(without apply_on a load is a \"vertical_pressure\" on the grid's top nodes)");
+        v.at("type").fail(message);
       }
       v.expect_object({"type", "pressure", "x_range", "apply_on", "time_function"});
       load.type = v.at("type").as_choice({"vertical_pressure"});

@@ -227,7 +227,7 @@ RUN_CASES = [
     (
         "follower_pressure_without_apply_on",
         mutate(["loads"], [{"type": "follower_pressure", "pressure": 10.0}]),
-        '/loads/0/type: "follower_pressure" acts on the detected boundary only: add "apply_on"',
+        '/loads/0/type: follower_pressure acts on the detected boundary only: add "apply_on"',
     ),
     # Duplicate keys (the JSON library kept the last one silently), with their JSON pointer.
     (

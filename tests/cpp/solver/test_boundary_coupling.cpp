@@ -295,7 +295,9 @@ TEST(BoundaryCoupling, FreeSquareUnderFollowerPressureStaysAtRestUnderUniformStr
     EXPECT_LE(std::abs(r.rotation), 1e-4);
     EXPECT_LE(std::abs(r.mean_stress + p), 0.01 * p);
     EXPECT_LE(r.worst_beyond_1_5, 0.03);
-    if (conforming) EXPECT_LE(r.worst_beyond_1, 0.03);
+    if (conforming) {
+      EXPECT_LE(r.worst_beyond_1, 0.03);
+    }
     EXPECT_GT(r.n_beyond_1_5, 600);
     EXPECT_LE(r.energy.kinetic_energy, 1e-4 * r.energy.ledger.load_work);
     EXPECT_LE(std::abs(r.energy.energy_error()), 1e-9 * r.energy.largest_term());
