@@ -96,7 +96,10 @@ int run_case(const Case& c, const RunOptions& options) {
 
   nlohmann::json run;
   if (options.restart) {
+    // Read under the folder's lock: a restart that waited for another to end finds it done.
     run = read_json_file(dir + "/run.json");
+    if (run.value("status", "") == "completed")
+      throw InputError("--restart " + dir + ": the run has completed; nothing to restart");
     run["status"] = "running";
     run.erase("error");
   } else {

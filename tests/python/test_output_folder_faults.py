@@ -195,11 +195,14 @@ def mark_running(out):
 
 def test_two_runs_started_together(pfm_binary, tmp_path):
     out = tmp_path / "out"
-    start_twice(pfm_binary, "run", case_file(tmp_path, 1.0), "--out", out)
+    # Long enough (about 2 s) that the second process reaches the lock while the first holds it.
+    start_twice(pfm_binary, "run", case_file(tmp_path, LONG_END), "--out", out)
     assert status(out) == "completed" and no_temporaries(out)
 
 
 def test_two_restarts_together(pfm_binary, tmp_path):
+    """One restarts; the other finds the folder locked or, if it came late, the run completed:
+    exit 2 either way."""
     out = tmp_path / "out"
     case = case_file(tmp_path, 1.0)
     done = run(pfm_binary, "run", case, "--out", out, "--checkpoint-steps", "50")
