@@ -79,6 +79,10 @@ std::string some_of(const std::vector<std::string>& names) {
 
 void remove_file(const fs::path& file) {
   std::error_code error;
+  if (fs::is_directory(fs::symlink_status(file, error))) {
+    throw InputError(file.string() + ": the earlier run's file list names it, but it is a folder " +
+                     "now: never removed; move it away or choose another output folder");
+  }
   fs::remove(file, error);
   if (error && error != std::errc::no_such_file_or_directory)
     throw_io_error("cannot remove the earlier run's file", file.string(), error.value());

@@ -104,6 +104,17 @@ def test_a_damaged_manifest_never_names_a_file_outside_the_folder(pfm_binary, tm
     assert outside.read_text() == "keep"
 
 
+def test_a_listed_name_that_became_a_folder_is_never_removed(pfm_binary, tmp_path):
+    out = tmp_path / "out"
+    case = case_file(tmp_path, SHORT_END)
+    assert run(pfm_binary, "run", case, "--out", out).returncode == 0
+    (out / "timeseries.csv").unlink()
+    (out / "timeseries.csv").mkdir()  # empty: fs::remove would take it
+    done = run(pfm_binary, "run", case, "--out", out)
+    assert done.returncode == 2 and "is a folder" in done.stderr, done.stderr
+    assert (out / "timeseries.csv").is_dir()
+
+
 def test_out_dot(pfm_binary, tmp_path):
     case = case_file(tmp_path, SHORT_END)
     here = tmp_path / "here"
