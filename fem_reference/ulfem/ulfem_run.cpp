@@ -57,13 +57,8 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
                              const std::vector<Vec2>& velocity) {
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
-  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+  const H5Handle group(create_step_group(static_cast<hid_t>(file_), h5_path_, step, time),
                        H5Gclose);
-  if (!group.ok())
-    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
-  write_h5_attribute(group.get(), h5_path_, "time", time);
-  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   std::vector<double> buffer(3 * n_nodes_, 0.0);
   auto put = [&](const std::vector<Vec2>& v, const char* dataset) {
     for (std::size_t n = 0; n < n_nodes_; ++n) {
@@ -192,11 +187,6 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     mark_failed(folder, run, e.what());
     throw;
   }
-  try {
-    write_file_atomically(folder.file("timeseries.csv"), series.text());
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -230,14 +220,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
   run["summary"]["threads"] = governor.summary();
-  try {
-    folder.release_reserve();  // the disk it kept is the final run.json's
-    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
-  if (options.progress) print_run_summary(run, dir);
-  return status;
+  return finish_run(folder, run, series.text(), options, status);
 }
 
 }  // namespace pfm::ulfem

@@ -122,8 +122,6 @@ int main(int argc, char** argv) {
       const nlohmann::json run_json = pfm::read_json_file(restart_dir + "/run.json");
       if (!run_json.contains("case") || !run_json.contains("provenance"))
         throw pfm::InputError(restart_dir + "/run.json: not a pfm-mpm run (no case)");
-      if (run_json.value("status", "") == "completed")
-        throw pfm::InputError(restart_dir + ": the run has completed; nothing to restart");
       const pfm::Case c =
           pfm::parse_case(run_json.at("case"), run_json.at("provenance").value("case_file", ""));
       // The original run's checkpoint settings, unless the restart gives its own.

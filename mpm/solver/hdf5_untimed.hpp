@@ -67,10 +67,21 @@ class H5Handle {
   H5Handle& operator=(const H5Handle&) = delete;
   hid_t get() const { return id_; }
   bool ok() const { return id_ >= 0; }
+  /// Gives the handle up to the caller, who closes it.
+  hid_t release() {
+    const hid_t id = id_;
+    id_ = -1;
+    return id;
+  }
 
  private:
   hid_t id_;
   herr_t (*close_)(hid_t);
 };
+
+/// Creates the group "step_<step, 8 digits>" of an output series in `file` (path `path`, for
+/// messages) with its attributes `time` (s) and `step`; returns it open (close with H5Gclose).
+/// IoError naming the file when HDF5 fails.
+hid_t create_step_group(hid_t file, const std::string& path, long step, double time);
 
 }  // namespace pfm

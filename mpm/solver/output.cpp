@@ -102,6 +102,19 @@ void write_h5_dataset(hid_t group, const std::string& file, const char* name,
               compress);
 }
 
+hid_t create_step_group(hid_t file, const std::string& path, long step, double time) {
+  char name[32];
+  std::snprintf(name, sizeof name, "step_%08ld", step);
+  H5Handle group(
+      H5Gcreate2(file, name, H5P_DEFAULT, UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+      H5Gclose);
+  if (!group.ok())
+    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", path, errno);
+  write_h5_attribute(group.get(), path, "time", time);
+  write_h5_attribute(group.get(), path, "step", static_cast<double>(step));
+  return group.release();
+}
+
 void write_h5_attribute(hid_t object, const std::string& file, const char* name, double value) {
   const H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
   const H5Handle attribute(
@@ -227,15 +240,9 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
                      connectivity.size(), 1, compress_);
     write_h5_attribute(static_cast<hid_t>(file_), h5_path_, "units", kParticleUnits);
   }
-  char name[32];
-  std::snprintf(name, sizeof name, "step_%08ld", step);
-  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+  const std::string name = step_group(step);
+  const H5Handle group(create_step_group(static_cast<hid_t>(file_), h5_path_, step, time),
                        H5Gclose);
-  if (!group.ok())
-    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
-  write_h5_attribute(group.get(), h5_path_, "time", time);
-  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   const std::size_t n = particles.size();
   std::vector<double> buffer;
   std::vector<long long> integers(n);
@@ -370,15 +377,9 @@ void BoundarySeriesWriter::write(double time, long step,
       segments.insert(segments.end(), {first + i, first + i + 1});
     if (closed[k] && count > 2) segments.insert(segments.end(), {first + count - 1, first});
   }
-  char name[32];
-  std::snprintf(name, sizeof name, "step_%08ld", step);
-  const H5Handle group(H5Gcreate2(static_cast<hid_t>(file_), name, H5P_DEFAULT,
-                                  UntimedCreation(H5P_GROUP_CREATE).get(), H5P_DEFAULT),
+  const std::string name = step_group(step);
+  const H5Handle group(create_step_group(static_cast<hid_t>(file_), h5_path_, step, time),
                        H5Gclose);
-  if (!group.ok())
-    throw_io_error(std::string("HDF5 cannot create group ") + name + " in", h5_path_, errno);
-  write_h5_attribute(group.get(), h5_path_, "time", time);
-  write_h5_attribute(group.get(), h5_path_, "step", static_cast<double>(step));
   const std::size_t n_points = loop_of_point.size(), n_segments = segments.size() / 2;
   write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3, compress_);
   write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1, compress_);

@@ -83,6 +83,19 @@ int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError
   return kExitIoError;
 }
 
+int finish_run(OutputFolder& folder, nlohmann::json& run, const std::string& timeseries,
+               const RunOptions& options, int status) {
+  try {
+    write_file_atomically(folder.file("timeseries.csv"), timeseries);
+    folder.release_reserve();  // the disk it kept is the final run.json's
+    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
+  } catch (const IoError& e) {
+    return fail_on_write_fault(folder, run, e);
+  }
+  if (options.progress) print_run_summary(run, options.out_dir);
+  return status;
+}
+
 int run_case(const Case& c, const RunOptions& options) {
   ThreadGovernor governor(options.threads);
   const int threads = governor.threads();
@@ -305,11 +318,6 @@ int run_case(const Case& c, const RunOptions& options) {
     mark_failed(folder, run, e.what());
     throw;
   }
-  try {
-    write_file_atomically(folder.file("timeseries.csv"), series.text());
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -367,14 +375,7 @@ int run_case(const Case& c, const RunOptions& options) {
   run["outputs"] = outputs;
   run["summary"]["energy"] = energy_summary(solver.energy());
   run["summary"]["threads"] = governor.summary();
-  try {
-    folder.release_reserve();  // the disk it kept is the final run.json's
-    write_file_atomically(folder.file("run.json"), run.dump(2) + "\n");
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
-  if (options.progress) print_run_summary(run, dir);
-  return status;
+  return finish_run(folder, run, series.text(), options, status);
 }
 
 }  // namespace pfm

@@ -78,6 +78,12 @@ void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& r
 /// Ends a run that a write fault stopped: prints the reason, mark_failed(). Returns kExitIoError.
 int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error);
 
+/// Ends a run: writes its timeseries.csv and final run.json (the reserve given back first; a
+/// write fault ends in fail_on_write_fault) and, unless quiet, prints the summary line. Returns
+/// `status`, or kExitIoError.
+int finish_run(OutputFolder& folder, nlohmann::json& run, const std::string& timeseries,
+               const RunOptions& options, int status);
+
 /// Run a validated case. Returns kExitOk, kExitSimulationError after writing run.json with
 /// status "failed" and keeping the outputs written so far, or kExitIoError after a write fault
 /// (fail_on_write_fault). InputError propagates (nothing is created when the case or options
