@@ -106,6 +106,8 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   build_boundary_edges();
   loads_ = edge_loads(case_);
   load_force_.assign(n_nodes, Vec2::Zero());
+  load_work_recorder_ = LoadWorkRecorder(case_.loads.size());
+  counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
 
   // Critical time step h_min / c_p, h_min = smallest (area / longest edge) of the mesh (h for a
   // square cell, as the MPM's h / c_p).
@@ -285,6 +287,9 @@ void UlFemSolver::step() {
 
   t0 = Clock::now();
   update_nodes();
+  load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), nodes_.mass,
+                           nodes_.momentum, nodes_.velocity, nodes_.fixed,
+                           counters_.energy.load_work_by_load);
   times_.update_grid += seconds_since(t0);
 
   t0 = Clock::now();
@@ -366,6 +371,7 @@ void UlFemSolver::external_forces() {
   const std::size_t n_nodes = nodes_.mass.size();
   for (std::size_t n = 0; n < n_nodes; ++n)
     nodes_.external_force[n] = Vec2(0.0, nodes_.mass[n] * gy);
+  load_work_recorder_.clear();
   if (!counters_.loads_active) return;  // gravity loading of the initial stress: no loads, no hook
   apply_loads();
   if (hook_) hook_(counters_.time, nodes_, nodes_.external_force);
@@ -434,6 +440,8 @@ void UlFemSolver::apply_loads() {
         const double integral_1ms = (p1 - p0) - integral_s;   // int (1 - s) ds
         load_force_[from] += integral_1ms * force_per_unit;
         load_force_[to] += integral_s * force_per_unit;
+        load_work_recorder_.add(load.case_index, from, integral_1ms * force_per_unit);
+        load_work_recorder_.add(load.case_index, to, integral_s * force_per_unit);
         d.target += (p1 - p0) * force_per_unit;
       };
       if (!top_only) {
@@ -682,6 +690,7 @@ void UlFemSolver::initialise_stress() {
   // The ledger starts from the state reached: its kinetic and elastic energy.
   const EnergyBalance e = energy();
   counters_.energy.initial_energy = e.kinetic_energy + e.elastic_energy;
+  counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
   counters_.energy.particle_kinetic = e.kinetic_energy;
 }
 

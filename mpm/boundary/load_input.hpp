@@ -19,7 +19,8 @@
 // | gauss_points           |      | 5                                | k, 1..20                                       |
 // | split_at_cell_edges    |      | true (exact), false (thesis)     | cut segments at cell edges first               |
 // | scale_eq_6_15          |      | false                            | scale to the exact total (eq. 6.15)            |
-// | redistribute_lost_load |      | false                            | move force off zero-mass nodes                 |
+// | redistribute_lost_load |      | true                             | move force off nodes too light to carry it     |
+// | min_node_mass_fraction |      | 0.01                             | "too light": mass <= f x a full cell's, [0, 1) |
 // | interval               |      | "fixed"                          | fixed (thesis 6.2) or material                 |
 // | time_function          |      | constant                         | read by the case reader                        |
 //

@@ -485,8 +485,10 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
       result.lost_force += f;
       result.lost_moment += cross(x, f);
       ++result.n_lost_nodes;
+      result.lost_nodes.push_back(node);
     }
   }
+  std::sort(result.lost_nodes.begin(), result.lost_nodes.end());
   if (spec.redistribute_lost_load && result.n_lost_nodes > 0) {
     const std::size_t n_touched = touched_.size();
     for (std::size_t k = 0; k < n_touched; ++k) {

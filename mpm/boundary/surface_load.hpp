@@ -94,8 +94,9 @@ struct BoundaryLoadSpec {
   CurveKind curve = CurveKind::kLinear;  ///< how the solver builds the curves from contours
   QuadratureOptions quadrature;
   /// Move the force on nodes of too little mass (min_node_mass) to the nearest nodes with
-  /// enough, conserving force and moment (the header comment); off: such forces stay where
-  /// they are (the thesis: forces on nodes without mass act on nothing).
+  /// enough, conserving force and moment (the header comment; the solver moves those nodes'
+  /// internal forces too, mpm/solver/boundary_coupling.hpp); off: such forces stay where they
+  /// are (the thesis: forces on nodes without mass act on nothing).
   bool redistribute_lost_load = true;
   /// The part of the mass of a full cell (the densest material's rho h^2) below which a node
   /// is too light to carry a load: a force f on a node of mass m accelerates it by f / m, and a
@@ -131,7 +132,8 @@ struct BoundaryLoadResult {
   double lost_moment = 0.0;  ///< kN m/m about (0, 0) of lost_force
   Vec2 off_grid_force = Vec2::Zero();  ///< kN/m: part on nodes outside the grid (dropped)
   int n_loaded_nodes = 0;              ///< nodes receiving a nonzero force (after redistribution)
-  int n_lost_nodes = 0;  ///< nodes of mass <= min_node_mass that received a nonzero force
+  int n_lost_nodes = 0;         ///< nodes of mass <= min_node_mass that received a nonzero force
+  std::vector<int> lost_nodes;  ///< those nodes, ascending
   bool redistributed = false;
   std::vector<NodalForce> nodal_forces;  ///< filled when asked for (plots), sorted by node
 };

@@ -48,9 +48,6 @@ struct InitialStressSpec {
   double max_time = 20.0;  ///< s
 };
 
-/// Direction bits of a constraint.
-enum FixMask : unsigned { kFixNone = 0u, kFixX = 1u, kFixY = 2u, kFixXY = 3u };
-
 struct NodeSet {
   std::string name;
   Vec2 box_min, box_max;  ///< m, closed box

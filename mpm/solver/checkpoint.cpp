@@ -309,13 +309,17 @@ void put_energy_ledger(CheckpointFile& file, const EnergyLedger& ledger) {
   const auto fields = copy.fields();
   for (std::size_t k = 0; k < fields.size(); ++k)
     file.put("solver/energy/" + std::string(EnergyLedger::kNames[k]), *fields[k]);
+  if (!ledger.load_work_by_load.empty())
+    file.put("solver/energy/load_work_by_load", ledger.load_work_by_load);
 }
 
-EnergyLedger get_energy_ledger(const CheckpointFile& file) {
+EnergyLedger get_energy_ledger(const CheckpointFile& file, std::size_t n_loads) {
   EnergyLedger ledger;
   const auto fields = ledger.fields();
   for (std::size_t k = 0; k < fields.size(); ++k)
     *fields[k] = file.scalar("solver/energy/" + std::string(EnergyLedger::kNames[k]));  // finite
+  ledger.load_work_by_load.assign(n_loads, 0.0);
+  if (n_loads > 0) ledger.load_work_by_load = file.get("solver/energy/load_work_by_load", n_loads);
   return ledger;
 }
 

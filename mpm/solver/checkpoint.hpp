@@ -67,8 +67,9 @@ void get_particles(const CheckpointFile& file, Particles& particles);
 
 /// The energy ledger under "solver/energy/<term>" (EnergyLedger::kNames).
 void put_energy_ledger(CheckpointFile& file, const EnergyLedger& ledger);
-/// Restores it; InputError naming the dataset when a term is missing.
-EnergyLedger get_energy_ledger(const CheckpointFile& file);
+/// Restores it (with the work of each of the case's n_loads loads); InputError naming the
+/// dataset when a term is missing.
+EnergyLedger get_energy_ledger(const CheckpointFile& file, std::size_t n_loads);
 
 /// Flattens arrays of Eigen fixed-size vectors/matrices (column-major) and back.
 template <typename T>

@@ -45,12 +45,17 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <span>
 #include <string_view>
+#include <vector>
 
 #include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
 
 namespace pfm {
+
+/// Direction bits of a constraint (of a node in the grid update).
+enum FixMask : unsigned { kFixNone = 0u, kFixX = 1u, kFixY = 2u, kFixXY = 3u };
 
 /// The energy terms of one node's update (kJ/m), summed over nodes by the solvers.
 struct NodeEnergy {
@@ -173,6 +178,9 @@ struct EnergyLedger {
   double plastic_dissipation = 0.0;
   double rotation_work = 0.0;
   double volume_work = 0.0;
+  /// The work of each of the case's loads on its own, in the case's order (LoadWorkRecorder);
+  /// their sum is load_work to rounding. Not a term of the identity (load_work is).
+  std::vector<double> load_work_by_load;
 
   /// The accumulated terms by name (checkpoints; names as in timeseries.csv).
   static constexpr std::array<std::string_view, 13> kNames = {
@@ -216,6 +224,48 @@ inline void EnergyLedger::add_stress_update(const PointEnergy& step) {
   rotation_work += step.rotation;
   volume_work += step.volume;
 }
+
+/// The work of each load on its own: the nodal forces of each load in a step, recorded before
+/// the grid update (add), times the velocities v_mid = (v + v') / 2 of the nodes in that update
+/// (book, after it), with v = p / m and the fixed components zero, as update_node: the works of
+/// all loads add up to the ledger's load_work (to rounding: they are summed in another order).
+class LoadWorkRecorder {
+ public:
+  explicit LoadWorkRecorder(std::size_t n_loads = 0) : forces_(n_loads) {}
+  /// Forgets the forces of the last step.
+  void clear() {
+    for (auto& f : forces_) f.clear();
+  }
+  void add(std::size_t load, std::size_t node, const Vec2& force) {
+    forces_[load].push_back({node, force});
+  }
+  /// Adds each load's work over the grid update just made to work[load] (resized to the
+  /// number of loads); nodes of mass <= tiny are not updated and take no work.
+  void book(double dt, double tiny, std::span<const double> mass, std::span<const Vec2> momentum,
+            std::span<const Vec2> velocity, std::span<const unsigned> fixed,
+            std::vector<double>& work) const {
+    work.resize(forces_.size(), 0.0);
+    for (std::size_t k = 0; k < forces_.size(); ++k) {
+      double w = 0.0;
+      for (const auto& [node, force] : forces_[k]) {
+        const double m = mass[node];
+        if (m <= tiny) continue;
+        Vec2 v = momentum[node] / m;
+        if (fixed[node] & kFixX) v.x() = 0.0;
+        if (fixed[node] & kFixY) v.y() = 0.0;
+        w += force.dot(0.5 * (v + velocity[node])) * dt;
+      }
+      work[k] += w;
+    }
+  }
+
+ private:
+  struct Entry {
+    std::size_t node;
+    Vec2 force;
+  };
+  std::vector<std::vector<Entry>> forces_;
+};
 
 /// What the time series and run.json report: the ledger with the energies of the state.
 struct EnergyBalance {

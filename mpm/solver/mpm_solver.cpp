@@ -59,6 +59,8 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   node_energy_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, {});
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+  load_work_recorder_ = LoadWorkRecorder(case_.loads.size());
+  counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
   build_constraints();
 
   // Critical time step from the P-wave speed of the stiffest material (thesis eq. 3.24 is
@@ -217,6 +219,9 @@ void MpmSolver::run_step() {
 
   t0 = Clock::now();
   update_grid();
+  load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), grid_.mass,
+                           grid_.momentum, grid_.velocity, grid_.fixed,
+                           counters_.energy.load_work_by_load);
   times_.update_grid += seconds_since(t0);
   if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
 
@@ -476,6 +481,7 @@ void MpmSolver::particles_to_grid() {
 
 void MpmSolver::external_forces() {
   // The body force is in place (particles_to_grid); the surface loads are added to it.
+  load_work_recorder_.clear();
   if (!counters_.loads_active) return;
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     const LoadSpec& load = case_.loads[k];
@@ -483,8 +489,10 @@ void MpmSolver::external_forces() {
     const double q = load.pressure * load.time_function.factor(counters_.time);
     const TopNodeLoad& top = top_loads_[k];
     for (std::size_t i = 0; i < top.node.size(); ++i) {
-      grid_.external_force[static_cast<std::size_t>(top.node[i])].y() -=
-          q * top.vertical_force_per_kpa[i];
+      const auto node = static_cast<std::size_t>(top.node[i]);
+      const Vec2 force(0.0, -q * top.vertical_force_per_kpa[i]);
+      grid_.external_force[node] += force;
+      load_work_recorder_.add(k, node, force);
     }
   }
   if (hook_) hook_(counters_.time, grid_, grid_.external_force);
@@ -772,6 +780,7 @@ void MpmSolver::initialise_stress() {
   // The ledger starts from the state reached: its kinetic and elastic energy.
   const EnergyBalance e = energy();
   counters_.energy.initial_energy = e.kinetic_energy + e.elastic_energy;
+  counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
   counters_.energy.particle_kinetic = e.kinetic_energy;
 }
 

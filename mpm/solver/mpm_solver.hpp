@@ -70,9 +70,11 @@ struct StageTimes {
 };
 
 /// Extra external forces added to the grid each step (the boundary-traction stage hooks in
-/// here). Called after particles_to_grid with the nodal masses known; adds into `force`.
+/// here). Called after particles_to_grid with the nodal masses and internal forces known; adds
+/// into `force` (grid_state.external_force). It may move internal forces between nodes,
+/// conserving their sum and moment (the lost-load rule of boundary_coupling.hpp).
 using ExternalForceHook =
-    std::function<void(double time, const GridState& grid_state, std::vector<Vec2>& force)>;
+    std::function<void(double time, GridState& grid_state, std::vector<Vec2>& force)>;
 
 /// Observer of the updated grid velocities (after the grid update, before grid-to-particles):
 /// surface markers ride on them (thesis eq. 4.6-4.7). `dt` is the step being taken.
@@ -118,6 +120,9 @@ class MpmSolver {
   EnergyBalance energy() const;
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
+  /// Where the external-force hook records each load's nodal forces of the step (by the
+  /// case's load index), for the work of each load (EnergyLedger::load_work_by_load).
+  LoadWorkRecorder& load_work_recorder() { return load_work_recorder_; }
   void set_grid_velocity_hook(GridVelocityHook hook) { velocity_hook_ = std::move(hook); }
   /// Replace the time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
@@ -171,6 +176,7 @@ class MpmSolver {
   ExternalForceHook hook_;
   GridVelocityHook velocity_hook_;
   std::vector<TopNodeLoad> top_loads_;
+  LoadWorkRecorder load_work_recorder_;
 
   // Per-step work arrays (sized once).
   /// Linear stencil of a particle: its cell (i, j) and local coordinates in [0, 1).

@@ -22,7 +22,8 @@ std::string format_exact(double v) {
   return buffer;
 }
 
-TimeSeriesTable::TimeSeriesTable(bool with_loads) : with_loads_(with_loads) {
+TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads)
+    : with_loads_(with_loads), n_loads_(n_loads) {
   text_ << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
   if (with_loads_) {
     text_ << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
@@ -31,7 +32,9 @@ TimeSeriesTable::TimeSeriesTable(bool with_loads) : with_loads_(with_loads) {
   }
   text_ << ",elastic_energy,plastic_dissipation,gravity_work,load_work,constraint_work,"
            "transfer_to_grid,transfer_to_particles,internal_force_work,rotation_work,volume_work,"
-           "energy_error\n";
+           "energy_error";
+  for (std::size_t k = 0; k < n_loads_; ++k) text_ << ",load_work_" << k;
+  text_ << '\n';
 }
 
 nlohmann::json energy_summary(const EnergyBalance& e) {
@@ -43,6 +46,7 @@ nlohmann::json energy_summary(const EnergyBalance& e) {
   const auto fields = ledger.fields();
   for (std::size_t k = 0; k < fields.size(); ++k)
     out[std::string(EnergyLedger::kNames[k])] = *fields[k];
+  if (!ledger.load_work_by_load.empty()) out["load_work_by_load"] = ledger.load_work_by_load;
   out["energy_error"] = e.energy_error();
   out["largest_term"] = e.largest_term();
   out["relative_error"] =

@@ -24,10 +24,13 @@ std::string format_exact(double v);
 /// energy ledger (mpm/solver/energy_ledger.hpp): elastic_energy, plastic_dissipation, gravity_work,
 /// load_work, constraint_work, transfer_to_grid, transfer_to_particles, internal_force_work,
 /// rotation_work, volume_work and energy_error (internal_work is the ledger's stress_power,
-/// external_work gravity_work + load_work). The same columns for the MPM and the UL-FEM runs.
+/// external_work gravity_work + load_work); last, the work of each of the case's loads,
+/// load_work_0, load_work_1, ... (EnergyLedger::load_work_by_load). The same columns for the
+/// MPM and the UL-FEM runs.
 class TimeSeriesTable {
  public:
-  explicit TimeSeriesTable(bool with_loads);
+  /// with_loads: the resultant columns; n_loads: the number of the case's loads.
+  TimeSeriesTable(bool with_loads, std::size_t n_loads);
   /// One line. `loads` (read only with the load columns): target, applied, lost, off_grid,
   /// loaded_nodes and lost_nodes.
   template <class Loads>
@@ -47,6 +50,8 @@ class TimeSeriesTable {
                            l.constraint_work, l.transfer_to_grid, l.transfer_to_particles,
                            l.internal_force_work, l.rotation_work, l.volume_work, e.energy_error()})
       text_ << ',' << format_exact(v);
+    for (std::size_t k = 0; k < n_loads_; ++k)
+      text_ << ',' << format_exact(k < l.load_work_by_load.size() ? l.load_work_by_load[k] : 0.0);
     text_ << '\n';
   }
   std::string text() const { return text_.str(); }
@@ -55,6 +60,7 @@ class TimeSeriesTable {
 
  private:
   bool with_loads_;
+  std::size_t n_loads_;
   std::ostringstream text_;
 };
 

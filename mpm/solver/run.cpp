@@ -124,7 +124,7 @@ int run_case(const Case& c, const RunOptions& options) {
   run["checkpoint"] = {{"steps", options.checkpoint_steps},
                        {"seconds", options.checkpoint_seconds}};
 
-  TimeSeriesTable series(coupling.has_surface_loads());
+  TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size());
   auto record = [&](const MpmSolver& s) {
     series.record(s.time(), s.energy(), coupling.diagnostics());
   };
@@ -167,7 +167,7 @@ int run_case(const Case& c, const RunOptions& options) {
     n.gravity_full = file.integer("solver/gravity_full", 0, 1) == 1;
     n.initial_stress_steps =
         file.integer("solver/initial_stress_steps", 0, static_cast<long>(c.time.max_steps));
-    n.energy = get_energy_ledger(file);
+    n.energy = get_energy_ledger(file, c.loads.size());
     solver.restore(n);
     coupling.attach(solver);
     coupling.restore(file);

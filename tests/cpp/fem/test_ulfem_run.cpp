@@ -72,7 +72,7 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
   EXPECT_EQ(run["outputs"][4]["boundary"], fs::path(boundaries.back()).filename().string());
 
   // timeseries.csv: the MPM's columns, then its load diagnostics and its energy ledger, which
-  // closes (energy_error, the last column); target = applied =
+  // closes (energy_error), then the work of the one load (= load_work); target = applied =
   // (0, -q B) = (0, -200) kN/m on the flat top, nothing lost.
   {
     std::ifstream in(dir + "/timeseries.csv");
@@ -84,12 +84,12 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
               "load_lost_fy,load_off_grid_fx,load_off_grid_fy,loaded_nodes,lost_nodes,"
               "load_lost_moment,elastic_energy,plastic_dissipation,gravity_work,load_work,"
               "constraint_work,transfer_to_grid,transfer_to_particles,internal_force_work,"
-              "rotation_work,volume_work,energy_error");
+              "rotation_work,volume_work,energy_error,load_work_0");
     while (std::getline(in, line)) last = line;
     std::vector<double> v;
     std::istringstream row(last);
     for (std::string cell; std::getline(row, cell, ',');) v.push_back(std::stod(cell));
-    ASSERT_EQ(v.size(), 29u);
+    ASSERT_EQ(v.size(), 30u);
     std::printf(
         "[ulfem run] last timeseries row: target (%g, %g), applied (%g, %g), lost (%g, %g), "
         "%g loaded nodes\n",
@@ -98,6 +98,7 @@ TEST(UlFemRun, OutputsAndBoundaryContract) {
     EXPECT_NEAR(v[10], v[8], 1e-12 * 200.0);
     EXPECT_EQ(v[11], 0.0);
     EXPECT_LE(std::abs(v[28]), 1e-9 * std::abs(v[2]));
+    EXPECT_NEAR(v[29], v[21], 1e-12 * std::abs(v[21]));
     EXPECT_EQ(v[12], 0.0);
     EXPECT_EQ(v[16], 0.0);
     EXPECT_GE(v[15], 3.0);

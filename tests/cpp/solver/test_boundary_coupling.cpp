@@ -203,24 +203,23 @@ TEST(BoundaryCoupling, TopRowStressUnderADetectedLoadIsExactWithGimpAndShortBySe
 // A free square (3 m, turned 20 degrees, 3 x 3 points per 0.25 m cell, weightless, no
 // supports, linear elastic) under a follower pressure p = 10 kPa on its whole detected
 // boundary, ramped over 1 s and damped: the exact state is at rest with sxx = syy = -p,
-// sxy = 0. First with the equal placement, Cundall's damping and the default load settings
-// (redistribution from nodes below 0.01 of a cell's mass): the forces moved off those nodes
-// break the node-by-node balance of the uniform stress, and disturb the points within about
-// 1.5 cells of the edges (4.8 % at one cell). Then with the lost-load threshold at 0.001 of a
-// cell's mass, damping along the velocity (Cundall's per axis turns the body: 8.5e-5 rad here,
-// 1.1e-4 at 10 degrees) and the conforming placement: the points more than one cell inside are
-// within 3 % (2.3 %; 1.9 % with the equal placement, 1.4-2.8 % over 5-45 degrees). The default
-// threshold stays 0.01: lower ones let loads on nearly empty nodes pump work into a collapse
-// (the thesis bearing block to 5 s: load work 1,108 kJ/m at 0.01, 1,748 at 0.002).
+// sxy = 0. First with the default settings: equal placement, Cundall's damping, nodes below
+// 0.01 of a cell's mass giving their load and internal force to heavier nodes
+// (boundary_coupling.hpp). The points more than one cell inside are within 1.7 % (4.8 % when
+// only the load was moved: the internal force left on a node of tiny mass then deformed the
+// points around it). Rotation 3.5e-5 rad: Cundall's damping per axis is not frame-invariant.
+// Then with the conforming placement and damping along the velocity: 1.1 %, 5e-7 rad. Over
+// 5-45 degrees the defaults give 0.8-5.3 % one cell inside; the worst angles (15 and 30
+// degrees, 3.6 and 5.3 %) are those where the detector bulges out at the corners (the
+// detected area 0.7 and 0.9 % above the points' volume, and the mean stress as much above p).
 struct FreeSquare {
   double rotation = 0.0, mean_stress = 0.0, worst_beyond_1 = 0.0, worst_beyond_1_5 = 0.0;
-  int n_beyond_1_5 = 0;
+  int n_beyond_1_5 = 0, lost_nodes = 0;
   EnergyBalance energy;
 };
 
 FreeSquare free_square_under_follower_pressure(const std::string& placement,
-                                               const std::string& damping_form,
-                                               double min_node_mass_fraction) {
+                                               const std::string& damping_form) {
   const double angle = 20.0 * std::numbers::pi / 180.0, half = 1.5, p = 10.0, h = 0.25;
   const Vec2 centre(4.0, 4.0);
   nlohmann::json polygon = nlohmann::json::array();
@@ -244,7 +243,6 @@ FreeSquare free_square_under_follower_pressure(const std::string& placement,
   j["bodies"][0]["polygon"] = polygon;
   j["bodies"][0]["placement"] = placement;
   j["solver"]["damping_form"] = damping_form;
-  j["loads"][0]["min_node_mass_fraction"] = min_node_mass_fraction;
   const Case c = parse_case(j, "free_square");
   MpmSolver solver(c);
   BoundaryCoupling coupling(c);
@@ -275,13 +273,14 @@ FreeSquare free_square_under_follower_pressure(const std::string& placement,
   r.rotation /= static_cast<double>(particles.size());
   r.mean_stress /= volume;
   r.energy = solver.energy();
+  r.lost_nodes = coupling.diagnostics().lost_nodes;
   std::printf(
-      "free square, %s placement, damping %s, lost below %g of a cell's mass: mean rotation %.2e "
+      "free square, %s placement, damping %s, %d nodes too light for the load: mean rotation %.2e "
       "rad, mean stress %.4f kPa "
       "(-p = %.1f), worst of the points more than 1 cell inside %.2f %%, more than 1.5 cells "
       "(%d points) %.2f %%, kinetic / load work %.1e\n",
-      placement.c_str(), damping_form.c_str(), min_node_mass_fraction, r.rotation, r.mean_stress,
-      -p, 100.0 * r.worst_beyond_1, r.n_beyond_1_5, 100.0 * r.worst_beyond_1_5,
+      placement.c_str(), damping_form.c_str(), r.lost_nodes, r.rotation, r.mean_stress, -p,
+      100.0 * r.worst_beyond_1, r.n_beyond_1_5, 100.0 * r.worst_beyond_1_5,
       r.energy.kinetic_energy / r.energy.ledger.load_work);
   return r;
 }
@@ -289,16 +288,15 @@ FreeSquare free_square_under_follower_pressure(const std::string& placement,
 TEST(BoundaryCoupling, FreeSquareUnderFollowerPressureStaysAtRestUnderUniformStress) {
   const double p = 10.0;
   for (const bool conforming : {false, true}) {
-    const FreeSquare r =
-        conforming ? free_square_under_follower_pressure("conforming", "along_velocity", 0.001)
-                   : free_square_under_follower_pressure("equal", "per_axis", 0.01);
+    const FreeSquare r = conforming
+                             ? free_square_under_follower_pressure("conforming", "along_velocity")
+                             : free_square_under_follower_pressure("equal", "per_axis");
     EXPECT_LE(std::abs(r.rotation), 1e-4);
     EXPECT_LE(std::abs(r.mean_stress + p), 0.01 * p);
+    EXPECT_LE(r.worst_beyond_1, 0.03);
     EXPECT_LE(r.worst_beyond_1_5, 0.03);
-    if (conforming) {
-      EXPECT_LE(r.worst_beyond_1, 0.03);
-    }
     EXPECT_GT(r.n_beyond_1_5, 600);
+    EXPECT_GT(r.lost_nodes, 0) << "the lost-load rule must be at work for the test to tell";
     EXPECT_LE(r.energy.kinetic_energy, 1e-4 * r.energy.ledger.load_work);
     EXPECT_LE(std::abs(r.energy.energy_error()), 1e-9 * r.energy.largest_term());
   }

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <random>
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
@@ -175,6 +176,53 @@ TEST(EnergyLedger, ClosesThroughFailureUnderADetectedBoundaryLoad) {
   EXPECT_LE(closure.worst, 1e-9);
   EXPECT_GT(e.ledger.plastic_dissipation, 0.0);
   EXPECT_GT(e.ledger.load_work, 0.0);
+}
+
+// The work of each load on its own (EnergyLedger::load_work_by_load): the quasi-static strip
+// load of cases/bearing_quasi_static.json (load 0, on the detected top) with a load on the grid's
+// top nodes (1) and a copy of load 0 (2). At every step the works add up to the ledger's
+// load_work to rounding, and the copy's work is load 0's bit for bit; MPM and UL-FEM.
+template <class Solver>
+void check_each_loads_work(Solver& solver, int n_steps, const char* name) {
+  double worst = 0.0;
+  for (int k = 0; k < n_steps; ++k) {
+    solver.step();
+    const EnergyLedger& l = solver.energy().ledger;
+    ASSERT_EQ(l.load_work_by_load.size(), 3u);
+    const double sum = l.load_work_by_load[0] + l.load_work_by_load[1] + l.load_work_by_load[2];
+    worst = std::max(worst, std::abs(sum - l.load_work) / std::max(1e-300, std::abs(l.load_work)));
+    ASSERT_EQ(l.load_work_by_load[0], l.load_work_by_load[2]) << "step " << k;
+  }
+  const EnergyLedger& l = solver.energy().ledger;
+  std::printf(
+      "%s: works of the loads %.4f, %.4f, %.4f kJ/m, load_work %.4f, worst |sum - "
+      "load_work| / |load_work| %.1e\n",
+      name, l.load_work_by_load[0], l.load_work_by_load[1], l.load_work_by_load[2], l.load_work,
+      worst);
+  EXPECT_LE(worst, 1e-12);
+  EXPECT_GT(l.load_work_by_load[0], 0.0);
+  EXPECT_GT(l.load_work_by_load[1], 0.0);
+}
+
+TEST(EnergyLedger, EachLoadsWorkAddsUpToTheLoadWork) {
+  std::ifstream in("cases/bearing_quasi_static.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  nlohmann::json copy = j["loads"][0];
+  j["loads"].push_back({{"type", "vertical_pressure"},
+                        {"pressure", 30.0},
+                        {"x_range", {11.0, 14.0}},
+                        {"apply_on", "grid_top_nodes"},
+                        {"time_function", {{"type", "ramp"}, {"ramp_time", 0.5}}}});
+  j["loads"].push_back(copy);
+  const Case c = parse_case(j, "three_loads");
+  MpmSolver mpm(c);
+  BoundaryCoupling coupling(c);
+  mpm.initialise_stress();
+  coupling.attach(mpm);
+  check_each_loads_work(mpm, 300, "MPM");
+  ulfem::UlFemSolver fem(c);
+  fem.initialise_stress();
+  check_each_loads_work(fem, 300, "UL-FEM");
 }
 
 }  // namespace
