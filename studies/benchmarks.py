@@ -25,7 +25,8 @@ Why: they check the loading and the solver apart from the boundary detection's a
 Reproduce: ``make study-benchmarks`` = ``/usr/bin/python3 -m studies benchmarks [--quick]``
 (quick: column and disk). Cases are built by this module from the README's case schema
 (h = 0.25 m). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
-``strip_sigma_z.png``, ``prandtl.png``.
+``strip_sigma_z.png``, ``prandtl.png`` and ``energy_ledger.png`` (the energy ledger of each
+run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ import numpy as np
 import pandas as pd
 
 from studies import analytic
+from studies.common.ledger import plot_energy_ledger, relative_energy_error
 from studies.common.measures import initial_positions, surface_settlement_extrapolated
 from studies.common.outcome import Metric, StudyOutcome
 from studies.common.outputs import (
@@ -337,6 +339,7 @@ def run(context) -> StudyOutcome:
             not_run.append(f"{name}: needs {missing.needs}")
     if not rows:
         raise PrerequisiteMissing("; ".join(not_run) or "benchmark outputs")
+    _energy_ledgers(outs, outcome, context.folder)
     outcome.tables.append(
         write_table(
             context.folder,
@@ -348,6 +351,39 @@ def run(context) -> StudyOutcome:
     if not_run:
         outcome.reason = "partly not run: " + "; ".join(not_run)
     return outcome
+
+
+def _energy_ledgers(outs: dict, outcome: StudyOutcome, folder: Path):
+    """energy_ledger.png, a panel per benchmark run, and the identity's closure of each run
+    (largest |energy_error| over the largest term, every time-series row)."""
+    import matplotlib.pyplot as plt
+
+    series = {
+        name: read_timeseries(run)
+        for name, run in outs.items()
+        if not isinstance(run, dict)
+    }
+    if not series:
+        return
+    figure, axes = plt.subplots(
+        len(series), 1, figsize=(7, 3.2 * len(series)), squeeze=False
+    )
+    for axis, (name, table) in zip(axes[:, 0], series.items()):
+        plot_energy_ledger(axis, table, name)
+        outcome.metrics.append(
+            Metric(
+                f"benchmarks.{name}.energy_identity_rel",
+                relative_energy_error(table),
+                "1",
+                "largest |energy_error| / largest ledger term",
+            )
+        )
+    figure.tight_layout()
+    outcome.figures.append(
+        save_figure(
+            folder, figure, "energy_ledger", "Energy ledger of each benchmark run"
+        )
+    )
 
 
 def column_read_outs(particles: pd.DataFrame, h: float) -> dict:

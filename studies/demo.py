@@ -42,6 +42,7 @@ import pandas as pd
 
 from studies.boundary import EDGE_BAND_CELLS, TIME_TOLERANCE, regions_of
 from studies.common.cases import cell_size, derive
+from studies.common.ledger import plot_energy_ledger
 from studies.common.measures import (
     JITTER_SPEED,
     JITTER_TRAVEL,
@@ -251,44 +252,6 @@ def verdict(case: dict, outs: dict, reference_code: int) -> dict:
     return result
 
 
-def energy_ledger(axis, series: pd.DataFrame, title: str):
-    """The energy ledger of a run against time (timeseries.csv columns, kJ/m): what gravity
-    and the loads supply, where it goes (stored, dissipated), and the scheme's own terms.
-    """
-    t = series["time"]
-    elastic_change = series["elastic_energy"] - series["elastic_energy"].iloc[0]
-    lines = [
-        ("gravity work", series["gravity_work"], "-"),
-        ("load work", series["load_work"], "-"),
-        ("elastic energy change", elastic_change, "--"),
-        ("kinetic energy", series["kinetic_energy"], "--"),
-        ("plastic dissipation", series["plastic_dissipation"], "--"),
-        ("damping (removed)", -series["damping_work"], "--"),
-        (
-            "transfers, particles <-> grid",
-            series["transfer_to_grid"] + series["transfer_to_particles"],
-            ":",
-        ),
-        (
-            "scheme: internal force work + stress power",
-            series["internal_force_work"] + series["internal_work"],
-            ":",
-        ),
-        (
-            "constraints, rotation, volume",
-            series["constraint_work"] + series["rotation_work"] + series["volume_work"],
-            ":",
-        ),
-    ]
-    for label, values, style in lines:
-        axis.plot(t, values, style, label=label)
-    axis.set_xlabel("time t [s]")
-    axis.set_ylabel("energy [kJ/m]")
-    worst = float(series["energy_error"].abs().max())
-    axis.set_title(f"{title}: largest |energy error| {worst:.2g} kJ/m", fontsize=9)
-    axis.legend(fontsize=7)
-
-
 def figures(case: dict, outs: dict, table: pd.DataFrame, out: Path) -> list:
     import matplotlib
 
@@ -370,7 +333,7 @@ def figures(case: dict, outs: dict, table: pd.DataFrame, out: Path) -> list:
 
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=True)
     for axis, solver in zip(axes, ("mpm", "ulfem")):
-        energy_ledger(axis, read_timeseries(outs[solver]), SOLVER_NAMES[solver])
+        plot_energy_ledger(axis, read_timeseries(outs[solver]), SOLVER_NAMES[solver])
     save(figure, "energy.png", "Energy ledger of both explicit runs")
     return made
 

@@ -107,3 +107,37 @@ def test_distance_of_an_open_chain_counts_no_closing_segment():
     reference = [Polyline([[0.0, 1.0], [4.0, 1.0]], closed=False)]
     detected = [Polyline([[0.0, 1.1], [4.0, 1.1]], closed=False)]
     assert abs(boundary_distance(detected, reference, h=0.5).overall.max - 0.1) <= 1e-12
+
+
+def test_ledger_lines_show_each_load_and_the_closure_is_relative_to_the_largest_term():
+    from studies.common.ledger import ledger_lines, relative_energy_error
+
+    t = np.linspace(0.0, 1.0, 5)
+    series = pd.DataFrame(
+        {
+            "time": t,
+            "gravity_work": 2.0 * t,
+            "load_work": 3.0 * t,
+            "load_work_0": 1.0 * t,
+            "load_work_1": 2.0 * t,
+            "elastic_energy": 1.0 + 4.0 * t,
+            "kinetic_energy": 0.5 * t,
+            "plastic_dissipation": 0.0 * t,
+            "damping_work": -0.5 * t,
+            "transfer_to_grid": 0.0 * t,
+            "transfer_to_particles": 0.0 * t,
+            "internal_force_work": -10.0 * t,
+            "internal_work": 10.0 * t,
+            "constraint_work": 0.0 * t,
+            "rotation_work": 0.0 * t,
+            "volume_work": 0.0 * t,
+            "energy_error": [0.0, 1e-14, -5e-14, 0.0, 2e-14],
+        }
+    )
+    labels = [label for label, _, _ in ledger_lines(series)]
+    assert "work of load 0" in labels and "work of load 1" in labels
+    assert "load work" not in labels
+    # The largest term of the run: elastic energy 5 kJ/m and the internal force work -10.
+    assert relative_energy_error(series) == pytest.approx(5e-14 / 10.0, rel=1e-12)
+    one_load = series.drop(columns=["load_work_1"])
+    assert "load work" in [label for label, _, _ in ledger_lines(one_load)]
