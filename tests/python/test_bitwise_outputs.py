@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from test_energy_identity import assert_ledger_closes
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -52,6 +54,10 @@ def test_two_runs_write_the_same_bytes(pfm_binary, tmp_path, case, extra):
     assert any(name.endswith(".h5") for name in names)
     for name in names:
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    # The energy ledger closes at every row (test_energy_identity.py).
+    assert_ledger_closes(
+        first, json.loads((ROOT / "cases" / case).read_text())["time"]["end_time"]
+    )
     a = json.loads((first / "run.json").read_text())
     b = json.loads((second / "run.json").read_text())
     assert a["outputs"] == b["outputs"]
