@@ -63,7 +63,12 @@ from studies.common.paths import PrerequisiteMissing, mpm_executable, repo_root
 from studies.common.provenance import utc_now, write_provenance
 from studies.common.runner import DOLFINX_MODULE
 from studies.common.tables import format_value, markdown_table
-from studies.metrics import boundary_distance, grid_edge_band
+from studies.metrics import (
+    Region,
+    boundary_distance,
+    grid_edge_band,
+    supported_sides_band,
+)
 
 # Relative settlement error against dolfinx, and kinetic energy / external work at the end.
 SETTLEMENT_LIMITS = {"mpm": 0.03, "ulfem": 0.02}
@@ -149,6 +154,15 @@ def history(case: dict, mpm_out: Path, fem_out: Path) -> pd.DataFrame:
     kind = "slope" if "polygon" in case["bodies"][0] else "block"
     regions = regions_of(case, kind, h)
     ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
+    if kind == "block":
+        edge, sides = ignore, supported_sides_band(
+            case["bodies"][0]["rectangle"], EDGE_BAND_CELLS * h
+        )
+        ignore = Region(
+            "supported",
+            lambda p: edge.contains(p) | sides.contains(p),
+            f"{edge.description}, or {sides.description}",
+        )
     load = case["loads"][0]
     mpm_b, fem_b = read_index(mpm_out, "boundary"), read_index(fem_out, "boundary")
     particles = {

@@ -362,6 +362,22 @@ def grid_edge_band(grid: dict, band: float) -> Region:
     )
 
 
+def supported_sides_band(rectangle, band: float) -> Region:
+    """The points within ``band`` (m) of the left, right and bottom sides of a block
+    ``rectangle`` [[x0, y0], [x1, y1]]: where walls and a base hold a block that does not rest
+    on the grid edge (a grid with a margin, as uGIMP needs), the same part of the boundary that
+    grid_edge_band leaves out when it does: not the free surface, and the detectors round the
+    corners there."""
+    (x0, y0), (x1, _) = rectangle
+    return Region(
+        "supported_sides_band",
+        lambda p: (p[:, 0] <= x0 + band)
+        | (p[:, 0] >= x1 - band)
+        | (p[:, 1] <= y0 + band),
+        f"within {band} m of the block's sides and base",
+    )
+
+
 def boundary_distance(
     detected: Sequence[Polyline],
     reference: Sequence[Polyline],
