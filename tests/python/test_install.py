@@ -1,0 +1,88 @@
+"""`cmake --install` gives a working installation (issue "Fits the tools its users already use",
+must-show 4): into a scratch prefix, the installed pfm-mpm prints its version and runs a shipped
+case, and a project outside the tree finds the package (find_package(pfm_mpm)), builds against
+pfm::core with the installed headers and runs."""
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+CONSUMER_CMAKE = """cmake_minimum_required(VERSION 3.22)
+project(consumer LANGUAGES C CXX)
+set(CMAKE_CXX_STANDARD 20)
+find_package(pfm_mpm 0.1 REQUIRED)
+add_executable(consumer main.cpp)
+target_link_libraries(consumer PRIVATE pfm::core)
+"""
+
+# The plane-strain P-wave modulus of the installed materials library: M = E (1 - nu) /
+# ((1 + nu) (1 - 2 nu)) = 1346.15... kPa for E = 1000 kPa, nu = 0.3.
+CONSUMER_MAIN = """#include <cstdio>
+#include "mpm/core/materials.hpp"
+int main() {
+  pfm::LinearElastic soil;
+  soil.elastic = {1000.0, 0.3};
+  const pfm::MaterialConstants c = soil.constants();
+  std::printf("%.17g\\n", c.lambda + 2.0 * c.mu);
+  return 0;
+}
+"""
+
+
+def test_an_installed_prefix_runs_a_case_and_serves_a_cmake_project(
+    pfm_binary, tmp_path
+):
+    build = Path(pfm_binary).resolve().parents[1]
+    prefix = tmp_path / "prefix"
+    subprocess.run(
+        ["cmake", "--install", str(build), "--prefix", str(prefix)],
+        check=True,
+        capture_output=True,
+    )
+    installed = prefix / "bin" / "pfm-mpm"
+    version = subprocess.run(
+        [str(installed), "--version"], check=True, capture_output=True, text=True
+    ).stdout
+    assert version.startswith("pfm-mpm 0.1.0")
+    subprocess.run(
+        [
+            str(installed),
+            "run",
+            str(ROOT / "cases" / "column.json"),
+            "--out",
+            str(tmp_path / "out"),
+            "--quiet",
+        ],
+        check=True,
+        capture_output=True,
+    )
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert run["status"] == "completed"
+    for name in ("LICENSE", "CHANGELOG.md"):
+        assert list(prefix.glob(f"share/doc/*/{name}")), name
+
+    source, consumer = tmp_path / "consumer", tmp_path / "consumer-build"
+    source.mkdir()
+    (source / "CMakeLists.txt").write_text(CONSUMER_CMAKE)
+    (source / "main.cpp").write_text(CONSUMER_MAIN)
+    subprocess.run(
+        [
+            "cmake",
+            "-S",
+            str(source),
+            "-B",
+            str(consumer),
+            f"-DCMAKE_PREFIX_PATH={prefix}",
+        ],
+        check=True,
+        capture_output=True,
+    )
+    subprocess.run(["cmake", "--build", str(consumer)], check=True, capture_output=True)
+    out = subprocess.run(
+        [str(consumer / "consumer")], check=True, capture_output=True, text=True
+    ).stdout
+    assert float(out) == pytest.approx(1000.0 * 0.7 / (1.3 * 0.4), rel=1e-12)
