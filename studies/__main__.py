@@ -22,7 +22,7 @@ from studies import STUDY_NAMES
 # The studies need the Debian Python packages; another interpreter first on PATH cannot see them.
 _MISSING = [
     name
-    for name in ("numpy", "pandas", "matplotlib", "scipy", "h5py")
+    for name in ("numpy", "pandas", "matplotlib", "scipy", "h5py", "tqdm", "tabulate")
     if importlib.util.find_spec(name) is None
 ]
 if _MISSING:

@@ -31,12 +31,12 @@ Exit 0 when the runs completed (the verdict is in the report), 2 on bad input or
 from __future__ import annotations
 
 import argparse
-import html
 import json
 import subprocess
 import sys
 from pathlib import Path
 
+import jinja2
 import numpy as np
 import pandas as pd
 
@@ -69,6 +69,7 @@ from studies.metrics import (
     grid_edge_band,
     supported_sides_band,
 )
+from studies.report.build import templates_dir
 
 # Relative settlement error against dolfinx, and kinetic energy / external work at the end.
 SETTLEMENT_LIMITS = {"mpm": 0.03, "ulfem": 0.02}
@@ -441,33 +442,30 @@ def write_pages(case: dict, words: list, table: pd.DataFrame, made: list, out: P
     ]
     lines += [f"![{t}]({f})" for f, t in made]
     (out / "report.md").write_text("\n".join(lines) + "\n")
-    body = [
-        f"<h1>{html.escape(title)}</h1>",
-        "<h2>What is compared, and the verdict</h2>",
-    ]
-    items = []
+    # index.html: the same words (paragraphs and lists), the table and the figures.
+    blocks = []
     for line in words:
-        text = html.escape(line).replace("**", "")
+        text = line.replace("**", "")
         if line.startswith("- "):
-            items.append(f"<li>{text[2:]}</li>")
-            continue
-        if items:
-            body.append("<ul>" + "".join(items) + "</ul>")
-            items = []
-        if line:
-            body.append(f"<p>{text}</p>")
-    if items:
-        body.append("<ul>" + "".join(items) + "</ul>")
-    body += [
-        "<h2>Settlement and boundary distance at the outputs</h2>",
-        shown.to_html(index=False, float_format=lambda v: f"{v:.4g}"),
-    ]
-    body += [f'<h3>{html.escape(t)}</h3><img src="{f}">' for f, t in made]
+            if not blocks or "entries" not in blocks[-1]:
+                blocks.append({"entries": []})
+            blocks[-1]["entries"].append(text[2:])
+        elif line:
+            blocks.append({"text": text})
+    environment = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(templates_dir())),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
     (out / "index.html").write_text(
-        "<!doctype html><html><head><meta charset='utf-8'>"
-        f"<title>{html.escape(title)}</title></head><body>"
-        + "\n".join(body)
-        + "</body></html>\n"
+        environment.get_template("demo.html.j2").render(
+            title=title,
+            blocks=blocks,
+            table_html=shown.to_html(index=False, float_format=lambda v: f"{v:.4g}"),
+            figures=[{"file": f, "title": t} for f, t in made],
+        )
     )
 
 

@@ -9,10 +9,11 @@ call fails with a message saying so (Debian: ``apt-get install python3-distribut
 from __future__ import annotations
 
 import os
+import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Iterable, Optional
 
-from studies.common.progress import ProgressBar
+from tqdm import tqdm
 
 
 class SchedulerUnavailable(RuntimeError):
@@ -33,7 +34,15 @@ def parallel_map(
     """``[function(item) for item in items]`` run in parallel; ``function`` must be picklable
     (a module-level function). ``jobs`` = 1 runs serially in this process."""
     items = list(items)
-    bar = ProgressBar(len(items), description)
+    # Progress on stderr: redrawn on a terminal, every 5 s in a pipe or a log.
+    bar = tqdm(
+        total=len(items),
+        desc=description,
+        file=sys.stderr,
+        mininterval=0.1 if sys.stderr.isatty() else 5.0,
+        ascii=not sys.stderr.isatty(),
+        disable=len(items) == 0,
+    )
     results = [None] * len(items)
     try:
         if scheduler:

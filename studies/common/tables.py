@@ -23,16 +23,14 @@ def format_value(value, digits: int = 4) -> str:
 
 
 def markdown_table(frame: pd.DataFrame, digits: int = 4) -> str:
-    """GitHub-flavoured Markdown table; numbers to ``digits`` significant figures."""
-    header = "| " + " | ".join(str(c) for c in frame.columns) + " |"
-    rule = "|" + "|".join("---" for _ in frame.columns) + "|"
-    rows = [
-        "| "
-        + " | ".join(format_value(v, digits).replace("|", "\\|") for v in row)
-        + " |"
-        for row in frame.itertuples(index=False, name=None)
-    ]
-    return "\n".join([header, rule, *rows]) + "\n"
+    """GitHub-flavoured Markdown table (pandas + tabulate); numbers to ``digits`` significant
+    figures (format_value)."""
+    shown = frame.astype(object).apply(
+        lambda column: column.map(lambda v: format_value(v, digits).replace("|", "\\|"))
+    )
+    return (
+        shown.to_markdown(index=False, tablefmt="github", disable_numparse=True) + "\n"
+    )
 
 
 def write_table(folder: Path, frame: pd.DataFrame, name: str, title: str = ""):
