@@ -30,6 +30,14 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
   return out.str();
 }
 
+namespace {
+
+// The element stresses of mesh.h5: dataset name and Voigt component.
+constexpr std::pair<const char*, int> kCellStresses[] = {
+    {"sxx", kXX}, {"syy", kYY}, {"sxy", kXY}, {"szz", kZZ}};
+
+}  // namespace
+
 MeshSeriesWriter::MeshSeriesWriter(OutputFolder& folder, const QuadMesh& mesh, bool compress)
     : h5_path_(folder.file("mesh.h5")),
       xdmf_path_(folder.file("mesh.xdmf")),
@@ -54,7 +62,7 @@ MeshSeriesWriter::~MeshSeriesWriter() {
 
 void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& position,
                              const std::vector<Vec2>& displacement,
-                             const std::vector<Vec2>& velocity) {
+                             const std::vector<Vec2>& velocity, const Particles& points) {
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
   const H5Handle group(create_step_group(static_cast<hid_t>(file_), h5_path_, step, time),
@@ -71,6 +79,22 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
   put(position, "geometry");
   put(displacement, "displacement");
   put(velocity, "velocity");
+  // Per element: the volume-weighted means over its four Gauss points.
+  std::vector<double> mean(n_elements_);
+  auto put_mean = [&](const char* dataset, auto&& value) {
+    for (std::size_t e = 0; e < n_elements_; ++e) {
+      double sum = 0.0, volume = 0.0;
+      for (std::size_t p = 4 * e; p < 4 * e + 4; ++p) {
+        sum += points.volume[p] * value(p);
+        volume += points.volume[p];
+      }
+      mean[e] = sum / volume;
+    }
+    write_h5_dataset(group.get(), h5_path_, dataset, mean, n_elements_, 1, compress_);
+  };
+  for (const auto& [dataset, component] : kCellStresses)
+    put_mean(dataset, [&](std::size_t p) { return points.stress[p][component]; });
+  put_mean("eps_p", [&](std::size_t p) { return points.state[p].plastic_strain; });
   if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0)
     throw_io_error(std::string("HDF5 cannot write ") + name + " in", h5_path_, errno);
   times_.push_back(time);
@@ -93,6 +117,12 @@ void MeshSeriesWriter::write_xdmf() const {
       << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n_nodes_
       << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g
       << "/geometry</DataItem></Geometry>\n";
+    for (const char* name : {"sxx", "syy", "sxy", "szz", "eps_p"}) {
+      x << "<Attribute Name=\"" << name
+        << "\" AttributeType=\"Scalar\" Center=\"Cell\"><DataItem Dimensions=\"" << n_elements_
+        << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g << "/" << name
+        << "</DataItem></Attribute>\n";
+    }
     for (const char* vector_name : {"displacement", "velocity"}) {
       x << "<Attribute Name=\"" << vector_name
         << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n_nodes_
@@ -146,7 +176,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     auto output = [&](double t) {
       particle_writer.write(t, solver.step_count(), solver.particles());
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
-                        solver.node_state().velocity);
+                        solver.node_state().velocity, solver.particles());
       char name[48];
       std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
       write_file_atomically(folder.file(name), boundary_csv(solver.mesh(), solver.node_position()));

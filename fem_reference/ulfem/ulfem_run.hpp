@@ -14,13 +14,17 @@
 //                           the left), no repeated closing point, first point the lowest (then
 //                           leftmost); one loop per boundary component
 //   mesh.h5/.xdmf           the mesh per output step: quads, current geometry, nodal
-//                           displacement and velocity
+//                           displacement and velocity, and per element the mean stress sxx,
+//                           syy, sxy, szz (kPa) and equivalent plastic strain eps_p over its
+//                           four Gauss points, weighted by their volumes (the stress integral
+//                           of the element over its area)
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "fem_reference/ulfem/quad_mesh.hpp"
+#include "mpm/solver/particles.hpp"
 #include "mpm/solver/run.hpp"
 
 namespace pfm::ulfem {
@@ -42,9 +46,11 @@ class MeshSeriesWriter {
   MeshSeriesWriter(const MeshSeriesWriter&) = delete;
   MeshSeriesWriter& operator=(const MeshSeriesWriter&) = delete;
 
-  /// positions, displacement, velocity: one per node (m, m, m/s).
+  /// positions, displacement, velocity: one per node (m, m, m/s); points: the Gauss points,
+  /// 4 e + k for point k of element e (the element means).
   void write(double time, long step, const std::vector<Vec2>& position,
-             const std::vector<Vec2>& displacement, const std::vector<Vec2>& velocity);
+             const std::vector<Vec2>& displacement, const std::vector<Vec2>& velocity,
+             const Particles& points);
 
  private:
   void write_xdmf() const;

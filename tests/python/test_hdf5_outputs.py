@@ -55,3 +55,39 @@ def test_hdf5_steps_read_back_as_the_csv_files(pfm_binary, tmp_path):
         np.testing.assert_array_equal(last["position"][:, 0], boundary["x"])
         np.testing.assert_array_equal(last["position"][:, 1], boundary["y"])
         np.testing.assert_array_equal(last["loop"][:], boundary["loop"])
+
+
+def test_the_ulfem_mesh_carries_each_elements_mean_stress(pfm_binary, tmp_path):
+    """mesh.h5 of a UL-FEM run: per element, sxx, syy, sxy, szz and eps_p are the
+    volume-weighted means of its four Gauss points (points 4 e .. 4 e + 3 of
+    final_particles.csv); the column under its weight and surcharge has syy < 0 everywhere,
+    and meshio reads the five as cell data from mesh.xdmf."""
+    out = tmp_path / "out"
+    subprocess.run(
+        [pfm_binary, "run", ROOT / "cases" / "column.json", "--out", out, "--quiet"]
+        + ["--solver", "ulfem"],
+        check=True,
+        capture_output=True,
+    )
+    final = pd.read_csv(out / "final_particles.csv", float_precision="round_trip")
+    final = final.sort_values("id")
+    last_step = json.loads((out / "run.json").read_text())["outputs"][-1]["step"]
+    volume = final["volume"].to_numpy().reshape(-1, 4)
+    with h5py.File(out / "mesh.h5", "r") as f:
+        last = f[f"step_{last_step:08d}"]
+        assert last["syy"].shape == (len(final) // 4,)
+        for name in ("sxx", "syy", "sxy", "szz", "eps_p"):
+            values = final[name].to_numpy().reshape(-1, 4)
+            expected = (values * volume).sum(axis=1) / volume.sum(axis=1)
+            np.testing.assert_allclose(last[name][:], expected, rtol=1e-13, atol=1e-12)
+        assert (last["syy"][:] < 0).all()
+    import meshio
+
+    with meshio.xdmf.TimeSeriesReader(str(out / "mesh.xdmf")) as reader:
+        reader.read_points_cells()
+        _, _, cell_data = reader.read_data(reader.num_steps - 1)
+    with h5py.File(out / "mesh.h5", "r") as f:
+        for name in ("sxx", "syy", "sxy", "szz", "eps_p"):
+            np.testing.assert_array_equal(
+                cell_data[name][0], f[f"step_{last_step:08d}"][name]
+            )
