@@ -312,7 +312,9 @@ void ParticleSeriesWriter::write_xdmf() const {
       << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n
       << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g
       << "/position</DataItem></Geometry>\n";
-    for (const char* vector_name : {"displacement", "velocity"}) {
+    // position again as an attribute: readers that keep the first step's geometry for the
+    // whole series (meshio's TimeSeriesReader) get each step's positions from it.
+    for (const char* vector_name : {"position", "displacement", "velocity"}) {
       x << "<Attribute Name=\"" << vector_name
         << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n
         << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
@@ -412,6 +414,10 @@ void BoundarySeriesWriter::write_xdmf() const {
       << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << points_[s]
       << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
       << "/position</DataItem></Geometry>\n"
+      << "<Attribute Name=\"position\" AttributeType=\"Vector\" Center=\"Node\"><DataItem "
+      << "Dimensions=\"" << points_[s]
+      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
+      << "/position</DataItem></Attribute>\n"
       << "<Attribute Name=\"loop\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem "
       << "Dimensions=\"" << points_[s]
       << "\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">boundary.h5:/" << g

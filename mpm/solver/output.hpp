@@ -69,7 +69,9 @@ class TimeSeriesTable {
 ///
 /// Per step, datasets of length N (N = number of particles): position (N x 3, z = 0),
 /// displacement (N x 3), velocity (N x 3), sxx, syy, sxy, szz (kPa), eps_p, volume (m^2),
-/// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start).
+/// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start). The XDMF
+/// gives position as the geometry and again as a point attribute: meshio's TimeSeriesReader
+/// keeps the first step's geometry for every step, and reads each step's positions from it.
 class ParticleSeriesWriter {
  public:
   /// `compress`: the datasets gzip-compressed (the case's output.compression).
@@ -99,7 +101,8 @@ class ParticleSeriesWriter {
 /// Boundary time series beside the particles: boundary.h5 (one group per output step) +
 /// boundary.xdmf (a temporal collection of Polyline grids with 2-node segments; a closed loop
 /// includes its closing segment). Per step: position (P x 3, z = 0), segments (S x 2, int64
-/// point indices), loop (P, the loop number of each point, as in the boundary CSV).
+/// point indices), loop (P, the loop number of each point, as in the boundary CSV); in the XDMF
+/// position is also a point attribute (as for the particles).
 class BoundarySeriesWriter {
  public:
   BoundarySeriesWriter(OutputFolder& folder, bool compress);

@@ -91,3 +91,53 @@ def test_the_ulfem_mesh_carries_each_elements_mean_stress(pfm_binary, tmp_path):
             np.testing.assert_array_equal(
                 cell_data[name][0], f[f"step_{last_step:08d}"][name]
             )
+
+
+def test_meshio_reads_every_steps_positions_and_fields(pfm_binary, tmp_path):
+    """meshio's TimeSeriesReader keeps the first step's geometry for the whole series; the
+    XDMF gives each step's positions again as the point data "position". For every output step
+    of a collapsing block: positions and fields equal to particles.h5 (h5py) bit for bit, and at
+    the last step to final_particles.csv; the boundary's positions and loops per step equal to
+    boundary_<step>.csv."""
+    import meshio
+
+    case = json.loads(
+        (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
+    )
+    case["time"]["end_time"] = 1.0
+    case["output"] = {"interval": 0.25}
+    path = tmp_path / "case.json"
+    path.write_text(json.dumps(case))
+    out = tmp_path / "out"
+    subprocess.run(
+        [pfm_binary, "run", path, "--out", out, "--quiet"],
+        check=True,
+        capture_output=True,
+    )
+    outputs = json.loads((out / "run.json").read_text())["outputs"]
+    with meshio.xdmf.TimeSeriesReader(str(out / "particles.xdmf")) as reader:
+        reader.read_points_cells()
+        assert reader.num_steps == len(outputs)
+        steps = [reader.read_data(k) for k in range(reader.num_steps)]
+    moved = 0.0
+    with h5py.File(out / "particles.h5", "r") as f:
+        for entry, (time, data, _) in zip(outputs, steps):
+            group = f[f"step_{entry['step']:08d}"]
+            assert time == entry["time"]
+            np.testing.assert_array_equal(data["position"], group["position"][:])
+            for name in ("sxx", "syy", "eps_p", "volume"):
+                np.testing.assert_array_equal(data[name], group[name][:], err_msg=name)
+            moved = max(moved, np.abs(data["position"] - steps[0][1]["position"]).max())
+    assert moved > 0.1  # m: the points move, so the first geometry would be wrong
+    final = pd.read_csv(out / "final_particles.csv", float_precision="round_trip")
+    np.testing.assert_array_equal(steps[-1][1]["position"][:, 0], final["x"])
+    np.testing.assert_array_equal(steps[-1][1]["position"][:, 1], final["y"])
+    with meshio.xdmf.TimeSeriesReader(str(out / "boundary.xdmf")) as reader:
+        reader.read_points_cells()
+        boundaries = [reader.read_data(k)[1] for k in range(reader.num_steps)]
+    assert len(boundaries) == len(outputs)
+    for entry, data in zip(outputs, boundaries):
+        csv = pd.read_csv(out / entry["boundary"], float_precision="round_trip")
+        np.testing.assert_array_equal(data["position"][:, 0], csv["x"])
+        np.testing.assert_array_equal(data["position"][:, 1], csv["y"])
+        np.testing.assert_array_equal(data["loop"], csv["loop"])
