@@ -15,12 +15,14 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_hdf5_steps_read_back_as_the_csv_files(pfm_binary, tmp_path):
+def run_thesis_block(pfm_binary, tmp_path, end_time, output):
+    """cases/thesis62_bearing_dynamic_zero_start.json to end_time with the output block
+    `output`; returns the output folder."""
     case = json.loads(
         (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
     )
-    case["time"]["end_time"] = 0.5
-    case["output"] = {"interval": 0.25, "compression": "gzip"}
+    case["time"]["end_time"] = end_time
+    case["output"] = output
     path = tmp_path / "case.json"
     path.write_text(json.dumps(case))
     out = tmp_path / "out"
@@ -28,6 +30,13 @@ def test_hdf5_steps_read_back_as_the_csv_files(pfm_binary, tmp_path):
         [pfm_binary, "run", path, "--out", out, "--quiet"],
         check=True,
         capture_output=True,
+    )
+    return out
+
+
+def test_hdf5_steps_read_back_as_the_csv_files(pfm_binary, tmp_path):
+    out = run_thesis_block(
+        pfm_binary, tmp_path, 0.5, {"interval": 0.25, "compression": "gzip"}
     )
     outputs = json.loads((out / "run.json").read_text())["outputs"]
     final = pd.read_csv(out / "final_particles.csv", float_precision="round_trip")
@@ -101,19 +110,7 @@ def test_meshio_reads_every_steps_positions_and_fields(pfm_binary, tmp_path):
     boundary_<step>.csv."""
     import meshio
 
-    case = json.loads(
-        (ROOT / "cases" / "thesis62_bearing_dynamic_zero_start.json").read_text()
-    )
-    case["time"]["end_time"] = 1.0
-    case["output"] = {"interval": 0.25}
-    path = tmp_path / "case.json"
-    path.write_text(json.dumps(case))
-    out = tmp_path / "out"
-    subprocess.run(
-        [pfm_binary, "run", path, "--out", out, "--quiet"],
-        check=True,
-        capture_output=True,
-    )
+    out = run_thesis_block(pfm_binary, tmp_path, 1.0, {"interval": 0.25})
     outputs = json.loads((out / "run.json").read_text())["outputs"]
     with meshio.xdmf.TimeSeriesReader(str(out / "particles.xdmf")) as reader:
         reader.read_points_cells()
