@@ -421,6 +421,12 @@ QuadMesh gmsh_body_mesh(const Case& c) {
 }
 
 QuadMesh mesh_case(const Case& c) {
+  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+    if (c.bodies[b].from_file()) {
+      throw InputError(c.file + ": /bodies/" + std::to_string(b) +
+                       "/particles: the UL-FEM meshes rectangle and polygon bodies, not points");
+    }
+  }
   QuadMesh mesh = bodies_are_grid_aligned(c) ? grid_cell_mesh(c) : gmsh_body_mesh(c);
   orient_elements(mesh);
   renumber(mesh, c.grid.cell_size);

@@ -164,6 +164,21 @@ Particles fill_bodies(const Case& c) {
   for (std::size_t b = 0; b < c.bodies.size(); ++b) {
     const BodySpec& body = c.bodies[b];
     const double density = c.materials[static_cast<std::size_t>(body.material)].unit_weight / g;
+    if (body.from_file()) {
+      // The file's points as they are, each the square of its volume; a point inside an
+      // earlier body is that body's, as for the cells' points.
+      for (std::size_t k = 0; k < body.point_position.size(); ++k) {
+        const Vec2& x = body.point_position[k];
+        const double v = body.point_volume[k];
+        bool taken = false;
+        for (std::size_t other = 0; other < b && !taken; ++other)
+          taken = point_in_polygon(c.bodies[other].polygon, x);
+        if (taken) continue;
+        const double half = 0.5 * std::sqrt(v);
+        particles.add(x, v, density, Vec2(half, half), body.material, static_cast<int>(b));
+      }
+      continue;
+    }
     std::vector<double> local, weight;
     placement_points_1d(body.placement, body.points_per_cell, local, weight);
     const Vec2 half_size(0.5 * h / body.points_per_cell, 0.5 * h / body.points_per_cell);

@@ -17,11 +17,15 @@ double seconds_since(Clock::time_point start) {
 }
 
 /// The particle spacing of the initial state: the smallest cell size / points per cell over
-/// the bodies (m).
+/// the bodies, and the side of the smallest point of a body from a particle file (m).
 double initial_particle_spacing(const Case& c) {
   double spacing = std::numeric_limits<double>::infinity();
   for (const BodySpec& body : c.bodies) {
-    spacing = std::min(spacing, c.grid.cell_size / body.points_per_cell);
+    if (body.from_file()) {
+      for (const double v : body.point_volume) spacing = std::min(spacing, std::sqrt(v));
+    } else {
+      spacing = std::min(spacing, c.grid.cell_size / body.points_per_cell);
+    }
   }
   return spacing;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <numbers>
 #include <set>
@@ -11,6 +12,7 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/provenance.hpp"
+#include "mpm/detect/detect_command.hpp"
 
 namespace pfm {
 
@@ -108,6 +110,41 @@ MaterialRecord parse_material(const JsonView& v) {
   return record;
 }
 
+// bodies[k].particles: a CSV file (relative to the case file's folder) with columns x, y and
+// volume (read_particle_csv; other columns are not read). Every point inside the grid.
+void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
+  for (const char* key : {"rectangle", "polygon", "points_per_cell", "placement"}) {
+    if (body.has(key)) {
+      body.at(key).fail(std::string("not used with \"particles\" (the file gives the points)"));
+    }
+  }
+  const JsonView entry = body.at("particles");
+  std::filesystem::path path = entry.as_string();
+  if (path.is_relative()) path = std::filesystem::path(c.file).parent_path() / path;
+  std::error_code error;
+  entry.require(
+      !std::filesystem::exists(path, error) || std::filesystem::is_regular_file(path, error),
+      path.string() + " is not a regular file");
+  ParticleTable table;
+  try {
+    table = read_particle_csv(path.string());
+  } catch (const InputError& e) {
+    entry.fail(e.what());
+  }
+  const Grid& grid = c.grid;
+  const Vec2 lo = grid.node_position(0, 0);
+  const Vec2 hi = grid.node_position(grid.n_cells_x, grid.n_cells_y);
+  for (std::size_t k = 0; k < table.position.size(); ++k) {
+    const Vec2& x = table.position[k];
+    if (!(x.x() > lo.x() && x.x() < hi.x() && x.y() > lo.y() && x.y() < hi.y())) {
+      entry.fail(path.string() + ": point " + std::to_string(k + 1) + " (" + std::to_string(x.x()) +
+                 ", " + std::to_string(x.y()) + ") is not inside the grid");
+    }
+  }
+  out.point_position = std::move(table.position);
+  out.point_volume = std::move(table.volume);
+}
+
 std::vector<Vec2> parse_polygon(const JsonView& body, const Grid& grid) {
   std::vector<Vec2> polygon;
   const bool has_rectangle = body.has("rectangle"), has_polygon = body.has("polygon");
@@ -184,6 +221,10 @@ double estimated_particles(const Case& c) {
   double count = 0.0;
   const double cell_area = c.grid.cell_size * c.grid.cell_size;
   for (const BodySpec& body : c.bodies) {
+    if (body.from_file()) {
+      count += static_cast<double>(body.point_position.size());
+      continue;
+    }
     const double per_cell = static_cast<double>(body.points_per_cell) * body.points_per_cell;
     count += std::abs(polygon_signed_area(body.polygon)) / cell_area * per_cell;
   }
@@ -355,7 +396,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     std::set<std::string> names;
     for (std::size_t k = 0; k < b.array_size(); ++k) {
       const JsonView v = b.at(k);
-      v.expect_object({"name", "material", "rectangle", "polygon", "points_per_cell", "placement"});
+      v.expect_object({"name", "material", "rectangle", "polygon", "particles", "points_per_cell",
+                       "placement"});
       BodySpec body;
       body.name = v.at("name").as_string();
       v.at("name").require(names.insert(body.name).second, "duplicate body name");
@@ -366,6 +408,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       }
       v.at("material").require(index >= 0, "no material named \"" + material + "\"");
       body.material = index;
+      if (v.has("particles")) {
+        read_body_particles(v, c, body);
+        c.bodies.push_back(std::move(body));
+        continue;
+      }
       body.polygon = parse_polygon(v, c.grid);
       body.points_per_cell = v.int_or("points_per_cell", 2);
       if (v.has("points_per_cell")) {
@@ -431,6 +478,18 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     c.initial_stress.max_time = s->number_or("max_time", 20.0);
     if (s->has("max_time"))
       s->at("max_time").require(c.initial_stress.max_time > 0.0, "must be > 0");
+  }
+  if (c.initial_stress.method == InitialStressMethod::kK0) {
+    for (const BodySpec& body : c.bodies) {
+      if (body.from_file()) {
+        root.at("initial_stress")
+            .at("method")
+            .fail(
+                "K0 takes each point's depth below its body's top, which a body from a particle "
+                "file (\"" +
+                body.name + "\") does not have: use \"zero\" or \"gravity\"");
+      }
+    }
   }
 
   if (const auto ns = root.find("node_sets")) {

@@ -31,6 +31,12 @@ struct BodySpec {
   std::vector<Vec2> polygon;  ///< counter-clockwise, not closed (first point not repeated), m
   int points_per_cell = 2;    ///< n: n x n points per cell
   Placement placement = Placement::kEqual;
+  /// A body read from a particle file (bodies[].particles, columns x, y, volume): its points
+  /// as they are, each a square of its volume (polygon empty, points_per_cell and placement
+  /// unused). Empty for a rectangle or polygon body.
+  std::vector<Vec2> point_position;  ///< m
+  std::vector<double> point_volume;  ///< m^2 per m
+  bool from_file() const { return !point_position.empty(); }
 };
 
 struct GravitySpec {
