@@ -2,7 +2,8 @@
 (issue "Fits the tools its users already use", must-show 1), so the README cannot drift from the
 code: each line of a fenced ``sh`` block runs with bash from the copy's root and exits 0.
 
-The copy holds the project's files (``git ls-files``) with ``build`` a link to the build under
+The copy holds the project's files (``git ls-files``; without git, the tree but its builds and
+results) with ``build`` a link to the build under
 test; ``make`` lines run with its ``build`` step taken as done (``make -o build``): that build is
 what ``make test`` has just made. ``make test`` itself is not run: it is what runs this test.
 """
@@ -38,15 +39,29 @@ def test_the_readme_has_command_blocks_and_no_placeholders():
 
 def test_every_readme_command_runs_as_written_on_a_scratch_copy(pfm_binary, tmp_path):
     build = Path(pfm_binary).resolve().parents[1]
-    files = subprocess.run(
-        ["git", "ls-files", "-z"], cwd=ROOT, check=True, capture_output=True
-    ).stdout.split(b"\0")
     copy = tmp_path / "pfm-mpm"
-    for name in filter(None, (f.decode() for f in files)):
-        source = ROOT / name
-        if source.is_file():
-            (copy / name).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(source, copy / name)
+    listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True)
+    if listed.returncode == 0:
+        for name in filter(None, (f.decode() for f in listed.stdout.split(b"\0"))):
+            source = ROOT / name
+            if source.is_file():
+                (copy / name).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(source, copy / name)
+    else:  # a tree without git: everything but builds, results and caches
+        shutil.copytree(
+            ROOT,
+            copy,
+            symlinks=True,
+            ignore=lambda folder, names: [
+                n
+                for n in names
+                if n == "__pycache__"
+                or (
+                    Path(folder) == ROOT
+                    and (n.startswith("build") or n in ("results", ".git"))
+                )
+            ],
+        )
     (copy / "build").symlink_to(build, target_is_directory=True)
     env = dict(os.environ, PFM_BUILD_DIR=str(copy / "build"))
     ran = []
