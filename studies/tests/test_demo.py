@@ -1,5 +1,5 @@
 """`make run` (studies.demo) end to end, with the built pfm-mpm and the dolfinx model, on the
-default case cases/bearing_quasi_static.json (about 20 s): a strip load of 100 kPa ramped on
+default case cases/bearing_quasi_static.json (about 40 s): a strip load of 100 kPa ramped on
 the detected boundary of a clay layer, K0 start, damped to rest."""
 
 import json
