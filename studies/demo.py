@@ -64,7 +64,6 @@ from studies.common.provenance import utc_now, write_provenance
 from studies.common.runner import DOLFINX_MODULE
 from studies.common.tables import format_value, markdown_table
 from studies.metrics import (
-    Region,
     boundary_distance,
     grid_edge_band,
     supported_sides_band,
@@ -154,16 +153,14 @@ def history(case: dict, mpm_out: Path, fem_out: Path) -> pd.DataFrame:
     h = cell_size(case)
     kind = "slope" if "polygon" in case["bodies"][0] else "block"
     regions = regions_of(case, kind, h)
-    ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
+    # Not the free surface: a block's walls and base (on the grid edges or inside a margin), a
+    # slope's grid edges.
     if kind == "block":
-        edge, sides = ignore, supported_sides_band(
+        ignore = supported_sides_band(
             case["bodies"][0]["rectangle"], EDGE_BAND_CELLS * h
         )
-        ignore = Region(
-            "supported",
-            lambda p: edge.contains(p) | sides.contains(p),
-            f"{edge.description}, or {sides.description}",
-        )
+    else:
+        ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
     load = case["loads"][0]
     mpm_b, fem_b = read_index(mpm_out, "boundary"), read_index(fem_out, "boundary")
     particles = {

@@ -32,9 +32,9 @@ std::string boundary_csv(const QuadMesh& mesh, const std::vector<Vec2>& position
 
 namespace {
 
-// The element stresses of mesh.h5: dataset name and Voigt component.
-constexpr std::pair<const char*, int> kCellStresses[] = {
-    {"sxx", kXX}, {"syy", kYY}, {"sxy", kXY}, {"szz", kZZ}};
+// The element fields of mesh.h5: the stress components in Voigt order (kXX, kYY, kXY, kZZ),
+// then eps_p.
+constexpr const char* kCellFields[] = {"sxx", "syy", "sxy", "szz", "eps_p"};
 
 }  // namespace
 
@@ -81,20 +81,17 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
   put(velocity, "velocity");
   // Per element: the volume-weighted means over its four Gauss points.
   std::vector<double> mean(n_elements_);
-  auto put_mean = [&](const char* dataset, auto&& value) {
+  for (int k = 0; k < 5; ++k) {
     for (std::size_t e = 0; e < n_elements_; ++e) {
       double sum = 0.0, volume = 0.0;
       for (std::size_t p = 4 * e; p < 4 * e + 4; ++p) {
-        sum += points.volume[p] * value(p);
+        sum += points.volume[p] * (k < 4 ? points.stress[p][k] : points.state[p].plastic_strain);
         volume += points.volume[p];
       }
       mean[e] = sum / volume;
     }
-    write_h5_dataset(group.get(), h5_path_, dataset, mean, n_elements_, 1, compress_);
-  };
-  for (const auto& [dataset, component] : kCellStresses)
-    put_mean(dataset, [&](std::size_t p) { return points.stress[p][component]; });
-  put_mean("eps_p", [&](std::size_t p) { return points.state[p].plastic_strain; });
+    write_h5_dataset(group.get(), h5_path_, kCellFields[k], mean, n_elements_, 1, compress_);
+  }
   if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0)
     throw_io_error(std::string("HDF5 cannot write ") + name + " in", h5_path_, errno);
   times_.push_back(time);
@@ -117,7 +114,7 @@ void MeshSeriesWriter::write_xdmf() const {
       << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n_nodes_
       << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g
       << "/geometry</DataItem></Geometry>\n";
-    for (const char* name : {"sxx", "syy", "sxy", "szz", "eps_p"}) {
+    for (const char* name : kCellFields) {
       x << "<Attribute Name=\"" << name
         << "\" AttributeType=\"Scalar\" Center=\"Cell\"><DataItem Dimensions=\"" << n_elements_
         << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g << "/" << name

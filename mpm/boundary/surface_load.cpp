@@ -368,16 +368,16 @@ bool BoundaryLoadIntegrator::shadowed(const std::vector<CompositeBezier>& curves
 }
 
 int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
-                             std::span<Vec2> forces, double min_node_mass) {
+                             std::span<Vec2> forces, std::span<const int> nodes,
+                             double min_node_mass) {
   const auto n = static_cast<std::size_t>(grid.n_nodes());
   if (node_mass.size() != n || forces.size() != n) {
     throw std::invalid_argument("redistribute_lost_forces: sizes != number of grid nodes");
   }
   int moved = 0;
-  for (std::size_t node = 0; node < n; ++node) {
+  for (const int node : nodes) {
     if (node_mass[node] > min_node_mass || forces[node] == Vec2::Zero()) continue;
-    if (move_lost_force(grid, node_mass, min_node_mass, forces, static_cast<int>(node), [](int) {}))
-      ++moved;
+    if (move_lost_force(grid, node_mass, min_node_mass, forces, node, [](int) {})) ++moved;
   }
   return moved;
 }

@@ -208,12 +208,14 @@ std::vector<Vec2> segment_nodal_forces(const Grid& grid, const BezierSegment& se
 /// fixed_traction x length (eq. 6.13 for the vertical pressure).
 Vec2 exact_total_force(const BezierSegment& segment, const TractionLaw& law);
 
-/// Moves forces on nodes of mass <= min_node_mass to the nearest nodes of more mass (scheme in
-/// the header comment). `forces` and `node_mass` have size grid.n_nodes(). Returns the number
-/// of lost nodes that could be moved (all, unless fewer than two nodes have enough mass; with
-/// exactly one such node the force goes there and the moment is not conserved).
+/// Moves the forces on `nodes` that have mass <= min_node_mass to the nearest nodes of more mass
+/// (scheme in the header comment), in place. `forces` and `node_mass` have size grid.n_nodes().
+/// Returns the number of those nodes whose force could be moved (all, unless fewer than two
+/// nodes have enough mass; with exactly one such node the force goes there and the moment is
+/// not conserved).
 int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
-                             std::span<Vec2> forces, double min_node_mass = 0.0);
+                             std::span<Vec2> forces, std::span<const int> nodes,
+                             double min_node_mass);
 
 /// High-order reference for tests and the quadrature study: the nodal forces of one segment
 /// by adaptive Gauss-Legendre over the whole segment (no cell splitting), with the hat

@@ -44,8 +44,6 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
     loads_.push_back(surface);
     current_range_.push_back(surface.spec.x_range);
   }
-  load_force_.assign(static_cast<std::size_t>(c.grid.n_nodes()), Vec2::Zero());
-  moved_internal_.assign(static_cast<std::size_t>(c.grid.n_nodes()), Vec2::Zero());
 }
 
 void BoundaryCoupling::attach(MpmSolver& solver) {
@@ -135,20 +133,6 @@ const DetectedBoundary& BoundaryCoupling::current_boundary() {
   return boundary_;
 }
 
-void BoundaryCoupling::move_internal_forces(const std::vector<int>& nodes, double min_node_mass,
-                                            GridState& grid_state) {
-  std::vector<Vec2>& internal = grid_state.internal_force;
-  for (const int node : nodes) {
-    moved_internal_[static_cast<std::size_t>(node)] = internal[static_cast<std::size_t>(node)];
-    internal[static_cast<std::size_t>(node)] = Vec2::Zero();
-  }
-  boundary::redistribute_lost_forces(case_.grid, grid_state.mass, moved_internal_, min_node_mass);
-  for (std::size_t n = 0; n < internal.size(); ++n) {
-    internal[n] += moved_internal_[n];
-    moved_internal_[n] = Vec2::Zero();
-  }
-}
-
 void BoundaryCoupling::apply_loads(double time, GridState& grid_state, std::vector<Vec2>& force) {
   diagnostics_ = SurfaceLoadDiagnostics{};
   const Particles& particles = solver_->particles();
@@ -175,15 +159,16 @@ void BoundaryCoupling::apply_loads(double time, GridState& grid_state, std::vect
       spec.x_range = Vec2(load.spec.x_range->x() + shift0, load.spec.x_range->y() + shift1);
     }
     current_range_[k] = spec.x_range;
-    std::fill(load_force_.begin(), load_force_.end(), Vec2::Zero());
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves_, spec, load.time_function.factor(time), grid_state.mass, load_force_, true);
-    for (std::size_t n = 0; n < force.size(); ++n) force[n] += load_force_[n];
+        curves_, spec, load.time_function.factor(time), grid_state.mass, force, true);
     LoadWorkRecorder& recorder = solver_->load_work_recorder();
     for (const boundary::NodalForce& f : result.nodal_forces)
       recorder.add(load.case_index, static_cast<std::size_t>(f.node), f.force);
-    if (spec.redistribute_lost_load && !result.lost_nodes.empty())
-      move_internal_forces(result.lost_nodes, spec.min_node_mass, grid_state);
+    // The lost nodes' internal forces go where their loads went (header comment).
+    if (spec.redistribute_lost_load && !result.lost_nodes.empty()) {
+      boundary::redistribute_lost_forces(case_.grid, grid_state.mass, grid_state.internal_force,
+                                         result.lost_nodes, spec.min_node_mass);
+    }
     diagnostics_.target += result.exact_force;
     diagnostics_.applied += result.total_force;
     diagnostics_.lost += result.lost_force;

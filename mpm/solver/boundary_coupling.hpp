@@ -120,10 +120,6 @@ class BoundaryCoupling {
 
   void detect_now();
   void apply_loads(double time, GridState& grid_state, std::vector<Vec2>& force);
-  /// Moves the internal forces of `nodes` to their nearest nodes of mass > min_node_mass,
-  /// conserving the sum and the moment (the lost-load rule in the header comment).
-  void move_internal_forces(const std::vector<int>& nodes, double min_node_mass,
-                            GridState& grid_state);
   void tie_material_intervals();
 
   const Case& case_;
@@ -136,8 +132,6 @@ class BoundaryCoupling {
   long detected_at_step_ = -1;
   std::vector<boundary::CompositeBezier> curves_;
   boundary::BoundaryLoadIntegrator integrator_;
-  std::vector<Vec2> load_force_;      ///< per node, scratch
-  std::vector<Vec2> moved_internal_;  ///< per node, scratch (zero between calls)
   SurfaceLoadDiagnostics diagnostics_;
   CouplingTimes times_;
   std::vector<boundary::NodalForce> nodal_forces_;
