@@ -130,3 +130,39 @@ def observed_orders(h, errors) -> list:
         else:
             orders.append(None)
     return orders
+
+
+def manufactured_solution(
+    reference_xy: np.ndarray,
+    time: float,
+    amplitude: float,
+    period: float,
+    origin,
+    size,
+    youngs_modulus: float,
+    poisson_ratio: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The manufactured solution of a case's ``manufactured_solution`` block (the C++ body
+    force that drives it: mpm/core/manufactured.hpp): at reference points X (n x 2) and time t,
+    u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi (x - x0) / Lx) sin(pi (y - y0) / Ly) (1, 1) and its
+    small-strain plane-strain stress. Returns (u (n x 2), stress (n x 4: xx, yy, xy, zz)).
+    """
+    nu, e = poisson_ratio, youngs_modulus
+    lam = e * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = e / (2 * (1 + nu))
+    kx, ky = math.pi / size[0], math.pi / size[1]
+    sx = reference_xy[:, 0] - origin[0]
+    sy = reference_xy[:, 1] - origin[1]
+    g = amplitude * 0.25 * (1 - math.cos(2 * math.pi * time / period)) ** 2
+    phi = np.sin(kx * sx) * np.sin(ky * sy)
+    exx = g * kx * np.cos(kx * sx) * np.sin(ky * sy)
+    eyy = g * ky * np.sin(kx * sx) * np.cos(ky * sy)
+    exy = 0.5 * (exx + eyy)
+    trace = exx + eyy
+    stress = np.c_[
+        lam * trace + 2 * mu * exx,
+        lam * trace + 2 * mu * eyy,
+        2 * mu * exy,
+        lam * trace,
+    ]
+    return np.c_[g * phi, g * phi], stress

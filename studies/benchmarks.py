@@ -10,10 +10,12 @@ What it measures:
 * ``strip``: a weightless elastic block (20 m x 10 m) under a 2 m strip of 10 kPa: sigma_z under
   the centre at depths b..4b against the elastic half-space strip solution
   q / pi (alpha + sin alpha) (the finite, fixed-base block differs most at depth);
-* ``prandtl``: weightless Tresca soil (c = 10 kPa, E = 1e4 kPa) under a smooth 2 m strip
-  footing whose pressure is ramped from 0 to 1.5 (2 + pi) c over 10 s: the load-settlement
-  curve and the collapse pressure (the pressure at which the tangent stiffness dq/ds falls
-  below 5 % of its initial value) against Prandtl's (2 + pi) c;
+* ``prandtl``: a smooth strip footing of half-width b on weightless, nearly incompressible
+  Tresca soil (nu = 0.49, E = 1e4 kPa), half model, 8 cells under b, the pressure ramped on
+  the detected top from 0 to 1.2 (2 + pi) c over 16 s per m of b: the collapse pressure (where
+  the tangent stiffness dq/ds falls below 5 % of its initial value) against Prandtl's
+  (2 + pi) c, for c = 10 and 20 kPa and b = 1 and 2 m, on the MPM (uGIMP) and the UL-FEM, both
+  with anti-locking (``solver.anti_locking: "bbar"``), and once on the MPM without it;
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -24,7 +26,7 @@ Why: they check the loading and the solver apart from the boundary detection's a
 
 Reproduce: ``make study-benchmarks`` = ``/usr/bin/python3 -m studies benchmarks [--quick]``
 (quick: column and disk). Cases are built by this module from the README's case schema
-(h = 0.25 m). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
+(h = 0.25 m but for the footings). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
 ``strip_sigma_z.png``, ``prandtl.png`` and ``energy_ledger.png`` (the energy ledger of each
 run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 """
@@ -69,13 +71,15 @@ COLUMN = {
 }
 STRIP = {"width": 20.0, "depth": 10.0, "half_width": 1.0, "pressure": 10.0}
 PRANDTL = {
-    "width": 12.0,
-    "depth": 6.0,
-    "half_width": 1.0,
-    "cohesion": 10.0,
-    "max_factor": 1.5,
-    "ramp_time": 10.0,
-    "outputs": 60,
+    "cohesions": (10.0, 20.0),  # kPa
+    "half_widths": (1.0, 2.0),  # m
+    "cells_under_half_width": 8,
+    "youngs_modulus": 1.0e4,  # kPa
+    "poisson_ratio": 0.49,  # undrained: nearly incompressible
+    "max_factor": 1.2,
+    "ramp_per_half_width": 16.0,  # s per m of b
+    "damping": 0.2,
+    "outputs": 260,
     "stiffness_fraction": 0.05,
 }
 DISK = {"radius": 2.0, "pressure": 10.0}
@@ -87,6 +91,7 @@ EXPECTED_METRICS = [
     "benchmarks.column.stress_max_rel_error",
     "benchmarks.strip.sigma_z_max_rel_error",
     "benchmarks.prandtl.collapse_pressure_rel_error",
+    "benchmarks.prandtl.ulfem_collapse_pressure_rel_error",
     "benchmarks.disk.radial_displacement_rel_error",
 ]
 
@@ -113,14 +118,18 @@ def _block(
     h=H,
     damping=0.5,
     output_interval=None,
+    headroom=0,
 ):
-    """A rectangle [0, width] x [0, height] inside a grid with a 2-cell margin, fixed base,
-    rollers on both sides. The node sets hold the nodes on the walls and beyond them (the base
-    set every node at y <= 0, the side sets every node outside the body's width up to its top):
-    the walls are rigid, and a GIMP particle next to one reaches the nodes behind it (with
-    linear shape functions those nodes carry no mass and the extra fixities change nothing).
+    """A rectangle [0, width] x [0, height] inside a grid with a 2-cell margin (and `headroom`
+    more cell rows above), fixed base, rollers on both sides. The node sets hold the nodes on the
+    walls and beyond them (the base set every node at y <= 0, the side sets every node outside
+    the body's width up to its top, or up to the grid's top with headroom, where the soil may
+    heave): the walls are rigid, and a GIMP particle next to one reaches the nodes behind it
+    (with linear shape functions those nodes carry no mass and the extra fixities change
+    nothing).
     """
     far = 1e3  # m, beyond any grid of these cases
+    wall_top = height if headroom == 0 else far
     case = {
         "grid": _grid(width, height, h),
         "materials": [material],
@@ -135,8 +144,11 @@ def _block(
         "initial_stress": {"method": initial},
         "node_sets": [
             {"name": "base", "box": [[-far, -far], [width + far, 1e-9]]},
-            {"name": "left_side", "box": [[-far, 0.0], [1e-9, height]]},
-            {"name": "right_side", "box": [[width - 1e-9, 0.0], [width + far, height]]},
+            {"name": "left_side", "box": [[-far, 0.0], [1e-9, wall_top]]},
+            {
+                "name": "right_side",
+                "box": [[width - 1e-9, 0.0], [width + far, wall_top]],
+            },
         ],
         "boundary_conditions": [
             {"where": "base", "fix": "xy"},
@@ -148,6 +160,7 @@ def _block(
         "time": {"end_time": end_time},
         "output": {"interval": output_interval or end_time},
     }
+    case["grid"]["n_cells"][1] += headroom
     return case
 
 
@@ -197,37 +210,87 @@ def strip_case(pressure=None, material=None) -> dict:
     return case
 
 
-def prandtl_case() -> dict:
+def prandtl_case(
+    cohesion: float,
+    half_width: float,
+    anti_locking: str = "bbar",
+    cells_under_half_width: int = PRANDTL["cells_under_half_width"],
+    shape_function: str = "gimp",
+    apply_on: str = "detected_boundary",
+    ramp_time: float | None = None,
+    outputs: int = PRANDTL["outputs"],
+) -> dict:
+    """Half model of a smooth flexible strip footing of half-width b on weightless Tresca soil:
+    the soil is [0, 2.5 B] x [0, 2.5 B] (B = 2 b) as _block (the symmetry plane x = 0 and the
+    far side on rollers, the base fixed) with 1.25 B of free grid above; h = b /
+    cells_under_half_width. The pressure on x <= b is ramped from 0 to max_factor (2 + pi) c
+    over ramp_time (default ramp_per_half_width x b: the same ramp rate in units of the shear
+    wave's transit for every width), outputs particle files at `outputs` even intervals.
+    """
     p = PRANDTL
+    b = half_width
+    extent = 2.5 * 2.0 * b
+    h = b / cells_under_half_width
+    ramp = p["ramp_per_half_width"] * b if ramp_time is None else ramp_time
     material = {
         "name": "clay",
         "model": "tresca",
-        "youngs_modulus": 1.0e4,
-        "poisson_ratio": 0.3,
+        "youngs_modulus": p["youngs_modulus"],
+        "poisson_ratio": p["poisson_ratio"],
         "unit_weight": 20.0,
-        "cohesion": p["cohesion"],
+        "cohesion": cohesion,
     }
-    q_max = p["max_factor"] * analytic.prandtl_bearing_capacity(p["cohesion"])
-    centre = 0.5 * p["width"]
+    q_max = p["max_factor"] * analytic.prandtl_bearing_capacity(cohesion)
     case = _block(
-        p["width"],
-        p["depth"],
+        extent,
+        extent,
         material,
         [
             {
                 "type": "vertical_pressure",
                 "pressure": q_max,
-                "x_range": [centre - p["half_width"], centre + p["half_width"]],
-                "time_function": {"type": "ramp", "ramp_time": p["ramp_time"]},
+                "x_range": [-b if apply_on == "detected_boundary" else 0.0, b],
+                "apply_on": apply_on,
+                "time_function": {"type": "ramp", "ramp_time": ramp},
             }
         ],
         gravity=False,
-        end_time=p["ramp_time"],
-        damping=0.5,
-        output_interval=p["ramp_time"] / p["outputs"],
+        end_time=ramp,
+        h=h,
+        damping=p["damping"],
+        output_interval=ramp / outputs,
+        headroom=int(round(extent / h)) // 2,
     )
-    case["title"] = "benchmark Prandtl: ramped strip footing on weightless Tresca soil"
+    case["title"] = (
+        f"benchmark Prandtl: c = {cohesion:g} kPa, b = {b:g} m, h = {h:g} m, "
+        f"anti_locking {anti_locking}"
+    )
+    case["solver"].update(shape_function=shape_function, anti_locking=anti_locking)
+    case["output"]["timeseries_interval"] = ramp / outputs
     return case
+
+
+def prandtl_curve(out: Path, case: dict) -> pd.DataFrame:
+    """Load-settlement curve of a prandtl_case run: the pressure of each particle output and
+    the settlement of the footing's centre (x = h / 2, the top row of points extrapolated).
+    """
+    load = case["loads"][0]
+    ramp = load["time_function"]["ramp_time"]
+    h = case["grid"]["cell_size"]
+    top = case["bodies"][0]["rectangle"][1][1]
+    rows = []
+    for frame in read_index(out, "particles").itertuples(index=False):
+        particles = read_particles(frame.file)
+        rows.append(
+            {
+                "time_s": frame.time,
+                "pressure": load["pressure"] * min(1.0, frame.time / ramp),
+                "settlement": surface_settlement_extrapolated(
+                    particles, 0.5 * h, top, h
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
 
 
 def disk_case() -> dict:
@@ -264,16 +327,40 @@ def disk_case() -> dict:
     }
 
 
-def _run(case: dict):
-    """The output folder, or {"missing": what} when pfm-mpm rejects a key it does not
-    support yet, so the other benchmarks still run."""
+def _run(job):
+    """The output folder of a (case, solver) job, or {"missing": what} when pfm-mpm rejects a
+    key it does not support yet, so the other benchmarks still run. A footing run that stops
+    (a UL-FEM element inverted past the collapse) is a result: its outputs up to the stop.
+    """
+    case, solver = job
     try:
-        return str(run_mpm(case, threads=1).out)
+        return str(
+            run_mpm(
+                case,
+                threads=1,
+                solver=solver,
+                allow_stopped=case["title"].startswith("benchmark Prandtl"),
+            ).out
+        )
     except (RunFailed, PrerequisiteMissing) as failure:
         reason = missing_reason(failure)
         if reason is not None:
             return {"missing": reason}
         raise
+
+
+def prandtl_jobs() -> dict:
+    """The Prandtl runs by key: the MPM and the UL-FEM with anti-locking (B-bar) for every
+    cohesion and half-width, and the MPM without it (c and b the first of each)."""
+    p = PRANDTL
+    jobs = {}
+    for c in p["cohesions"]:
+        for b in p["half_widths"]:
+            for solver in ("mpm", "ulfem"):
+                jobs[f"prandtl/{solver}/c{c:g}/b{b:g}"] = (prandtl_case(c, b), solver)
+    c, b = p["cohesions"][0], p["half_widths"][0]
+    jobs[f"prandtl/mpm_none/c{c:g}/b{b:g}"] = (prandtl_case(c, b, "none"), "mpm")
+    return jobs
 
 
 def _out(run) -> Path:
@@ -293,18 +380,19 @@ def _particles(run) -> pd.DataFrame:
 def run(context) -> StudyOutcome:
     context.tools.append(tool_path("pfm-mpm"))
     names = QUICK_BENCHMARKS if context.quick else ALL_BENCHMARKS
-    builders = {
-        "column": column_case,
-        "strip": strip_case,
-        "prandtl": prandtl_case,
-        "disk": disk_case,
-    }
+    builders = {"column": column_case, "strip": strip_case, "disk": disk_case}
+    jobs = {}
+    for name in names:
+        if name == "prandtl":
+            jobs.update(prandtl_jobs())
+        else:
+            jobs[name] = (builders[name](), "mpm")
     outs = dict(
         zip(
-            names,
+            jobs,
             parallel_map(
                 _run,
-                [builders[n]() for n in names],
+                list(jobs.values()),
                 context.options.jobs,
                 context.options.scheduler,
                 "benchmark runs",
@@ -334,12 +422,19 @@ def run(context) -> StudyOutcome:
     functions = {"column": _column, "strip": _strip, "prandtl": _prandtl, "disk": _disk}
     for name in names:
         try:
-            functions[name](outs[name], add, outcome, context.folder)
+            if name == "prandtl":
+                _prandtl(outs, jobs, outcome, context.folder)
+            else:
+                functions[name](outs[name], add, outcome, context.folder)
         except PrerequisiteMissing as missing:
             not_run.append(f"{name}: needs {missing.needs}")
     if not rows:
         raise PrerequisiteMissing("; ".join(not_run) or "benchmark outputs")
-    _energy_ledgers(outs, outcome, context.folder)
+    # One energy ledger per benchmark (the Prandtl MPM run of the first c and b).
+    first = {}
+    for key, run in outs.items():
+        first.setdefault(key.split("/")[0], run)
+    _energy_ledgers(first, outcome, context.folder)
     outcome.tables.append(
         write_table(
             context.folder,
@@ -564,58 +659,79 @@ def collapse_pressure(curve: pd.DataFrame, fraction: float):
     return None
 
 
-def _prandtl(run, add, outcome, folder):
+def _prandtl(outs, jobs, outcome, folder):
+    """Collapse pressure of every Prandtl run against (2 + pi) c: the table prandtl.md, the
+    curves prandtl.png, and the largest |error| per solver with anti-locking as metrics
+    (benchmarks.prandtl.collapse_pressure_rel_error for the MPM, ...ulfem_... for the UL-FEM;
+    a run that never collapses up to max_factor (2 + pi) c counts as that factor)."""
+    import matplotlib.pyplot as plt
+
     p = PRANDTL
-    q_u = analytic.prandtl_bearing_capacity(p["cohesion"])
-    q_max = p["max_factor"] * q_u
-    rows = []
-    for frame in read_index(_out(run), "particles").itertuples(index=False):
-        particles = read_particles(frame.file)
+    rows, curves = [], {}
+    for key, (case, _) in jobs.items():
+        if not key.startswith("prandtl/"):
+            continue
+        _, solver, c_label, b_label = key.split("/")
+        cohesion = case["materials"][0]["cohesion"]
+        q_u = analytic.prandtl_bearing_capacity(cohesion)
+        curve = prandtl_curve(_out(outs[key]), case)
+        curves[key] = (curve, q_u)
+        collapse = collapse_pressure(curve, p["stiffness_fraction"])
         rows.append(
             {
-                "time_s": frame.time,
-                "pressure": q_max * min(1.0, frame.time / p["ramp_time"]),
-                "settlement": surface_settlement_extrapolated(
-                    particles, 0.5 * p["width"], p["depth"], H
-                ),
+                "solver": solver,
+                "cohesion_kPa": cohesion,
+                "half_width_m": float(b_label[1:]),
+                "cell_size_m": case["grid"]["cell_size"],
+                "anti_locking": case["solver"]["anti_locking"],
+                "collapse_kPa": collapse,
+                "prandtl_kPa": q_u,
+                "rel_error": (
+                    collapse if collapse is not None else p["max_factor"] * q_u
+                )
+                / q_u
+                - 1.0,
             }
         )
-    curve = pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
     outcome.tables.append(
         write_table(
             folder,
-            curve,
+            table,
             "prandtl",
-            "Strip footing on weightless Tresca soil: load-settlement "
-            "under the ramped load",
+            "Smooth strip footing on weightless Tresca soil (nu = 0.49): collapse pressure "
+            f"(tangent stiffness below {p['stiffness_fraction']:g} x initial) against "
+            "(2 + pi) c; a collapse above max_factor (2 + pi) c shows as None",
         )
     )
-    collapse = collapse_pressure(curve, p["stiffness_fraction"])
-    add(
-        "prandtl",
-        f"collapse pressure (tangent stiffness < {p['stiffness_fraction']:g} x "
-        f"initial)",
-        collapse if collapse is not None else float("inf"),
-        q_u,
-        "kPa",
-        "collapse_pressure_rel_error",
-    )
-    import matplotlib.pyplot as plt
-
-    figure, axis = plt.subplots(figsize=(5, 4))
-    axis.plot(curve["settlement"], curve["pressure"], "o-", markersize=3, label="MPM")
-    axis.axhline(q_u, color="k", linestyle="--", label="(2 + pi) c")
-    if collapse is not None:
-        axis.axhline(collapse, color="r", linestyle=":", label="MPM collapse")
-    axis.set_xlabel("settlement under the centre [m]")
-    axis.set_ylabel("footing pressure [kPa]")
-    axis.legend()
+    for solver, metric in (
+        ("mpm", "collapse_pressure_rel_error"),
+        ("ulfem", "ulfem_collapse_pressure_rel_error"),
+    ):
+        errors = table.loc[table["solver"] == solver, "rel_error"].abs()
+        if len(errors):
+            outcome.metrics.append(
+                Metric(f"benchmarks.prandtl.{metric}", float(errors.max()), "1")
+            )
+    figure, axis = plt.subplots(figsize=(6, 4.5))
+    for key, (curve, q_u) in curves.items():
+        axis.plot(
+            curve["settlement"] / float(key.split("/")[3][1:]),
+            curve["pressure"] / q_u,
+            "-",
+            label=key.removeprefix("prandtl/"),
+        )
+    axis.axhline(1.0, color="k", linestyle="--", label="(2 + pi) c")
+    axis.set_xlabel("settlement under the centre / b")
+    axis.set_ylabel("footing pressure / (2 + pi) c")
+    axis.set_xlim(0.0, 0.3)
+    axis.legend(fontsize=7)
     outcome.figures.append(
         save_figure(
             folder,
             figure,
             "prandtl",
-            "Prandtl: load-settlement under a ramped footing load",
+            "Prandtl: load-settlement of every run, normalised",
         )
     )
 

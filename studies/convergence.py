@@ -2,6 +2,12 @@
 
 What it measures, for h = 0.5, 0.25, 0.125, 0.0625 m (quick: 0.5, 0.25):
 
+* manufactured solution (mpm/core/manufactured.hpp; Wallstedt and Guilkey 2008): a unit
+  square of elastic soil, edges fixed, driven by the body force that makes
+  u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi x) sin(pi y) (1, 1) exact, on 8, 16, 32 and 64 cells
+  across (quick: 8 to 32), for the MPM (linear and uGIMP, MUSL and USL) and the UL-FEM: the
+  relative L2 errors of displacement and stress at t = T / 2 (``manufactured.png``);
+
 * column settlement: the benchmark column (studies.benchmarks: 1 m x 5 m, weight and 50 kPa
   surcharge from zero stress) against q H / M + gamma H^2 / (2 M), and the largest point-wise
   displacement error;
@@ -27,20 +33,22 @@ difference between the MPM and the FEM motion of softening soil, which does not 
 
 Reproduce: ``make study-convergence`` = ``/usr/bin/python3 -m studies convergence [--quick]``.
 Needs ``pfm-mpm`` (``run``, ``run --solver ulfem``, ``detect``), ``cases/thesis55_slope_dynamic_zero_start.json`` and
-``fem_reference/dolfinx_model``; writes ``rates.csv/.md`` and ``convergence.png``.
+``fem_reference/dolfinx_model``; writes ``rates.csv/.md``, ``manufactured.png`` and
+``convergence.png``.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from studies import analytic, benchmarks
 from studies.boundary import EDGE_BAND_CELLS, OUTPUT_INTERVAL, TIME_TOLERANCE
 from studies.common import detectors as det
 from studies.common.cases import base_case, cell_size, derive
-from studies.common.measures import surface_settlement_extrapolated
+from studies.common.measures import initial_positions, surface_settlement_extrapolated
 from studies.common.outcome import Metric, StudyOutcome
 from studies.common.outputs import (
     final_particles,
@@ -49,6 +57,7 @@ from studies.common.outputs import (
     read_index,
     read_particles,
     row_at_time,
+    run_status,
     write_detect_input,
 )
 from studies.common.parallel import parallel_map
@@ -71,7 +80,33 @@ BEARING = {
     "damping": 0.5,
 }
 
+# The manufactured solution (mpm/core/manufactured.hpp): a unit square of elastic soil, every
+# edge fixed, driven by the body force that makes u = A (1 - cos(2 pi t / T))^2 / 4 Phi(X) (1, 1)
+# exact; compared at t = T / 2, where u is largest. A is small enough that the small-strain
+# solution and the updated-Lagrangian runs differ by far less than the discretisation error
+# (strains of order pi A = 3e-5).
+MANUFACTURED = {
+    "size": 1.0,  # m
+    "amplitude": 1.0e-5,  # m
+    "period": 0.1,  # s (below the square's first natural period, 0.14 s)
+    "youngs_modulus": 1.0e4,  # kPa
+    "poisson_ratio": 0.3,
+}
+MANUFACTURED_CELLS = (8, 16, 32, 64)  # cells across the square
+QUICK_MANUFACTURED_CELLS = (8, 16, 32)
+# (label, solver, shape function, scheme)
+MANUFACTURED_METHODS = (
+    ("mpm linear musl", "mpm", "linear", "musl"),
+    ("mpm linear usl", "mpm", "linear", "usl"),
+    ("mpm gimp musl", "mpm", "gimp", "musl"),
+    ("mpm gimp usl", "mpm", "gimp", "usl"),
+    ("ulfem musl", "ulfem", "linear", "musl"),
+)
+
 EXPECTED_METRICS = [
+    "convergence.manufactured.mpm_linear_musl.displacement_order",
+    "convergence.manufactured.mpm_gimp_musl.displacement_order",
+    "convergence.manufactured.ulfem_musl.displacement_order",
     "convergence.column.settlement_order",
     "convergence.bearing.settlement_order",
     "convergence.boundary.slope_k0.max_order",
@@ -128,6 +163,79 @@ def bearing_case() -> dict:
     }
 
 
+def manufactured_case(cells: int, shape_function: str, scheme: str) -> dict:
+    """The manufactured solution on a grid of `cells` x `cells` cells over the unit square
+    (with a 2-cell margin, which uGIMP needs), 2 x 2 points per cell, every node on or beyond
+    the square's edges fixed, run to T / 2."""
+    m = MANUFACTURED
+    size, h = m["size"], m["size"] / cells
+    far = 1e3
+    walls = {
+        "base": [[-far, -far], [far, 1e-9]],
+        "lid": [[-far, size - 1e-9], [far, far]],
+        "left_wall": [[-far, -far], [1e-9, far]],
+        "right_wall": [[size - 1e-9, -far], [far, far]],
+    }
+    return {
+        "title": f"convergence: manufactured solution, {cells} cells, {shape_function}, "
+        f"{scheme}",
+        "grid": {
+            "origin": [-2 * h, -2 * h],
+            "cell_size": h,
+            "n_cells": [cells + 4, cells + 4],
+        },
+        "materials": [
+            {
+                "name": "soil",
+                "model": "linear_elastic",
+                "youngs_modulus": m["youngs_modulus"],
+                "poisson_ratio": m["poisson_ratio"],
+                "unit_weight": 20.0,
+            }
+        ],
+        "bodies": [
+            {"name": "square", "material": "soil", "rectangle": [[0, 0], [size, size]]}
+        ],
+        "gravity": {"g": 0.0},
+        "node_sets": [{"name": k, "box": box} for k, box in walls.items()],
+        "boundary_conditions": [{"where": k, "fix": "xy"} for k in walls],
+        "manufactured_solution": {"amplitude": m["amplitude"], "period": m["period"]},
+        "solver": {"shape_function": shape_function, "scheme": scheme},
+        "time": {"end_time": 0.5 * m["period"]},
+        "output": {"interval": 0.5 * m["period"]},
+    }
+
+
+def manufactured_errors(out: Path) -> dict:
+    """Relative L2 errors (volume-weighted over the points) of the displacement and of the
+    in-plane stress at the run's final time against the manufactured solution."""
+    m = MANUFACTURED
+    particles = final_particles(out)
+    time = float(run_status(out)["final_time_s"])
+    start = initial_positions(particles)
+    u_exact, s_exact = analytic.manufactured_solution(
+        start,
+        time,
+        m["amplitude"],
+        m["period"],
+        (0.0, 0.0),
+        (m["size"], m["size"]),
+        m["youngs_modulus"],
+        m["poisson_ratio"],
+    )
+    volume = particles["volume"].to_numpy()
+    u = particles[["ux", "uy"]].to_numpy()
+    s = particles[["sxx", "syy", "sxy"]].to_numpy()
+
+    def l2(values):
+        return float(np.sqrt(np.sum(volume[:, None] * values**2)))
+
+    return {
+        "displacement": l2(u - u_exact) / l2(u_exact),
+        "stress": l2(s - s_exact[:, :3]) / l2(s_exact[:, :3]),
+    }
+
+
 def slope_case() -> dict:
     slope, _ = base_case("thesis55_slope_dynamic_zero_start")
     # Detection only at the outputs: the slope carries no load, so the boundary does not act
@@ -178,6 +286,11 @@ def run(context) -> StudyOutcome:
         ):
             tasks.append((case, solver))
             keys.append((kind, h))
+    mms_cells = QUICK_MANUFACTURED_CELLS if context.quick else MANUFACTURED_CELLS
+    for cells in sorted(mms_cells, reverse=True):
+        for label, solver, shape, scheme in MANUFACTURED_METHODS:
+            tasks.append((manufactured_case(cells, shape, scheme), solver))
+            keys.append((label, cells))
     outs = dict(
         zip(
             keys,
@@ -255,6 +368,19 @@ def run(context) -> StudyOutcome:
             refine(slope, h),
             context.folder / "work",
         )
+    for cells in mms_cells:
+        for label, *_ in MANUFACTURED_METHODS:
+            errors = manufactured_errors(outs[(label, cells)])
+            for field in ("displacement", "stress"):
+                rows.append(
+                    {
+                        "quantity": f"manufactured {field} L2 ({label})",
+                        "h_m": MANUFACTURED["size"] / cells,
+                        "value": errors[field],
+                        "reference": 0.0,
+                        "error": errors[field],
+                    }
+                )
     table = pd.DataFrame(rows).sort_values(["quantity", "h_m"], ascending=[True, False])
     orders = []
     for _, group in table.groupby("quantity", sort=False):
@@ -270,11 +396,18 @@ def run(context) -> StudyOutcome:
             "reference: dolfinx P2, static",
         )
     )
-    for quantity, name in (
+    manufactured_metrics = [
+        (
+            f"manufactured displacement L2 ({label})",
+            f"convergence.manufactured.{label.replace(' ', '_')}.displacement_order",
+        )
+        for label, *_ in MANUFACTURED_METHODS
+    ]
+    for quantity, name in manufactured_metrics + [
         ("column settlement", "convergence.column.settlement_order"),
         ("bearing settlement", "convergence.bearing.settlement_order"),
         ("slope boundary max error (total)", "convergence.boundary.slope_k0.max_order"),
-    ):
+    ]:
         values = table[table["quantity"] == quantity]["observed_order"].dropna()
         if len(values):
             outcome.metrics.append(
@@ -285,6 +418,14 @@ def run(context) -> StudyOutcome:
                     "order between the two finest grids",
                 )
             )
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            manufactured_figure(table),
+            "manufactured",
+            "Manufactured solution: relative L2 errors against the cell size",
+        )
+    )
     outcome.figures.append(
         save_figure(
             context.folder,
@@ -348,10 +489,45 @@ def slope_rows(
     return rows
 
 
+def manufactured_figure(table: pd.DataFrame):
+    """Relative L2 errors of the manufactured solution against h, one colour per method
+    (displacement solid, stress dashed), with order-1 and order-2 slopes through the finest
+    displacement error of the first method."""
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, (label, *_) in enumerate(MANUFACTURED_METHODS):
+        for field, style in (("displacement", "o-"), ("stress", "s--")):
+            group = table[table["quantity"] == f"manufactured {field} L2 ({label})"]
+            axis.loglog(
+                group["h_m"],
+                group["error"],
+                style,
+                color=colours[k % len(colours)],
+                markersize=4,
+                label=f"{label}, {field}",
+            )
+    first = table[
+        table["quantity"]
+        == f"manufactured displacement L2 ({MANUFACTURED_METHODS[0][0]})"
+    ]
+    h = np.sort(first["h_m"].to_numpy())
+    anchor = float(first.loc[first["h_m"] == h[0], "error"].iloc[0])
+    axis.loglog(h, anchor * (h / h[0]) ** 2, "k:", label="order 2")
+    axis.loglog(h, anchor * (h / h[0]), "k-.", label="order 1")
+    axis.set_xlabel("h [m]")
+    axis.set_ylabel("relative L2 error at t = T / 2")
+    axis.legend(fontsize=6)
+    axis.grid(True, which="both", alpha=0.3)
+    return figure
+
+
 def rates_figure(table: pd.DataFrame):
     import matplotlib.pyplot as plt
 
     figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    table = table[~table["quantity"].str.startswith("manufactured")]
     for quantity, group in table.groupby("quantity"):
         axis.loglog(group["h_m"], group["error"], "o-", label=quantity)
     h = sorted(set(table["h_m"]))

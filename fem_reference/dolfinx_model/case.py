@@ -505,8 +505,16 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             "time",
             "output",
             "detection",
+            "manufactured_solution",
         },
     )
+    if "manufactured_solution" in root:
+        _fail(
+            file,
+            "/manufactured_solution",
+            "the dolfinx model has no manufactured body force (run it on pfm-mpm, MPM or "
+            "UL-FEM)",
+        )
     ignored = []
     title = root.get("title", "")
     if not isinstance(title, str):
@@ -724,7 +732,14 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         solver,
         file,
         "/solver",
-        {"scheme", "shape_function", "damping", "damping_form", "pic_fraction"},
+        {
+            "scheme",
+            "shape_function",
+            "damping",
+            "damping_form",
+            "pic_fraction",
+            "anti_locking",
+        },
     )
     _choice(solver, "damping_form", file, "/solver", ("per_axis", "along_velocity"))
     if solver.get("damping_form", "per_axis") != "per_axis":
@@ -733,6 +748,7 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         )
     _choice(solver, "scheme", file, "/solver", ("musl", "usl"))
     _choice(solver, "shape_function", file, "/solver", ("linear", "gimp"))
+    _choice(solver, "anti_locking", file, "/solver", ("none", "bbar"))
     _number(
         solver,
         "pic_fraction",
@@ -745,6 +761,11 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
     for key in ("scheme", "shape_function", "pic_fraction"):
         if key in solver:
             ignored.append(f"/solver/{key}: MPM only")
+    if "anti_locking" in solver:
+        ignored.append(
+            "/solver/anti_locking: MPM and UL-FEM only (the dolfinx model does not average "
+            "the dilatation)"
+        )
     damping = _number(
         solver,
         "damping",

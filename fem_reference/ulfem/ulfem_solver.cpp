@@ -89,6 +89,7 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   nodes_.momentum.assign(n_nodes, Vec2::Zero());
   nodes_.internal_force.assign(n_nodes, Vec2::Zero());
   nodes_.external_force.assign(n_nodes, Vec2::Zero());
+  nodes_.body_force.assign(n_nodes, Vec2::Zero());
   nodes_.velocity.assign(n_nodes, Vec2::Zero());
   nodes_.acceleration.assign(n_nodes, Vec2::Zero());
   nodes_.fixed.assign(n_nodes, kFixNone);
@@ -330,12 +331,24 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
   if (!momentum_only) {
     std::fill(nodes_.mass.begin(), nodes_.mass.end(), 0.0);
     std::fill(nodes_.internal_force.begin(), nodes_.internal_force.end(), Vec2::Zero());
+    std::fill(nodes_.body_force.begin(), nodes_.body_force.end(), Vec2::Zero());
   }
   // Serial over elements in index order: every node receives its contributions in a fixed
   // order (bitwise reproducible).
   const std::size_t n_elements = mesh_.n_elements();
   for (std::size_t e = 0; e < n_elements; ++e) {
     const std::array<int, 4>& element = mesh_.element_nodes[e];
+    // B-bar: the element's volume-weighted mean in-plane stress trace (mean_dilatation_stress).
+    double mean_trace = 0.0;
+    if (case_.solver.mean_dilatation && !momentum_only) {
+      double volume = 0.0;
+      for (std::size_t k = 0; k < 4; ++k) {
+        const Stress& sig = particles_.stress[4 * e + k];
+        volume += particles_.volume[4 * e + k];
+        mean_trace += particles_.volume[4 * e + k] * (sig[kXX] + sig[kYY]);
+      }
+      mean_trace /= volume;
+    }
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t p = 4 * e + k;
       const double m = particles_.mass[p];
@@ -348,8 +361,15 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
         }
         continue;
       }
+      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
+      const Vec2 mb = case_.manufactured
+                          ? Vec2(m * case_.manufactured->body_force(
+                                         particles_.reference_position[p], counters_.time))
+                          : Vec2::Zero();
       const double v = particles_.volume[p];
-      const Stress& sig = particles_.stress[p];
+      const Stress sig = case_.solver.mean_dilatation
+                             ? mean_dilatation_stress(particles_.stress[p], mean_trace)
+                             : particles_.stress[p];
       const Eigen::Matrix<double, 4, 2>& grad = gradient_[p];
       for (std::size_t a = 0; a < 4; ++a) {
         const auto node = static_cast<std::size_t>(element[a]);
@@ -358,6 +378,7 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
         const double gy = grad(static_cast<Eigen::Index>(a), 1);
         nodes_.mass[node] += weight * m;
         nodes_.momentum[node] += weight * mv;
+        if (case_.manufactured) nodes_.body_force[node] += weight * mb;
         // f_int = - integral sigma . grad N dV (tension positive), thesis eq. 3.24.
         nodes_.internal_force[node] -=
             v * Vec2(sig[kXX] * gx + sig[kXY] * gy, sig[kXY] * gx + sig[kYY] * gy);
@@ -369,8 +390,11 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
 void UlFemSolver::external_forces() {
   const double gy = -case_.gravity.g * gravity_factor(counters_.time);
   const std::size_t n_nodes = nodes_.mass.size();
-  for (std::size_t n = 0; n < n_nodes; ++n)
-    nodes_.external_force[n] = Vec2(0.0, nodes_.mass[n] * gy);
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    // A manufactured solution has no gravity (case.cpp): its body force stays as summed.
+    if (!case_.manufactured) nodes_.body_force[n] = Vec2(0.0, nodes_.mass[n] * gy);
+    nodes_.external_force[n] = nodes_.body_force[n];
+  }
   load_work_recorder_.clear();
   if (!counters_.loads_active) return;  // gravity loading of the initial stress: no loads, no hook
   apply_loads();
@@ -496,7 +520,6 @@ void UlFemSolver::update_nodes() {
   // The node update of the MPM's grid (energy_ledger.hpp), in node order.
   const std::size_t n_nodes = nodes_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
-  const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // as external_forces
   NodeEnergy step;
   for (std::size_t n = 0; n < n_nodes; ++n) {
     const double m = nodes_.mass[n];
@@ -506,9 +529,9 @@ void UlFemSolver::update_nodes() {
       continue;
     }
     update_node(m, nodes_.momentum[n], nodes_.internal_force[n], nodes_.external_force[n],
-                m * gravity, nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY, counters_.damping,
-                case_.solver.damping_form, counters_.dt, nodes_.velocity[n], nodes_.acceleration[n],
-                step);
+                nodes_.body_force[n], nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY,
+                counters_.damping, case_.solver.damping_form, counters_.dt, nodes_.velocity[n],
+                nodes_.acceleration[n], step);
   }
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
@@ -542,10 +565,13 @@ void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
   const std::vector<MaterialRecord>& materials = case_.materials;
 #pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
   for (std::size_t e = 0; e < n_elements; ++e) {
+    std::array<Mat2, 4> gradients;  // velocity gradient, L(i, j) = d v_i / d x_j, per point
+    double element_volume = 0.0, trace = 0.0;
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t p = 4 * e + k;
       const Eigen::Matrix<double, 4, 2>& grad = gradient_[p];  // start-of-step geometry
-      Mat2 l = Mat2::Zero();  // velocity gradient, L(i, j) = d v_i / d x_j
+      Mat2& l = gradients[k];
+      l.setZero();
       for (std::size_t a = 0; a < 4; ++a) {
         const Vec2& v = node_velocity[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
         const double gx = grad(static_cast<Eigen::Index>(a), 0);
@@ -555,6 +581,14 @@ void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
         l(1, 0) += v.y() * gx;
         l(1, 1) += v.y() * gy;
       }
+      element_volume += particles_.volume[p];
+      trace += particles_.volume[p] * l.trace();
+    }
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t p = 4 * e + k;
+      const Mat2 l = case_.solver.mean_dilatation
+                         ? mean_dilatation_gradient(gradients[k], trace / element_volume)
+                         : gradients[k];
       const Strain de = strain_increment(l, dt);
       Stress& sig = particles_.stress[p];
       const Stress before = sig;

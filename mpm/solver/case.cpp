@@ -337,6 +337,51 @@ Case read_case(const std::string& path) {
   return parse_case(read_json_file(path), path);
 }
 
+namespace {
+
+// "manufactured_solution": {"amplitude": A, "period": T} (mpm/core/manufactured.hpp). The
+// solution lives on the one body, a rectangle of linear elastic material, with nothing else
+// loading it: no gravity, no loads, a zero initial stress.
+void parse_manufactured(const JsonView& m, const JsonView& root, Case& c) {
+  m.expect_object({"amplitude", "period"});
+  ManufacturedSolution s;
+  s.amplitude = m.at("amplitude").as_number();
+  m.at("amplitude").require(s.amplitude > 0.0, "must be > 0 (m)");
+  s.period = m.at("period").as_number();
+  m.at("period").require(s.period > 0.0, "must be > 0 (s)");
+  const std::string needs = "a manufactured solution needs ";
+  root.at("bodies").require(c.bodies.size() == 1, needs + "exactly one body");
+  const BodySpec& body = c.bodies.front();
+  const std::vector<Vec2>& p = body.polygon;
+  const bool rectangle = p.size() == 4 && p[0].y() == p[1].y() && p[1].x() == p[2].x() &&
+                         p[2].y() == p[3].y() && p[3].x() == p[0].x();
+  root.at("bodies").at(std::size_t{0}).require(rectangle, needs + "a rectangle body");
+  const MaterialRecord& material = c.materials[static_cast<std::size_t>(body.material)];
+  const auto* elastic = std::get_if<LinearElastic>(&material.model);
+  root.at("bodies")
+      .at(std::size_t{0})
+      .at("material")
+      .require(elastic != nullptr, needs + "a body of linear_elastic material");
+  root.at("bodies")
+      .at(std::size_t{0})
+      .require(body.point_position.empty(),
+               needs + "points placed by the body's cells, not a file");
+  m.require(c.gravity.g == 0.0, needs + "gravity off (gravity.g = 0): b is its only body force");
+  m.require(c.loads.empty(), needs + "no loads: b is its only load");
+  m.require(c.initial_stress.method == InitialStressMethod::kZero,
+            needs + "the zero initial stress (it starts at rest, unstressed)");
+  const ElasticParameters e = elastic_parameters(material.model);
+  s.origin = p[0];
+  s.size = p[2] - p[0];
+  s.lambda = e.lame_lambda();
+  s.mu = e.shear_modulus();
+  s.density = material.unit_weight / 9.81;  // as largest_wave_speed with gravity off
+  m.require(s.density > 0.0, needs + "a material with mass (unit_weight > 0)");
+  c.manufactured = s;
+}
+
+}  // namespace
+
 Case parse_case(const nlohmann::json& document, const std::string& file) {
   Case c;
   c.file = file;
@@ -344,7 +389,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   const JsonView root(document, file);
   root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
                       "node_sets", "boundary_conditions", "loads", "solver", "time", "output",
-                      "detection"});
+                      "detection", "manufactured_solution"});
   if (root.has("title")) c.title = root.at("title").as_string();
 
   // Grid.
@@ -574,7 +619,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   }
 
   if (const auto s = root.find("solver")) {
-    s->expect_object({"scheme", "shape_function", "damping", "damping_form", "pic_fraction"});
+    s->expect_object(
+        {"scheme", "shape_function", "damping", "damping_form", "pic_fraction", "anti_locking"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
     c.solver.shape_function = s->choice_or("shape_function", {"linear", "gimp"}, "linear") == "gimp"
@@ -595,6 +641,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
           .require(c.solver.pic_fraction >= 0.0 && c.solver.pic_fraction <= 1.0,
                    "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
+    c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"}, "none") == "bbar";
   }
 
   {
@@ -649,6 +696,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       }
     }
   }
+  if (const auto m = root.find("manufactured_solution")) parse_manufactured(*m, root, c);
   return c;
 }
 

@@ -9,6 +9,7 @@
 
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/grid.hpp"
+#include "mpm/core/manufactured.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/shape_functions.hpp"
@@ -100,6 +101,9 @@ struct SolverSpec {
   /// 0 = FLIP (the thesis), 1 = PIC. FLIP keeps velocity the grid cannot see (it moves no
   /// particle: jitter), PIC removes it each step at the cost of dissipation.
   double pic_fraction = 0.0;
+  /// Anti-locking: the mean dilatation (B-bar) over each cell (MPM) or element (UL-FEM) in the
+  /// stress update and the internal force (mean_dilatation_gradient, mpm/core/kinematics.hpp).
+  bool mean_dilatation = false;
 };
 
 struct TimeSpec {
@@ -149,13 +153,17 @@ struct Case {
   /// Boundary detection during the run ("detection" block; required by detected-boundary
   /// loads, which default it to the improved detector every step).
   std::optional<DetectionSpec> detection;
+  /// A manufactured solution whose body force drives the run (verification of convergence;
+  /// "manufactured_solution" block, mpm/core/manufactured.hpp).
+  std::optional<ManufacturedSolution> manufactured;
 };
 
-/// Memory of the MPM's arrays, per grid node (GridState's mass, momentum, forces, velocity,
+/// Memory of the MPM's arrays, per grid node (GridState's mass, momentum, forces (internal,
+/// external, body), velocity,
 /// acceleration and fixity, and the MUSL remap's velocity and momentum) and per material point
 /// (Particles' fields, the shape-function stencils, binning and energy blocks), bytes. Their
 /// sum estimates a run's memory before it is allocated (estimated_memory_bytes()).
-inline constexpr double kBytesPerGridNode = 124.0;
+inline constexpr double kBytesPerGridNode = 140.0;
 inline constexpr double kBytesPerParticle = 400.0;
 /// Material points the bodies will hold (area / h^2 x points_per_cell^2).
 double estimated_particles(const Case& c);

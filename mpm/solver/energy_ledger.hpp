@@ -12,7 +12,8 @@
 //                        -sum m_I v_I,fixed^2 / 2 (<= 0); the reaction force then does no work;
 //   grid update          v_I' = v_I + dt a_I; exactly 1/2 m (|v'|^2 - |v|^2) = m a . v_mid dt
 //                        with v_mid = (v + v') / 2, split by force: `internal_force_work` =
-//                        sum f_int,I . v_mid dt, `gravity_work` = sum m_I g . v_mid dt,
+//                        sum f_int,I . v_mid dt, `gravity_work` = sum m_I g . v_mid dt (and
+//                        a manufactured solution's body force, mpm/core/manufactured.hpp),
 //                        `load_work` = sum f_load,I . v_mid dt (the surface loads: their nodal
 //                        forces times the velocities of the step they act in), `damping_work`
 //                        (local damping, <= 0);
@@ -84,14 +85,15 @@ enum class DampingForm { kPerAxis, kAlongVelocity };
 /// The explicit update of one node with mass m > 0 (thesis eq. 3.24): velocity v = p / m, local
 /// damping, a force opposing the velocity proportional to the unbalanced force f; a = (f +
 /// f_damping) / m; fixed components of v and a set to zero; v' = v + a dt. `external` holds
-/// gravity and the loads; `gravity_y` is its gravity part (m g, vertical). Adds the node's
+/// the body force and the loads; `body_force` is its body-force part (m g, vertical, and a
+/// manufactured solution's sum_p N m_p b), whose work is `gravity_work`. Adds the node's
 /// ledger terms to `e`. The damping force is Cundall's, per direction, -alpha |f_d| sign(v_d)
 /// (DampingForm::kPerAxis), or -alpha |f| v / |v| over the free directions
 /// (kAlongVelocity). Only the second is frame-invariant: per axis, a body turned to the grid
 /// feels a moment (a free square turned 20 degrees, damped to rest at alpha = 0.1, turned
 /// 9e-5 rad, against 1.4e-6 undamped; test_boundary_coupling).
 inline void update_node(double m, const Vec2& momentum, const Vec2& internal, const Vec2& external,
-                        double gravity_y, unsigned fixed_x, unsigned fixed_y, double alpha,
+                        const Vec2& body_force, unsigned fixed_x, unsigned fixed_y, double alpha,
                         DampingForm form, double dt, Vec2& velocity, Vec2& acceleration,
                         NodeEnergy& e) {
   Vec2 v = momentum / m;
@@ -122,9 +124,8 @@ inline void update_node(double m, const Vec2& momentum, const Vec2& internal, co
   velocity = v_new;
   e.kinetic_after += 0.5 * m * v_new.squaredNorm();
   const Vec2 mid = 0.5 * (v + v_new);
-  const Vec2 gravity(0.0, gravity_y);
-  e.gravity += gravity.dot(mid) * dt;
-  e.load += (external - gravity).dot(mid) * dt;
+  e.gravity += body_force.dot(mid) * dt;
+  e.load += (external - body_force).dot(mid) * dt;
   e.internal += internal.dot(mid) * dt;
   e.damping += (a * m - f).dot(mid) * dt;  // the damping force (zero where fixed)
 }

@@ -53,6 +53,7 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   grid_.momentum.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.internal_force.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.external_force.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+  grid_.body_force.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.velocity.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.acceleration.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.fixed.assign(static_cast<std::size_t>(n_nodes), kFixNone);
@@ -102,6 +103,12 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   n_bands_ = (n_rows + band_rows_ - 1) / band_rows_;
   n_chunks_ = static_cast<int>(std::clamp<std::size_t>(n / 4096, 1, 64));
   parallel_ = n + static_cast<std::size_t>(n_nodes) >= kMinParallelItems;
+  if (case_.solver.mean_dilatation) {
+    particle_cell_.assign(n, 0);
+    velocity_gradient_.assign(n, Mat2::Zero());
+    cell_volume_.assign(static_cast<std::size_t>(case_.grid.n_cells()), 0.0);
+    cell_trace_.assign(static_cast<std::size_t>(case_.grid.n_cells()), 0.0);
+  }
   particle_band_.resize(n);
   chunk_offsets_.resize(static_cast<std::size_t>(n_chunks_) * static_cast<std::size_t>(n_bands_));
   band_start_.resize(static_cast<std::size_t>(n_bands_) + 1);
@@ -313,12 +320,15 @@ void MpmSolver::locate_particles(bool clear_grid) {
   std::array<double, 12>* gimp = gimp_stencil_.data();
   std::array<int, 2>* gimp_base = gimp_base_.data();
   int* particle_band = particle_band_.data();
+  int* particle_cell = particle_cell_.data();  // null without the mean dilatation
+  const int n_cells_row = grid.n_cells_x;
   int* chunk_offsets = chunk_offsets_.data();
   std::fill(chunk_offsets_.begin(), chunk_offsets_.end(), 0);
   const std::size_t n_nodes = grid_.mass.size();
   double* mass = grid_.mass.data();
   Vec2* momentum = grid_.momentum.data();
   Vec2* force = grid_.internal_force.data();
+  Vec2* body = case_.manufactured ? grid_.body_force.data() : nullptr;
   long outside = -1;
 #pragma omp parallel reduction(max : outside) if (parallel_)
   {
@@ -330,6 +340,7 @@ void MpmSolver::locate_particles(bool clear_grid) {
         mass[node] = 0.0;
         momentum[node].setZero();
         force[node].setZero();
+        if (body) body[node].setZero();
       }
     }
     // Shape functions and band of every particle, counted per band in fixed chunks of particles.
@@ -353,6 +364,7 @@ void MpmSolver::locate_particles(bool clear_grid) {
         const int ci = static_cast<int>(tx), cj = static_cast<int>(ty);
         const int band = cj / band_rows;
         particle_band[p] = band;
+        if (particle_cell) particle_cell[p] = cj * n_cells_row + ci;
         ++count[band];
         const double xi = (x.x() - x0) * inv_h - ci;
         const double eta = (x.y() - y0) * inv_h - cj;
@@ -427,7 +439,11 @@ void MpmSolver::particles_to_grid() {
   Vec2* force = grid_.internal_force.data();
   Vec2* remapped_momentum = remapped_momentum_.data();
   Vec2* external = grid_.external_force.data();
+  Vec2* body = grid_.body_force.data();  // cleared by locate_particles when manufactured
   const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // along y
+  const ManufacturedSolution* manufactured = case_.manufactured ? &*case_.manufactured : nullptr;
+  const double time = counters_.time;
+  const Vec2* reference_position = particles_.reference_position.data();
   const bool musl = case_.solver.scheme == Scheme::kMUSL;
   const double* particle_mass = particles_.mass.data();
   const Vec2* particle_velocity = particles_.velocity.data();
@@ -436,15 +452,36 @@ void MpmSolver::particles_to_grid() {
   const int* band_start = band_start_.data();
   const int* sorted = sorted_.data();
   const int n_bands = n_bands_;
+  const bool mean_dilatation = case_.solver.mean_dilatation;
+  const int* particle_cell = particle_cell_.data();
+  double* cell_volume = cell_volume_.data();
+  double* cell_trace = cell_trace_.data();
   auto scatter_band = [&](int band) {
+    if (mean_dilatation) {
+      // The cells' mean in-plane stress trace over their particles (B-bar's internal force).
+      clear_band_cells(band);
+      for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
+        const auto p = static_cast<std::size_t>(sorted[q]);
+        const auto c = static_cast<std::size_t>(particle_cell[p]);
+        cell_volume[c] += particle_volume[p];
+        cell_trace[c] += particle_volume[p] * (particle_stress[p][kXX] + particle_stress[p][kYY]);
+      }
+    }
     for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
       const auto p = static_cast<std::size_t>(sorted[q]);
       const Shape<W> f = stencil(p);
       const double m = particle_mass[p];
       const Vec2 mv = m * particle_velocity[p];
+      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
+      const Vec2 mb = manufactured ? Vec2(m * manufactured->body_force(reference_position[p], time))
+                                   : Vec2::Zero();
       // -v sigma . grad N = -v (sxx gx + sxy gy, sxy gx + syy gy) (tension positive).
       const double v = particle_volume[p];
-      const Stress& sig = particle_stress[p];
+      Stress sig = particle_stress[p];
+      if (mean_dilatation) {
+        const auto c = static_cast<std::size_t>(particle_cell[p]);
+        sig = mean_dilatation_stress(sig, cell_trace[c] / cell_volume[c]);
+      }
       const Vec2 s_x(sig[kXX], sig[kXY]), s_y(sig[kXY], sig[kYY]);
       for (int b = 0; b < W; ++b) {
         for (int a = 0; a < W; ++a) {
@@ -455,6 +492,7 @@ void MpmSolver::particles_to_grid() {
           mass[node] += weight * m;
           momentum[node] += weight * mv;
           force[node] -= v * (gx * s_x + gy * s_y);
+          if (manufactured) body[node] += weight * mb;
         }
       }
     }
@@ -474,8 +512,11 @@ void MpmSolver::particles_to_grid() {
       // Body force on the finished masses: sum_p N_I m_p g = m_I g (external_forces adds the
       // surface loads).
 #pragma omp for schedule(dynamic, kNodeChunk) nowait
-    for (std::size_t node = 0; node < n_nodes; ++node)
-      external[node] = Vec2(0.0, mass[node] * gravity);
+    for (std::size_t node = 0; node < n_nodes; ++node) {
+      // A manufactured solution has no gravity (case.cpp): its body force stays as summed.
+      if (!manufactured) body[node] = Vec2(0.0, mass[node] * gravity);
+      external[node] = body[node];
+    }
   }
 }
 
@@ -503,8 +544,8 @@ void MpmSolver::update_grid() {
   const double tiny = 1e-12 * particles_.mass.front();
   const double alpha = counters_.damping;
   const double dt = counters_.dt;
-  const double gravity = -case_.gravity.g * gravity_factor(counters_.time);  // as particles_to_grid
   const double* mass = grid_.mass.data();
+  const Vec2* body_force = grid_.body_force.data();
   const Vec2* momentum = grid_.momentum.data();
   const Vec2* internal = grid_.internal_force.data();
   const Vec2* external = grid_.external_force.data();
@@ -524,7 +565,7 @@ void MpmSolver::update_grid() {
         acceleration[n].setZero();
         continue;
       }
-      update_node(m, momentum[n], internal[n], external[n], m * gravity, fixed[n] & kFixX,
+      update_node(m, momentum[n], internal[n], external[n], body_force[n], fixed[n] & kFixX,
                   fixed[n] & kFixY, alpha, case_.solver.damping_form, dt, velocity[n],
                   acceleration[n], block);
     }
@@ -648,6 +689,32 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   const double* particle_mass = particles_.mass.data();
   long bad = -1;
   const std::size_t n_blocks = point_energy_blocks_.size();
+  const bool mean_dilatation = case_.solver.mean_dilatation;
+  const int* band_start = band_start_.data();
+  const int* sorted = sorted_.data();
+  const int n_bands = n_bands_;
+  const int* particle_cell = particle_cell_.data();
+  double* cell_volume = cell_volume_.data();
+  double* cell_trace = cell_trace_.data();
+  Mat2* stored_gradient = velocity_gradient_.data();
+  // Velocity gradient L(i, j) = d v_i / d x_j of particle p, summed by columns: (L00, L10) and
+  // (L01, L11).
+  auto velocity_gradient = [&](std::size_t p) {
+    const Shape<W> f = stencil(p);
+    Vec2 column_x = Vec2::Zero(), column_y = Vec2::Zero();
+    for (int b = 0; b < W; ++b) {
+      for (int a = 0; a < W; ++a) {
+        const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
+        if (W == 3 && gx == 0.0 && gy == 0.0) continue;
+        const Vec2& v = vel[f.node0 + static_cast<std::size_t>(b) * nnx + a];
+        column_x += gx * v;
+        column_y += gy * v;
+      }
+    }
+    Mat2 l;
+    l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
+    return l;
+  };
   remap_seconds_ = 0.0;
 #pragma omp parallel reduction(max : bad) if (parallel_)
   {
@@ -665,6 +732,22 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
 #pragma omp master
       remap_seconds_ = seconds_since(start);
     }
+    if (mean_dilatation) {
+      // Every particle's L, and each cell's volume-weighted sum of tr L, band by band (a band
+      // owns the cells of its rows).
+#pragma omp for schedule(dynamic, 1)
+      for (int band = 0; band < n_bands; ++band) {
+        clear_band_cells(band);
+        for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
+          const auto p = static_cast<std::size_t>(sorted[q]);
+          const Mat2 l = velocity_gradient(p);
+          stored_gradient[p] = l;
+          const auto c = static_cast<std::size_t>(particle_cell[p]);
+          cell_volume[c] += particle_volume[p];
+          cell_trace[c] += particle_volume[p] * l.trace();
+        }
+      }
+    }
 #pragma omp for schedule(dynamic, 1) nowait
     for (std::size_t k = 0; k < n_blocks; ++k) {
       // The ledger terms of the stress update and the particles' kinetic energy after the step,
@@ -672,20 +755,13 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
       PointEnergy block;
       double kinetic = 0.0;
       for (std::size_t p = k * kSumBlock; p < std::min(n, (k + 1) * kSumBlock); ++p) {
-        const Shape<W> f = stencil(p);
-        // Velocity gradient L(i, j) = d v_i / d x_j by columns: (L00, L10) and (L01, L11).
-        Vec2 column_x = Vec2::Zero(), column_y = Vec2::Zero();
-        for (int b = 0; b < W; ++b) {
-          for (int a = 0; a < W; ++a) {
-            const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
-            if (W == 3 && gx == 0.0 && gy == 0.0) continue;
-            const Vec2& v = vel[f.node0 + static_cast<std::size_t>(b) * nnx + a];
-            column_x += gx * v;
-            column_y += gy * v;
-          }
-        }
         Mat2 l;
-        l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
+        if (mean_dilatation) {
+          const auto c = static_cast<std::size_t>(particle_cell[p]);
+          l = mean_dilatation_gradient(stored_gradient[p], cell_trace[c] / cell_volume[c]);
+        } else {
+          l = velocity_gradient(p);
+        }
         const Strain de = strain_increment(l, dt);
         const Stress before = particle_stress[p];
         Stress sig = before;  // a local copy: no store-to-load stalls
@@ -726,6 +802,17 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   e.add_stress_update(step);
   e.transfer_to_particles += kinetic - grid_kinetic_after_;
   e.particle_kinetic = kinetic;
+}
+
+void MpmSolver::clear_band_cells(int band) {
+  const auto row = static_cast<std::size_t>(case_.grid.n_cells_x);
+  const auto first = static_cast<std::size_t>(band * band_rows_) * row;
+  const auto last =
+      static_cast<std::size_t>(std::min((band + 1) * band_rows_, case_.grid.n_cells_y)) * row;
+  std::fill(cell_volume_.begin() + static_cast<std::ptrdiff_t>(first),
+            cell_volume_.begin() + static_cast<std::ptrdiff_t>(last), 0.0);
+  std::fill(cell_trace_.begin() + static_cast<std::ptrdiff_t>(first),
+            cell_trace_.begin() + static_cast<std::ptrdiff_t>(last), 0.0);
 }
 
 void MpmSolver::check_particles() {

@@ -10,6 +10,11 @@
 //   remap_momentum        MUSL only: nodal velocity from the updated particle momentum
 //   update_stress         velocity gradient, Jaumann rotation, constitutive update, F, volume
 //
+// With solver.anti_locking "bbar" (mean dilatation, mpm/core/kinematics.hpp) each particle
+// belongs to the cell holding it at locate_particles: update_stress gives every particle its
+// cell's volume-weighted mean tr L, and particles_to_grid its cell's mean in-plane stress trace
+// (B-bar's internal force, the work conjugate). Each band sums the cells of its rows.
+//
 // Determinism: particles are binned by horizontal bands of cell rows (the band height depends
 // on the grid only, >= 1 row linear, >= 3 GIMP), in ascending id order within a band. The
 // scatters to the grid (particles_to_grid and the MUSL momentum remap) run over the even bands,
@@ -52,9 +57,12 @@ struct GridState {
   std::vector<Vec2> momentum;        ///< t m/s
   std::vector<Vec2> internal_force;  ///< kN
   std::vector<Vec2> external_force;  ///< kN (surface loads and body forces)
-  std::vector<Vec2> velocity;        ///< m/s, after the grid update
-  std::vector<Vec2> acceleration;    ///< m/s^2
-  std::vector<unsigned> fixed;       ///< FixMask per node
+  /// kN, the body-force part of external_force: gravity m_I g, or a manufactured solution's
+  /// sum_p N_Ip m_p b(X_p, t) (the ledger's gravity_work).
+  std::vector<Vec2> body_force;
+  std::vector<Vec2> velocity;      ///< m/s, after the grid update
+  std::vector<Vec2> acceleration;  ///< m/s^2
+  std::vector<unsigned> fixed;     ///< FixMask per node
 };
 
 /// Wall-clock seconds spent per stage, accumulated over the run. With MUSL, grid_to_particles
@@ -161,6 +169,8 @@ class MpmSolver {
   template <int W>
   StencilReader<W> stencil_reader() const;
   void check_particles();
+  /// Zeroes cell_volume_ and cell_trace_ over the cell rows of a band.
+  void clear_band_cells(int band);
   void build_constraints();
   void build_top_node_loads();
   double gravity_factor(double t) const;
@@ -196,6 +206,13 @@ class MpmSolver {
   std::vector<int> chunk_offsets_;  ///< n_chunks x n_bands counts, then cursors
   std::vector<int> band_start_;     ///< n_bands + 1 offsets into sorted_
   std::vector<int> sorted_;         ///< particle ids binned by band, ascending within a band
+  // Mean dilatation (solver.anti_locking "bbar"; empty otherwise): each particle's cell (of its
+  // position at locate), its velocity gradient, and per cell the sums of V and V tr over the
+  // particles in it (each band sums the cells of its rows, particles in id order).
+  std::vector<int> particle_cell_;
+  std::vector<Mat2> velocity_gradient_;
+  std::vector<double> cell_volume_;
+  std::vector<double> cell_trace_;
   std::vector<MaterialConstants> material_constants_;  ///< per case material
   std::vector<PointEnergy> point_energy_blocks_;  ///< stress-update ledger terms per particle block
   std::vector<double> kinetic_blocks_;            ///< particle kinetic energy per particle block

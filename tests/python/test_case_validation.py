@@ -157,6 +157,21 @@ MALFORMED = [
         "/initial_stress/k0",
     ),
     ("huge_number", None, "number overflow parsing '1e999'"),  # no inf in JSON
+    (
+        "unknown_anti_locking",
+        mutate(["solver", "anti_locking"], "fbar"),
+        "/solver/anti_locking",
+    ),
+    (
+        "manufactured_negative_amplitude",
+        mutate(["manufactured_solution"], {"amplitude": -1e-5, "period": 0.1}),
+        "/manufactured_solution/amplitude",
+    ),
+    (
+        "manufactured_on_plastic_soil",
+        mutate(["manufactured_solution"], {"amplitude": 1e-5, "period": 0.1}),
+        "/bodies/0/material",
+    ),
     ("truncated_json", "TRUNCATED", "invalid JSON"),
     ("empty_file", "", "file is empty"),
     ("not_an_object", "[1, 2, 3]", "expected an object"),

@@ -32,7 +32,7 @@ TEST(EnergyLedger, NodeUpdateSplitsItsKineticEnergyChangeByForce) {
     NodeEnergy e;
     Vec2 v, a;
     const DampingForm form = trial % 2 ? DampingForm::kAlongVelocity : DampingForm::kPerAxis;
-    update_node(m, p, f_int, Vec2(f_ext.x(), f_ext.y() + gravity_y), gravity_y, fx, fy,
+    update_node(m, p, f_int, Vec2(f_ext.x(), f_ext.y() + gravity_y), Vec2(0.0, gravity_y), fx, fy,
                 0.05 * (trial % 3), form, 0.01, v, a, e);
     const double change = e.kinetic_after - (e.kinetic_before + e.constraint);
     const double work = e.gravity + e.load + e.internal + e.damping;

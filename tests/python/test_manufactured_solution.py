@@ -1,0 +1,51 @@
+"""The manufactured solution (case key manufactured_solution, mpm/core/manufactured.hpp): a unit
+square of elastic soil with its edges fixed, driven by the body force that makes
+u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi x) sin(pi y) (1, 1) exact, run to t = T / 2
+(studies.convergence.manufactured_case; issue "A discretisation that converges", item 3).
+
+On 16 and 32 cells across, the relative L2 displacement error must fall at order >= 1.8 and the
+stress error at order >= 0.9 for the MPM (linear and uGIMP, MUSL) and the UL-FEM: second order
+for the displacement of linear elements and first for their gradients, as for a smooth field
+without cell crossing (A = 1e-5 m moves no point across a cell). Measured: 2.00 and 1.00 for
+every method on 8 to 64 cells (make study-convergence). And the energy ledger closes with the
+body force's work booked as gravity_work (1e-6 of the largest term, as test_energy_identity)."""
+
+import json
+import subprocess
+
+import pytest
+
+from studies.analytic import observed_orders
+from studies.convergence import manufactured_case, manufactured_errors
+from test_energy_identity import assert_ledger_closes
+
+CELLS = (16, 32)
+
+
+@pytest.mark.parametrize(
+    "solver, shape", [("mpm", "linear"), ("mpm", "gimp"), ("ulfem", "linear")]
+)
+def test_errors_fall_at_the_orders_of_linear_elements(
+    pfm_binary, tmp_path, solver, shape
+):
+    errors = []
+    for cells in CELLS:
+        case = manufactured_case(cells, shape, "musl")
+        path = tmp_path / f"case_{cells}.json"
+        path.write_text(json.dumps(case))
+        out = tmp_path / f"out_{cells}"
+        subprocess.run(
+            [pfm_binary, "run", path, "--out", out, "--quiet", "--threads", "1"]
+            + ["--solver", solver],
+            check=True,
+            capture_output=True,
+        )
+        errors.append(manufactured_errors(out))
+        assert_ledger_closes(out, case["time"]["end_time"])
+    h = [1.0 / c for c in CELLS]
+    u_order = observed_orders(h, [e["displacement"] for e in errors])[1]
+    s_order = observed_orders(h, [e["stress"] for e in errors])[1]
+    assert (
+        u_order >= 1.8
+    ), f"{solver} {shape}: displacement order {u_order:.2f}, {errors}"
+    assert s_order >= 0.9, f"{solver} {shape}: stress order {s_order:.2f}, {errors}"
