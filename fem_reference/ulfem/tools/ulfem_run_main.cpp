@@ -15,7 +15,7 @@
 #include "mpm/solver/mpm_solver.hpp"
 
 int main(int argc, char** argv) {
-  H5dont_atexit();           // as pfm-mpm (mpm/app/main.cpp)
+  H5dont_atexit();           // as pfm-mpm (apps/main.cpp)
   pfm::keep_freed_memory();  // as pfm-mpm: its runs and this one on the same heap policy
   if (argc < 3) {
     std::cerr << "usage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
