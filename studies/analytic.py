@@ -166,3 +166,33 @@ def manufactured_solution(
         lam * trace,
     ]
     return np.c_[g * phi, g * phi], stress
+
+
+def smooth_ramp(time: float, ramp_time: float) -> float:
+    """The smooth_ramp time function: 10 u^3 - 15 u^4 + 6 u^5, u = min(t / t_r, 1)."""
+    u = min(max(time / ramp_time, 0.0), 1.0)
+    return u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
+
+
+def manufactured_dilatation(
+    reference_xy: np.ndarray,
+    time: float,
+    pressure: float,
+    ramp_time: float,
+    centre,
+    youngs_modulus: float,
+    poisson_ratio: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The uniform-dilatation manufactured solution (mpm/core/manufactured.hpp): a free body
+    squeezed by a follower pressure p0 f(t) moves as x = c + s (X - c) with
+    s = exp(-p0 f / (2 (lambda + mu))); its stress is sxx = syy = -p0 f, sxy = 0,
+    szz = 2 lambda ln s. Returns (u (n x 2), stress (n x 4: xx, yy, xy, zz))."""
+    nu, e = poisson_ratio, youngs_modulus
+    lam = e * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = e / (2 * (1 + nu))
+    log_stretch = -pressure * smooth_ramp(time, ramp_time) / (2 * (lam + mu))
+    u = (math.exp(log_stretch) - 1.0) * (reference_xy - np.asarray(centre))
+    n = len(reference_xy)
+    in_plane = 2 * (lam + mu) * log_stretch
+    stress = np.tile([in_plane, in_plane, 0.0, 2 * lam * log_stretch], (n, 1))
+    return u, stress

@@ -7,6 +7,11 @@ What it measures, for h = 0.5, 0.25, 0.125, 0.0625 m (quick: 0.5, 0.25):
   u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi x) sin(pi y) (1, 1) exact, on 8, 16, 32 and 64 cells
   across (quick: 8 to 32), for the MPM (linear and uGIMP, MUSL and USL) and the UL-FEM: the
   relative L2 errors of displacement and stress at t = T / 2 (``manufactured.png``);
+* squeezed disk (the same file's uniform dilatation): a free disk (R = 1 m) squeezed by a
+  follower pressure on its detected boundary, smooth ramp to p0 = 0.1 (2 (lambda + mu)), so its
+  radius shrinks by 9.5 % and the loaded boundary crosses cells; 8, 16, 32 and 64 cells per
+  radius (quick: 8 to 32), linear and uGIMP: relative L2 errors at the end of the ramp against
+  the exact finite-strain motion;
 
 * column settlement: the benchmark column (studies.benchmarks: 1 m x 5 m, weight and 50 kPa
   surcharge from zero stress) against q H / M + gamma H^2 / (2 M), and the largest point-wise
@@ -107,6 +112,7 @@ EXPECTED_METRICS = [
     "convergence.manufactured.mpm_linear_musl.displacement_order",
     "convergence.manufactured.mpm_gimp_musl.displacement_order",
     "convergence.manufactured.ulfem_musl.displacement_order",
+    "convergence.dilatation.mpm_gimp.displacement_order",
     "convergence.column.settlement_order",
     "convergence.bearing.settlement_order",
     "convergence.boundary.slope_k0.max_order",
@@ -206,34 +212,125 @@ def manufactured_case(cells: int, shape_function: str, scheme: str) -> dict:
     }
 
 
-def manufactured_errors(out: Path) -> dict:
+# The moving-boundary manufactured solution: a free disk squeezed by a follower pressure on its
+# detected boundary (smooth ramp), the uniform dilatation of mpm/core/manufactured.hpp. p0 is
+# 0.1 (2 (lambda + mu)): the radius shrinks by 9.5 %, about 6 cells on the finest grid.
+DILATATION = {
+    "radius": 1.0,  # m
+    "vertices": 256,
+    "pressure_over_modulus": 0.1,  # p0 / (2 (lambda + mu))
+    "ramp_time": 0.1,  # s
+}
+DILATATION_CELLS = (8, 16, 32, 64)  # cells per radius
+QUICK_DILATATION_CELLS = (8, 16, 32)
+DILATATION_METHODS = (("mpm linear", "linear"), ("mpm gimp", "gimp"))
+
+
+def dilatation_case(cells_per_radius: int, shape_function: str) -> dict:
+    """The squeezed disk on a grid of h = R / cells_per_radius over [0, 3 R]^2 (the disk at its
+    centre), 2 x 2 points per cell placed to conform to its 256-gon, no damping, run to the end
+    of the ramp."""
+    d, m = DILATATION, MANUFACTURED
+    r, h = d["radius"], d["radius"] / cells_per_radius
+    nu, e = m["poisson_ratio"], m["youngs_modulus"]
+    lam, mu = e * nu / ((1 + nu) * (1 - 2 * nu)), e / (2 * (1 + nu))
+    angles = np.linspace(0.0, 2 * np.pi, d["vertices"], endpoint=False)
+    polygon = [[1.5 * r + r * np.cos(a), 1.5 * r + r * np.sin(a)] for a in angles]
+    return {
+        "title": f"convergence: squeezed disk (uniform dilatation), {cells_per_radius} cells per "
+        f"radius, {shape_function}",
+        "grid": {
+            "origin": [0.0, 0.0],
+            "cell_size": h,
+            "n_cells": [3 * cells_per_radius, 3 * cells_per_radius],
+        },
+        "materials": [
+            {
+                "name": "soil",
+                "model": "linear_elastic",
+                "youngs_modulus": e,
+                "poisson_ratio": nu,
+                "unit_weight": 20.0,
+            }
+        ],
+        "bodies": [
+            {
+                "name": "disk",
+                "material": "soil",
+                "polygon": polygon,
+                "placement": "conforming",
+            }
+        ],
+        "gravity": {"g": 0.0},
+        "loads": [
+            {
+                "type": "follower_pressure",
+                "pressure": d["pressure_over_modulus"] * 2 * (lam + mu),
+                "apply_on": "detected_boundary",
+                "time_function": {"type": "smooth_ramp", "ramp_time": d["ramp_time"]},
+            }
+        ],
+        "manufactured_solution": {"type": "uniform_dilatation"},
+        "solver": {"shape_function": shape_function},
+        "time": {"end_time": d["ramp_time"]},
+        "output": {"interval": d["ramp_time"]},
+    }
+
+
+def relative_l2_errors(out: Path, exact) -> dict:
     """Relative L2 errors (volume-weighted over the points) of the displacement and of the
-    in-plane stress at the run's final time against the manufactured solution."""
-    m = MANUFACTURED
+    in-plane stress at a run's final time against exact(X, t) -> (u (n x 2), stress (n x 4))
+    at the points' initial positions X."""
     particles = final_particles(out)
     time = float(run_status(out)["final_time_s"])
-    start = initial_positions(particles)
-    u_exact, s_exact = analytic.manufactured_solution(
-        start,
-        time,
-        m["amplitude"],
-        m["period"],
-        (0.0, 0.0),
-        (m["size"], m["size"]),
-        m["youngs_modulus"],
-        m["poisson_ratio"],
-    )
+    u_exact, s_exact = exact(initial_positions(particles), time)
     volume = particles["volume"].to_numpy()
-    u = particles[["ux", "uy"]].to_numpy()
-    s = particles[["sxx", "syy", "sxy"]].to_numpy()
 
     def l2(values):
         return float(np.sqrt(np.sum(volume[:, None] * values**2)))
 
+    u = particles[["ux", "uy"]].to_numpy()
+    s = particles[["sxx", "syy", "sxy"]].to_numpy()
     return {
         "displacement": l2(u - u_exact) / l2(u_exact),
         "stress": l2(s - s_exact[:, :3]) / l2(s_exact[:, :3]),
     }
+
+
+def dilatation_errors(out: Path, case: dict) -> dict:
+    """relative_l2_errors of a dilatation_case run against the exact motion (centre: the
+    256-gon's centroid, the disk's centre)."""
+    d, m = DILATATION, MANUFACTURED
+    return relative_l2_errors(
+        out,
+        lambda start, time: analytic.manufactured_dilatation(
+            start,
+            time,
+            case["loads"][0]["pressure"],
+            d["ramp_time"],
+            (1.5 * d["radius"], 1.5 * d["radius"]),
+            m["youngs_modulus"],
+            m["poisson_ratio"],
+        ),
+    )
+
+
+def manufactured_errors(out: Path) -> dict:
+    """relative_l2_errors of a manufactured_case run against the standing wave."""
+    m = MANUFACTURED
+    return relative_l2_errors(
+        out,
+        lambda start, time: analytic.manufactured_solution(
+            start,
+            time,
+            m["amplitude"],
+            m["period"],
+            (0.0, 0.0),
+            (m["size"], m["size"]),
+            m["youngs_modulus"],
+            m["poisson_ratio"],
+        ),
+    )
 
 
 def slope_case() -> dict:
@@ -286,6 +383,11 @@ def run(context) -> StudyOutcome:
         ):
             tasks.append((case, solver))
             keys.append((kind, h))
+    dilatation_cells = QUICK_DILATATION_CELLS if context.quick else DILATATION_CELLS
+    for cells in sorted(dilatation_cells, reverse=True):
+        for label, shape in DILATATION_METHODS:
+            tasks.append((dilatation_case(cells, shape), "mpm"))
+            keys.append((label, cells))
     mms_cells = QUICK_MANUFACTURED_CELLS if context.quick else MANUFACTURED_CELLS
     for cells in sorted(mms_cells, reverse=True):
         for label, solver, shape, scheme in MANUFACTURED_METHODS:
@@ -368,19 +470,32 @@ def run(context) -> StudyOutcome:
             refine(slope, h),
             context.folder / "work",
         )
+
+    def error_rows(problem, label, h, errors):
+        return [
+            {
+                "quantity": f"{problem} {field} L2 ({label})",
+                "h_m": h,
+                "value": errors[field],
+                "reference": 0.0,
+                "error": errors[field],
+            }
+            for field in ("displacement", "stress")
+        ]
+
     for cells in mms_cells:
         for label, *_ in MANUFACTURED_METHODS:
             errors = manufactured_errors(outs[(label, cells)])
-            for field in ("displacement", "stress"):
-                rows.append(
-                    {
-                        "quantity": f"manufactured {field} L2 ({label})",
-                        "h_m": MANUFACTURED["size"] / cells,
-                        "value": errors[field],
-                        "reference": 0.0,
-                        "error": errors[field],
-                    }
-                )
+            rows += error_rows(
+                "manufactured", label, MANUFACTURED["size"] / cells, errors
+            )
+    for cells in dilatation_cells:
+        for label, shape in DILATATION_METHODS:
+            case = dilatation_case(cells, shape)
+            errors = dilatation_errors(outs[(label, cells)], case)
+            rows += error_rows(
+                "squeezed disk", label, DILATATION["radius"] / cells, errors
+            )
     table = pd.DataFrame(rows).sort_values(["quantity", "h_m"], ascending=[True, False])
     orders = []
     for _, group in table.groupby("quantity", sort=False):
@@ -402,6 +517,12 @@ def run(context) -> StudyOutcome:
             f"convergence.manufactured.{label.replace(' ', '_')}.displacement_order",
         )
         for label, *_ in MANUFACTURED_METHODS
+    ] + [
+        (
+            f"squeezed disk displacement L2 ({label})",
+            f"convergence.dilatation.{label.replace(' ', '_')}.displacement_order",
+        )
+        for label, _ in DILATATION_METHODS
     ]
     for quantity, name in manufactured_metrics + [
         ("column settlement", "convergence.column.settlement_order"),

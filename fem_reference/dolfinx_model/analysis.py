@@ -227,8 +227,11 @@ def run_explicit(
 
     def load_fraction(load, t):
         tf = load.time_function
-        if tf.get("type") == "ramp" and tf.get("ramp_time", 0) > 0:
-            return min(1.0, t / tf["ramp_time"])
+        if tf.get("type") in ("ramp", "smooth_ramp") and tf.get("ramp_time", 0) > 0:
+            u = min(1.0, t / tf["ramp_time"])
+            if tf["type"] == "smooth_ramp":  # as TimeFunction::factor (mpm/solver/case.hpp)
+                return u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
+            return u
         return 1.0
 
     model.load_factor = 1.0  # each load follows its own time function

@@ -274,13 +274,15 @@ def _ccw(polygon):
 def _read_time_function(tf, file, pointer):
     if not isinstance(tf, dict):
         _fail(file, pointer, "must be an object")
-    kind = _choice(tf, "type", file, pointer, ("constant", "ramp"), required=True)
+    kind = _choice(
+        tf, "type", file, pointer, ("constant", "ramp", "smooth_ramp"), required=True
+    )
     if kind == "constant":
         _expect_object(tf, file, pointer, {"type"})
         return {"type": "constant"}
     _expect_object(tf, file, pointer, {"type", "ramp_time"})
     ramp = _number(tf, "ramp_time", file, pointer, required=True, rule=_POSITIVE)
-    return {"type": "ramp", "ramp_time": ramp}
+    return {"type": kind, "ramp_time": ramp}
 
 
 def _read_x_range(ld, file, pointer):

@@ -1,6 +1,6 @@
-// Closed polygons (no repeated closing vertex): signed area, point containment and the segment
-// test of the case reader's simplicity check, shared by the case reader, the body fill and the
-// detector's loop classes.
+// Closed polygons (no repeated closing vertex): signed area, centroid, point containment and the
+// segment test of the case reader's simplicity check, shared by the case reader, the body fill and
+// the detector's loop classes.
 #pragma once
 
 #include <algorithm>
@@ -19,6 +19,17 @@ inline double polygon_signed_area(const std::vector<Vec2>& polygon) {
     twice += a.x() * b.y() - b.x() * a.y();
   }
   return 0.5 * twice;
+}
+
+/// Centroid of a closed polygon of non-zero area (shoelace), m.
+inline Vec2 polygon_centroid(const std::vector<Vec2>& polygon) {
+  Vec2 moment = Vec2::Zero();
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Vec2& a = polygon[k];
+    const Vec2& b = polygon[(k + 1) % polygon.size()];
+    moment += (a.x() * b.y() - b.x() * a.y()) / 6.0 * (a + b);
+  }
+  return moment / polygon_signed_area(polygon);
 }
 
 /// Even-odd point-in-polygon test (points exactly on an edge count as inside the half-open

@@ -188,12 +188,12 @@ unsigned parse_fix(const JsonView& v) {
 
 TimeFunction parse_time_function(const JsonView& v) {
   TimeFunction f;
-  const std::string type = v.at("type").as_choice({"constant", "ramp"});
+  const std::string type = v.at("type").as_choice({"constant", "ramp", "smooth_ramp"});
   if (type == "constant") {
     v.expect_object({"type"});
   } else {
     v.expect_object({"type", "ramp_time"});
-    f.kind = TimeFunctionKind::kRamp;
+    f.kind = type == "ramp" ? TimeFunctionKind::kRamp : TimeFunctionKind::kSmoothRamp;
     f.ramp_time = v.at("ramp_time").as_number();
     v.at("ramp_time").require(f.ramp_time > 0.0, "must be > 0");
   }
@@ -339,40 +339,56 @@ Case read_case(const std::string& path) {
 
 namespace {
 
-// "manufactured_solution": {"amplitude": A, "period": T} (mpm/core/manufactured.hpp). The
-// solution lives on the one body, a rectangle of linear elastic material, with nothing else
-// loading it: no gravity, no loads, a zero initial stress.
+// "manufactured_solution" (mpm/core/manufactured.hpp): {"type": "standing_wave" (default),
+// "amplitude": A, "period": T} on a rectangle whose edges the case fixes, or {"type":
+// "uniform_dilatation"} on a free body squeezed by its one load, a follower pressure on the
+// detected boundary with a smooth ramp. Either lives on one body of linear elastic material with
+// nothing else loading it: no gravity, no other load, a zero initial stress.
 void parse_manufactured(const JsonView& m, const JsonView& root, Case& c) {
-  m.expect_object({"amplitude", "period"});
   ManufacturedSolution s;
-  s.amplitude = m.at("amplitude").as_number();
-  m.at("amplitude").require(s.amplitude > 0.0, "must be > 0 (m)");
-  s.period = m.at("period").as_number();
-  m.at("period").require(s.period > 0.0, "must be > 0 (s)");
+  const std::string type =
+      m.choice_or("type", {"standing_wave", "uniform_dilatation"}, "standing_wave");
   const std::string needs = "a manufactured solution needs ";
   root.at("bodies").require(c.bodies.size() == 1, needs + "exactly one body");
   const BodySpec& body = c.bodies.front();
-  const std::vector<Vec2>& p = body.polygon;
-  const bool rectangle = p.size() == 4 && p[0].y() == p[1].y() && p[1].x() == p[2].x() &&
-                         p[2].y() == p[3].y() && p[3].x() == p[0].x();
-  root.at("bodies").at(std::size_t{0}).require(rectangle, needs + "a rectangle body");
+  const JsonView body_view = root.at("bodies").at(std::size_t{0});
+  body_view.require(body.point_position.empty(),
+                    needs + "points placed by the body's cells, not a file");
   const MaterialRecord& material = c.materials[static_cast<std::size_t>(body.material)];
   const auto* elastic = std::get_if<LinearElastic>(&material.model);
-  root.at("bodies")
-      .at(std::size_t{0})
-      .at("material")
-      .require(elastic != nullptr, needs + "a body of linear_elastic material");
-  root.at("bodies")
-      .at(std::size_t{0})
-      .require(body.point_position.empty(),
-               needs + "points placed by the body's cells, not a file");
+  body_view.at("material").require(elastic != nullptr, needs + "a body of linear_elastic material");
+  const std::vector<Vec2>& p = body.polygon;
+  if (type == "standing_wave") {
+    m.expect_object({"type", "amplitude", "period"});
+    s.amplitude = m.at("amplitude").as_number();
+    m.at("amplitude").require(s.amplitude > 0.0, "must be > 0 (m)");
+    s.period = m.at("period").as_number();
+    m.at("period").require(s.period > 0.0, "must be > 0 (s)");
+    const bool rectangle = p.size() == 4 && p[0].y() == p[1].y() && p[1].x() == p[2].x() &&
+                           p[2].y() == p[3].y() && p[3].x() == p[0].x();
+    body_view.require(rectangle, needs + "a rectangle body (standing_wave)");
+    m.require(c.loads.empty(), needs + "no loads: b is its only load (standing_wave)");
+    s.origin = p[0];
+    s.size = p[2] - p[0];
+  } else {
+    m.expect_object({"type"});
+    s.kind = ManufacturedKind::kUniformDilatation;
+    const bool squeezed = c.loads.size() == 1 && c.loads[0].type == "follower_pressure" &&
+                          c.loads[0].apply_on == LoadTarget::kDetectedBoundary &&
+                          c.loads[0].time_function.kind == TimeFunctionKind::kSmoothRamp;
+    m.require(squeezed, needs +
+                            "one load, a follower_pressure on the detected boundary with a "
+                            "smooth_ramp time function (uniform_dilatation)");
+    m.require(c.boundary_conditions.empty(),
+              needs + "a free body: no boundary conditions (uniform_dilatation)");
+    s.pressure = c.loads[0].pressure;
+    s.ramp_time = c.loads[0].time_function.ramp_time;
+    s.centre = polygon_centroid(p);
+  }
   m.require(c.gravity.g == 0.0, needs + "gravity off (gravity.g = 0): b is its only body force");
-  m.require(c.loads.empty(), needs + "no loads: b is its only load");
   m.require(c.initial_stress.method == InitialStressMethod::kZero,
             needs + "the zero initial stress (it starts at rest, unstressed)");
   const ElasticParameters e = elastic_parameters(material.model);
-  s.origin = p[0];
-  s.size = p[2] - p[0];
   s.lambda = e.lame_lambda();
   s.mu = e.shear_modulus();
   s.density = material.unit_weight / 9.81;  // as largest_wave_speed with gravity off

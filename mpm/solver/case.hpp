@@ -65,14 +65,17 @@ struct BoundaryCondition {
   unsigned fix = kFixNone;
 };
 
-enum class TimeFunctionKind { kConstant, kRamp };
+enum class TimeFunctionKind { kConstant, kRamp, kSmoothRamp };
 
 struct TimeFunction {
   TimeFunctionKind kind = TimeFunctionKind::kConstant;
   double ramp_time = 0.0;  ///< s
-  /// Factor in [0, 1] at time t.
+  /// Factor in [0, 1] at time t: 1 (constant), t / t_r (ramp), or 10 u^3 - 15 u^4 + 6 u^5 with
+  /// u = t / t_r (smooth ramp: its first and second derivatives vanish at both ends), up to t_r
+  /// and 1 after (smooth_ramp_factor, mpm/core/manufactured.hpp).
   double factor(double t) const {
     if (kind == TimeFunctionKind::kConstant || ramp_time <= 0.0) return 1.0;
+    if (kind == TimeFunctionKind::kSmoothRamp) return smooth_ramp_factor(t, ramp_time).value;
     return t >= ramp_time ? 1.0 : t / ramp_time;
   }
 };

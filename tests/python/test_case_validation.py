@@ -27,6 +27,20 @@ def mutate(path, value=None, delete=False):
     return case
 
 
+def elastic_with(key, value):
+    """The base case with its soil linear elastic (as a manufactured solution needs) and
+    `key` set to `value`."""
+    case = mutate([key], value)
+    case["materials"][0] = {
+        "name": "soil",
+        "model": "linear_elastic",
+        "youngs_modulus": 1000.0,
+        "poisson_ratio": 0.15,
+        "unit_weight": 20.0,
+    }
+    return case
+
+
 # (name, case document or raw text, JSON pointer expected in the message)
 MALFORMED = [
     (
@@ -164,13 +178,23 @@ MALFORMED = [
     ),
     (
         "manufactured_negative_amplitude",
-        mutate(["manufactured_solution"], {"amplitude": -1e-5, "period": 0.1}),
+        elastic_with("manufactured_solution", {"amplitude": -1e-5, "period": 0.1}),
         "/manufactured_solution/amplitude",
     ),
     (
         "manufactured_on_plastic_soil",
         mutate(["manufactured_solution"], {"amplitude": 1e-5, "period": 0.1}),
         "/bodies/0/material",
+    ),
+    (
+        "dilatation_without_its_pressure",
+        elastic_with("manufactured_solution", {"type": "uniform_dilatation"}),
+        "/manufactured_solution",
+    ),
+    (
+        "smooth_ramp_without_time",
+        mutate(["loads", 0, "time_function"], {"type": "smooth_ramp"}),
+        "/loads/0/time_function",
     ),
     ("truncated_json", "TRUNCATED", "invalid JSON"),
     ("empty_file", "", "file is empty"),

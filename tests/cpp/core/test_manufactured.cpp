@@ -6,6 +6,7 @@
 // vanishes on the rectangle's edges, and u and sigma at t = 0.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "mpm/core/manufactured.hpp"
@@ -62,6 +63,51 @@ TEST(Manufactured, ZeroOnTheEdgesAndAtRestAtTheStart) {
   const Vec2 inside = s.origin + 0.3 * s.size;
   EXPECT_EQ(s.displacement(inside, 0.0).norm(), 0.0);
   EXPECT_EQ(s.stress(inside, 0.0).norm(), 0.0);
+}
+
+// The uniform dilatation: the stretch's derivatives against central differences (and the body
+// force x_tt), its stress uniform with sxx = -p0 f(t) (the follower pressure it is squeezed by),
+// zero before the ramp and constant after it; the smooth ramp is C2 at both ends.
+TEST(Manufactured, UniformDilatationIsTheStretchItsPressureMakes) {
+  ManufacturedSolution s;
+  s.kind = ManufacturedKind::kUniformDilatation;
+  s.lambda = 5769.2;
+  s.mu = 3846.2;
+  s.density = 2.04;
+  s.pressure = 2000.0;
+  s.ramp_time = 0.2;
+  s.centre = Vec2(1.0, 2.0);
+  const double dt = 1e-5 * s.ramp_time;
+  const Vec2 x(2.5, 1.25);
+  for (double f : {0.05, 0.3, 0.5, 0.77, 0.99}) {
+    const double t = f * s.ramp_time;
+    const TimeFactor st = s.stretch(t);
+    const double rate = (s.stretch(t + dt).value - s.stretch(t - dt).value) / (2.0 * dt);
+    const double acceleration =
+        (s.stretch(t + dt).value - 2.0 * st.value + s.stretch(t - dt).value) / (dt * dt);
+    const double scale = s.pressure / (2.0 * (s.lambda + s.mu)) / (s.ramp_time * s.ramp_time);
+    EXPECT_NEAR(st.rate, rate, 1e-6 * scale * s.ramp_time);
+    EXPECT_NEAR(st.acceleration, acceleration, 1e-4 * scale);
+    const Vec2 x_tt =
+        (s.displacement(x, t + dt) - 2.0 * s.displacement(x, t) + s.displacement(x, t - dt)) /
+        (dt * dt);
+    EXPECT_LE((s.body_force(x, t) - x_tt).norm(), 1e-4 * scale * (x - s.centre).norm());
+    const Stress sigma = s.stress(x, t);
+    EXPECT_NEAR(sigma[kXX], -s.pressure * smooth_ramp_factor(t, s.ramp_time).value,
+                1e-12 * s.pressure);
+    EXPECT_EQ(sigma[kXX], sigma[kYY]);
+    EXPECT_EQ(sigma[kXY], 0.0);
+    EXPECT_EQ(sigma, s.stress(s.centre, t));  // uniform: div sigma = 0
+  }
+  EXPECT_EQ(s.displacement(x, 0.0).norm(), 0.0);
+  EXPECT_EQ(s.body_force(x, 1.5 * s.ramp_time).norm(), 0.0);
+  // C2 at both ends of the ramp.
+  const TimeFactor start = smooth_ramp_factor(1e-9 * s.ramp_time, s.ramp_time);
+  const TimeFactor end = smooth_ramp_factor((1.0 - 1e-9) * s.ramp_time, s.ramp_time);
+  EXPECT_LE(start.acceleration * s.ramp_time * s.ramp_time, 1e-7);  // 60 u at u = 1e-9
+  EXPECT_NEAR(end.value, 1.0, 1e-15);
+  EXPECT_LE(std::abs(end.rate) * s.ramp_time, 1e-15);
+  EXPECT_LE(std::abs(end.acceleration) * s.ramp_time * s.ramp_time, 1e-7);
 }
 
 }  // namespace
