@@ -229,7 +229,9 @@ def run_explicit(
         tf = load.time_function
         if tf.get("type") in ("ramp", "smooth_ramp") and tf.get("ramp_time", 0) > 0:
             u = min(1.0, t / tf["ramp_time"])
-            if tf["type"] == "smooth_ramp":  # as TimeFunction::factor (mpm/solver/case.hpp)
+            if (
+                tf["type"] == "smooth_ramp"
+            ):  # as TimeFunction::factor (mpm/solver/case.hpp)
                 return u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
             return u
         return 1.0
