@@ -1,7 +1,8 @@
 // make bench: particle-steps per second of the explicit MPM step on the thesis's bearing block
 // (15 x 5 m, 2 x 2 points per cell, zero initial stress, q_v = 50 kPa as consistent forces on
 // the top grid nodes) refined to about 1.2k, 19k and 300k particles, elastic and softening
-// Tresca, 1 and 2 threads.
+// Tresca, 1 and 2 threads (BM_Step), and with each shape function with and without
+// anti-locking (BM_StepShapes).
 //
 // Counters:
 //   particle_steps/s  the cb-geo style throughput (particles x steps / wall time)
@@ -38,7 +39,8 @@ double process_cpu_seconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-pfm::Case bearing_block(double cell, bool elastic) {
+pfm::Case bearing_block(double cell, bool elastic, const std::string& shape_function = "linear",
+                        const std::string& anti_locking = "none") {
   nlohmann::json j = pfm::read_json_file(std::string(PFM_SOURCE_DIR) +
                                          "/cases/thesis62_bearing_dynamic_zero_start.json");
   const int nx = static_cast<int>(15.0 / cell + 0.5), ny = static_cast<int>(7.5 / cell + 0.5);
@@ -58,16 +60,28 @@ pfm::Case bearing_block(double cell, bool elastic) {
     {"type": "vertical_pressure", "pressure": 50.0, "x_range": [5.0, 10.0],
      "apply_on": "grid_top_nodes", "time_function": {"type": "constant"}}])");
   j.erase("detection");
-  j["solver"] = {{"scheme", "musl"}, {"shape_function", "linear"}, {"damping", 0.05}};
+  j["solver"] = {{"scheme", "musl"},
+                 {"shape_function", shape_function},
+                 {"damping", 0.05},
+                 {"anti_locking", anti_locking}};
+  if (shape_function == "gimp") {
+    // uGIMP: a margin of 2 cells, and the walls as node sets holding the nodes behind them (as
+    // cases/bearing_quasi_static.json).
+    j["grid"]["origin"] = {-2.0 * cell, -2.0 * cell};
+    j["grid"]["n_cells"] = {nx + 4, ny + 4};
+    j["node_sets"] = nlohmann::json::parse(R"([
+      {"name": "base", "box": [[-1000.0, -1000.0], [1015.0, 1e-9]]},
+      {"name": "left_wall", "box": [[-1000.0, 0.0], [1e-9, 1000.0]]},
+      {"name": "right_wall", "box": [[14.999999999, 0.0], [1015.0, 1000.0]]}])");
+    j["boundary_conditions"] = nlohmann::json::parse(R"([
+      {"where": "base", "fix": "xy"}, {"where": "left_wall", "fix": "x"},
+      {"where": "right_wall", "fix": "x"}])");
+  }
   return pfm::parse_case(j, "bench");
 }
 
-void BM_Step(benchmark::State& state) {
-  const double cell = 0.5 / static_cast<double>(state.range(0));
-  const bool elastic = state.range(1) == 0;
-  const int threads = static_cast<int>(state.range(2));
-  omp_set_num_threads(threads);
-  pfm::MpmSolver solver(bearing_block(cell, elastic));
+// Times steps of `solver` and sets the counters of the header comment.
+void time_steps(benchmark::State& state, pfm::MpmSolver& solver) {
   for (int k = 0; k < 3; ++k) solver.step();  // warm up, allocate
   const pfm::StageTimes before = solver.stage_times();
   const double cpu_before = process_cpu_seconds();
@@ -95,14 +109,45 @@ void BM_Step(benchmark::State& state) {
   state.counters["remap"] = per_particle_step(t.remap, before.remap);
   state.counters["stress"] = per_particle_step(t.stress, before.stress);
   state.counters["stages"] = per_particle_step(t.total(), before.total());
+}
+
+void BM_Step(benchmark::State& state) {
+  const double cell = 0.5 / static_cast<double>(state.range(0));
+  const bool elastic = state.range(1) == 0;
+  const int threads = static_cast<int>(state.range(2));
+  omp_set_num_threads(threads);
+  pfm::MpmSolver solver(bearing_block(cell, elastic));
+  time_steps(state, solver);
   state.SetLabel(std::string(elastic ? "elastic" : "tresca") + ", " + std::to_string(threads) +
                  " thread(s)");
+}
+
+// The softening Tresca block with each shape function, with and without anti-locking
+// (solver.anti_locking "bbar"): the cost of each per particle-step, against BM_Step's linear
+// figure of the same size and threads.
+void BM_StepShapes(benchmark::State& state) {
+  const double cell = 0.5 / static_cast<double>(state.range(0));
+  const std::string shape = state.range(1) == 0 ? "linear" : "gimp";
+  const std::string anti_locking = state.range(2) == 0 ? "none" : "bbar";
+  const int threads = static_cast<int>(state.range(3));
+  omp_set_num_threads(threads);
+  pfm::MpmSolver solver(bearing_block(cell, false, shape, anti_locking));
+  time_steps(state, solver);
+  state.SetLabel(shape + ", " + anti_locking + ", " + std::to_string(threads) + " thread(s)");
 }
 
 // range(0): refinement (1 -> 1.2k particles, 4 -> 19k, 16 -> 307k); range(1): 0 elastic,
 // 1 Tresca; range(2): threads.
 BENCHMARK(BM_Step)
     ->ArgsProduct({{1, 4, 16}, {0, 1}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(1.0);
+
+// range(0): refinement (4 -> 19k, 16 -> 307k); range(1): 0 linear, 1 uGIMP; range(2): 0 no
+// anti-locking, 1 B-bar; range(3): threads.
+BENCHMARK(BM_StepShapes)
+    ->ArgsProduct({{4, 16}, {0, 1}, {0, 1}, {1, 2}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(1.0);
