@@ -329,19 +329,21 @@ def disk_case() -> dict:
 
 def _run(job):
     """The output folder of a (case, solver) job, or {"missing": what} when pfm-mpm rejects a
-    key it does not support yet, so the other benchmarks still run. A footing run that stops
-    (a UL-FEM element inverted past the collapse) is a result: its outputs up to the stop.
-    """
+    key it does not support yet, so the other benchmarks still run. A footing run gives
+    {"curve": its prandtl_curve, "timeseries": ...} at once: its outputs (about 250 MB) are
+    more than the run cache keeps (PFM_CACHE_MAX_MB), which may drop them before the study reads
+    them. A footing run that stops (a UL-FEM element inverted past the collapse) is a result:
+    its outputs up to the stop."""
     case, solver = job
+    footing = case["title"].startswith("benchmark Prandtl")
     try:
-        return str(
-            run_mpm(
-                case,
-                threads=1,
-                solver=solver,
-                allow_stopped=case["title"].startswith("benchmark Prandtl"),
-            ).out
-        )
+        out = run_mpm(case, threads=1, solver=solver, allow_stopped=footing).out
+        if footing:
+            return {
+                "curve": prandtl_curve(out, case),
+                "timeseries": read_timeseries(out),
+            }
+        return str(out)
     except (RunFailed, PrerequisiteMissing) as failure:
         reason = missing_reason(failure)
         if reason is not None:
@@ -367,6 +369,10 @@ def _out(run) -> Path:
     if isinstance(run, dict):
         raise PrerequisiteMissing(run["missing"])
     return Path(run)
+
+
+def _missing(run) -> bool:
+    return isinstance(run, dict) and "missing" in run
 
 
 def _particles(run) -> pd.DataFrame:
@@ -454,9 +460,9 @@ def _energy_ledgers(outs: dict, outcome: StudyOutcome, folder: Path):
     import matplotlib.pyplot as plt
 
     series = {
-        name: read_timeseries(run)
+        name: run["timeseries"] if isinstance(run, dict) else read_timeseries(run)
         for name, run in outs.items()
-        if not isinstance(run, dict)
+        if not _missing(run)
     }
     if not series:
         return
@@ -674,7 +680,9 @@ def _prandtl(outs, jobs, outcome, folder):
         _, solver, c_label, b_label = key.split("/")
         cohesion = case["materials"][0]["cohesion"]
         q_u = analytic.prandtl_bearing_capacity(cohesion)
-        curve = prandtl_curve(_out(outs[key]), case)
+        if _missing(outs[key]):
+            raise PrerequisiteMissing(outs[key]["missing"])
+        curve = outs[key]["curve"]
         curves[key] = (curve, q_u)
         collapse = collapse_pressure(curve, p["stiffness_fraction"])
         rows.append(
