@@ -1,5 +1,6 @@
 #include "mpm/core/shape_functions.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace pfm {
@@ -70,6 +71,102 @@ ShapeStencil gimp_stencil(const Grid& grid, const Vec2& x, const Vec2& half_leng
     }
   }
   return s;
+}
+
+namespace {
+
+// Knot k of the clamped knot vector of degree p on n cells, in cells: the cell midpoints
+// (p even) or the nodes (p odd), the end knots repeated p + 1 times.
+double bspline_knot(int p, int n, int k) {
+  const double shift = p % 2 == 0 ? p + 0.5 : p;
+  return std::clamp(k - shift, 0.0, static_cast<double>(n));
+}
+
+}  // namespace
+
+int bspline_1d(int degree, int n_cells, double u, double* value, double* derivative) {
+  constexpr int kMaxDegree = 3;
+  const int p = degree, n = n_cells;
+  // Knot span s (t_s <= u < t_{s+1}); the B-splines nonzero on it are B_{s-p} .. B_s.
+  const double shift = p % 2 == 0 ? p + 0.5 : p;
+  const int s = std::clamp(static_cast<int>(std::floor(u + shift)), p, n + 2);
+  // Cox-de Boor on the span (values of degree p - 1 kept for the derivatives).
+  double left[kMaxDegree + 1], right[kMaxDegree + 1];
+  double b[kMaxDegree + 1] = {1.0}, lower[kMaxDegree + 1] = {1.0};
+  for (int j = 1; j <= p; ++j) {
+    left[j] = u - bspline_knot(p, n, s + 1 - j);
+    right[j] = bspline_knot(p, n, s + j) - u;
+    double saved = 0.0;
+    for (int r = 0; r < j; ++r) {
+      const double temp = b[r] / (right[r + 1] + left[j - r]);
+      b[r] = saved + right[r + 1] * temp;
+      saved = left[j - r] * temp;
+    }
+    b[j] = saved;
+    if (j == p - 1) std::copy(b, b + p, lower);
+  }
+  // d B_i / du = p (B_{i,p-1} / (t_{i+p} - t_i) - B_{i+1,p-1} / (t_{i+p+1} - t_{i+1})).
+  double db[kMaxDegree + 1];
+  for (int r = 0; r <= p; ++r) {
+    const int i = s - p + r;
+    const double a = r > 0 ? lower[r - 1] : 0.0, c = r < p ? lower[r] : 0.0;
+    const double da = bspline_knot(p, n, i + p) - bspline_knot(p, n, i);
+    const double dc = bspline_knot(p, n, i + p + 1) - bspline_knot(p, n, i + 1);
+    db[r] = p * ((da > 0.0 ? a / da : 0.0) - (dc > 0.0 ? c / dc : 0.0));
+  }
+  // B-splines to nodes: B_{k+1} to node k, B_0 to node 0, B_{n+2} to node n, and B_1 (B_{n+1})
+  // shared by nodes 0 and 1 (n and n - 1) by its Greville abscissa g.
+  double g = 0.0;
+  for (int k = 2; k <= p + 1; ++k) g += bspline_knot(p, n, k);
+  g /= p;
+  const int base = std::clamp(s - p - 1, 0, n - p);
+  std::fill(value, value + p + 1, 0.0);
+  std::fill(derivative, derivative + p + 1, 0.0);
+  auto add = [&](int node, double weight, int r) {
+    value[node - base] += weight * b[r];
+    derivative[node - base] += weight * db[r];
+  };
+  for (int r = 0; r <= p; ++r) {
+    const int i = s - p + r;
+    if (i == 1) {
+      add(0, 1.0 - g, r);
+      add(1, g, r);
+    } else if (i == n + 1) {
+      add(n, 1.0 - g, r);
+      add(n - 1, g, r);
+    } else {
+      add(std::clamp(i - 1, 0, n), 1.0, r);
+    }
+  }
+  return base;
+}
+
+ShapeStencil bspline_stencil(const Grid& grid, int degree, const Vec2& x) {
+  ShapeStencil s;
+  s.width = degree + 1;
+  const double h = grid.cell_size;
+  double nx[4], ny[4], dx[4], dy[4];
+  s.base_i = bspline_1d(degree, grid.n_cells_x, (x.x() - grid.origin.x()) / h, nx, dx);
+  s.base_j = bspline_1d(degree, grid.n_cells_y, (x.y() - grid.origin.y()) / h, ny, dy);
+  for (int b = 0; b < s.width; ++b) {
+    for (int a = 0; a < s.width; ++a) {
+      s.value[b * s.width + a] = nx[a] * ny[b];
+      s.gradient[b * s.width + a] = Vec2(dx[a] * ny[b], nx[a] * dy[b]) / h;
+    }
+  }
+  return s;
+}
+
+ShapeStencil stencil(ShapeFunctionKind kind, const Grid& grid, const Vec2& x,
+                     const Vec2& half_length) {
+  switch (kind) {
+    case ShapeFunctionKind::kLinear:
+      return linear_stencil(grid, x);
+    case ShapeFunctionKind::kGimp:
+      return gimp_stencil(grid, x, half_length);
+    default:
+      return bspline_stencil(grid, shape_degree(kind), x);
+  }
 }
 
 Eigen::Vector4d q4_values(double xi, double eta) {

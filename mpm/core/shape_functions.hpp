@@ -1,8 +1,26 @@
 // Shape functions shared by the MPM and the updated-Lagrangian FEM.
 //
-// * Grid (MPM) functions: linear (bilinear on a square cell, thesis 3.2) and uGIMP
-//   (Bardenhagen & Kober 2004) with the particle half-length fixed at its initial value.
-//   A particle's functions are returned as a small stencil of nodes (2x2 linear, 3x3 GIMP).
+// * Grid (MPM) functions: linear (bilinear on a square cell, thesis 3.2), uGIMP
+//   (Bardenhagen & Kober 2004) with the particle half-length fixed at its initial value, and
+//   quadratic and cubic B-splines (Steffen, Kirby & Berzins 2008) modified at the grid's edges
+//   (below). A particle's functions are returned as a small stencil of nodes (2x2 linear,
+//   3x3 GIMP and quadratic B-splines, 4x4 cubic B-splines).
+// * B-splines of degree p on a line of n cells, u = (x - x0) / h in [0, n]. Inside the grid a
+//   node's function is the uniform B-spline centred on it (knots at the cell midpoints for
+//   p = 2, at the nodes for p = 3; support 3h and 4h). At each grid edge the knot vector is
+//   clamped (the end knot repeated p + 1 times), which gives n + 3 B-splines B_0 .. B_{n+2}
+//   for the n + 1 nodes: node k (1 <= k <= n - 1) takes B_{k+1}, and the extra spline B_1
+//   (B_{n+1} at the far edge) is shared between the edge node and its neighbour in the ratio
+//   of its Greville abscissa g = (t_2 + ... + t_{p+1}) / p (1/4 for p = 2, 1/3 for p = 3):
+//   node 0 takes B_0 + (1 - g) B_1, node 1 takes g B_1 + B_2. The functions then are
+//   non-negative, a partition of unity, reproduce linear fields exactly (the nodal values of
+//   x give x) and are C1 inside the grid; at an edge only the edge node's function is nonzero,
+//   so a velocity fixed on the edge nodes holds on the whole edge. The grid edge can therefore
+//   be a support, as with linear functions, and no margin of cells is needed.
+// * Critical time step (MpmSolver): h / c_p for all four. The largest frequency of the 1D
+//   lumped-mass system of the B-splines, edges included, gives 1.31 h / c_p (quadratic) and
+//   1.44 h / c_p (cubic) on long lines, and no less than 1.22 h / c_p on the shortest grids
+//   allowed (tests/cpp/core/test_shape_functions.cpp), so h / c_p is on the safe side.
 // * Isoparametric 4-node quadrilateral functions in natural coordinates (xi, eta) in [-1, 1]^2
 //   for the FEM, node order counter-clockwise from (-1, -1).
 #pragma once
@@ -13,7 +31,20 @@
 
 namespace pfm {
 
-enum class ShapeFunctionKind { kLinear, kGimp };
+enum class ShapeFunctionKind { kLinear, kGimp, kQuadraticBspline, kCubicBspline };
+
+/// Nodes per direction that a particle's functions reach.
+constexpr int stencil_width(ShapeFunctionKind kind) {
+  return kind == ShapeFunctionKind::kLinear ? 2 : kind == ShapeFunctionKind::kCubicBspline ? 4 : 3;
+}
+
+/// Polynomial degree of the grid functions along a line (1 for linear and for uGIMP, whose
+/// functions at a point of the boundary, where the traction acts, are the linear ones).
+constexpr int shape_degree(ShapeFunctionKind kind) {
+  return kind == ShapeFunctionKind::kQuadraticBspline ? 2
+         : kind == ShapeFunctionKind::kCubicBspline   ? 3
+                                                      : 1;
+}
 
 /// Nodes a particle reaches and the values and gradients of their functions at the particle.
 /// Stencil node (a, b), a, b in [0, width), is grid node (base_i + a, base_j + b) and is
@@ -22,8 +53,8 @@ struct ShapeStencil {
   int base_i = 0;
   int base_j = 0;
   int width = 2;
-  std::array<double, 9> value{};
-  std::array<Vec2, 9> gradient{};  ///< 1/m
+  std::array<double, 16> value{};
+  std::array<Vec2, 16> gradient{};  ///< 1/m
 };
 
 /// 1D uGIMP function of a node at signed distance d = x_p - x_node, cell h, half-length lp.
@@ -38,11 +69,18 @@ ShapeStencil linear_stencil(const Grid& grid, const Vec2& x);
 /// in any direction in which the particle domain reaches over a cell edge.
 ShapeStencil gimp_stencil(const Grid& grid, const Vec2& x, const Vec2& half_length);
 
-inline ShapeStencil stencil(ShapeFunctionKind kind, const Grid& grid, const Vec2& x,
-                            const Vec2& half_length) {
-  return kind == ShapeFunctionKind::kLinear ? linear_stencil(grid, x)
-                                            : gimp_stencil(grid, x, half_length);
-}
+/// The edge-modified B-splines of degree 2 or 3 (header comment) of the nodes of a line of
+/// n_cells >= degree cells at u = (x - x0) / h in [0, n_cells]. Writes the values and the
+/// derivatives d/du of the degree + 1 nodes base .. base + degree and returns base.
+int bspline_1d(int degree, int n_cells, double u, double* value, double* derivative);
+
+/// B-spline functions of degree 2 or 3 at x; the caller guarantees grid.contains(x) and at
+/// least `degree` cells along each axis.
+ShapeStencil bspline_stencil(const Grid& grid, int degree, const Vec2& x);
+
+/// The functions of `kind` at x (half_length is used by uGIMP alone).
+ShapeStencil stencil(ShapeFunctionKind kind, const Grid& grid, const Vec2& x,
+                     const Vec2& half_length);
 
 /// Isoparametric Q4: values at natural coordinates (xi, eta).
 Eigen::Vector4d q4_values(double xi, double eta);

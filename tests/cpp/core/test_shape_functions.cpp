@@ -1,8 +1,12 @@
 // Shape functions: partition of unity, zero gradient sum, exact reproduction of linear fields,
-// for linear grid functions, uGIMP and the isoparametric Q4.
+// for linear grid functions, uGIMP, the edge-modified B-splines and the isoparametric Q4; the
+// B-splines also against the closed-form uniform splines, their continuity, and the critical
+// time step their lumped masses allow.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <random>
+#include <vector>
 
 #include "mpm/core/shape_functions.hpp"
 
@@ -87,6 +91,147 @@ TEST(ShapeFunctions, GimpEqualsLinearAwayFromNodesForVanishingParticle) {
       EXPECT_NEAR(lin.value[b * 2 + a], gimp.value[gj * 3 + gi], 1e-8);
     }
   }
+}
+
+TEST(ShapeFunctions, BsplinePartitionOfUnityAndLinearFieldsOverTheWholeGrid) {
+  // Edges included: the edge modification keeps every property (a support on the grid edge).
+  const Grid grid = test_grid();
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> ux(-1.0, 4.0 - 1e-9), uy(2.0, 6.0 - 1e-9);
+  for (const int degree : {2, 3}) {
+    for (int n = 0; n < 4000; ++n) {
+      const Vec2 x(ux(rng), uy(rng));
+      const ShapeStencil s = bspline_stencil(grid, degree, x);
+      ASSERT_EQ(s.width, degree + 1);
+      ASSERT_GE(s.base_i, 0);
+      ASSERT_LE(s.base_i + degree, grid.n_cells_x);
+      ASSERT_GE(s.base_j, 0);
+      ASSERT_LE(s.base_j + degree, grid.n_cells_y);
+      check_stencil(grid, s, x);
+    }
+  }
+}
+
+// The uniform B-splines in closed form (r = distance to the node in cells).
+double uniform_bspline(int degree, double r) {
+  r = std::abs(r);
+  if (degree == 2) return r < 0.5 ? 0.75 - r * r : r < 1.5 ? 0.5 * (1.5 - r) * (1.5 - r) : 0.0;
+  return r < 1.0   ? 2.0 / 3.0 - r * r + 0.5 * r * r * r
+         : r < 2.0 ? (2.0 - r) * (2.0 - r) * (2.0 - r) / 6.0
+                   : 0.0;
+}
+
+TEST(ShapeFunctions, BsplineIsTheUniformSplineAwayFromTheEdges) {
+  // Nodes 2 .. n - 2 carry the unmodified uniform spline; the edge modification reaches
+  // the functions of nodes 0 and 1 (n and n - 1) only.
+  const int n = 12;
+  for (const int degree : {2, 3}) {
+    for (double u = 0.0; u < n; u += 0.0137) {
+      double value[4], derivative[4];
+      const int base = bspline_1d(degree, n, u, value, derivative);
+      for (int a = 0; a <= degree; ++a) {
+        const int node = base + a;
+        if (node < 2 || node > n - 2) continue;
+        EXPECT_NEAR(value[a], uniform_bspline(degree, u - node), 1e-14)
+            << "degree " << degree << " u " << u << " node " << node;
+      }
+    }
+  }
+}
+
+TEST(ShapeFunctions, BsplineDerivativesAndContinuity) {
+  // The derivative matches a central difference everywhere but at the knots, and values and
+  // derivatives are continuous across every knot (C1): checked at both sides of each.
+  const int n = 7;
+  auto node_value = [&](int degree, double u, int node, double* d) {
+    double value[4], derivative[4];
+    const int base = bspline_1d(degree, n, u, value, derivative);
+    const int a = node - base;
+    *d = a >= 0 && a <= degree ? derivative[a] : 0.0;
+    return a >= 0 && a <= degree ? value[a] : 0.0;
+  };
+  for (const int degree : {2, 3}) {
+    for (int node = 0; node <= n; ++node) {
+      for (double u = 0.003; u < n - 0.003; u += 0.0191) {
+        const double eps = 1e-6;
+        double d, unused;
+        node_value(degree, u, node, &d);
+        const double fd = (node_value(degree, u + eps, node, &unused) -
+                           node_value(degree, u - eps, node, &unused)) /
+                          (2 * eps);
+        EXPECT_NEAR(d, fd, 1e-6) << degree << " " << node << " " << u;
+      }
+      for (int k = 0; k <= n; ++k) {
+        const double knot = degree == 2 ? k + 0.5 : k;
+        if (knot <= 0.0 || knot >= n) continue;
+        double d_left, d_right;
+        const double left = node_value(degree, knot - 1e-12, node, &d_left);
+        const double right = node_value(degree, knot, node, &d_right);
+        EXPECT_NEAR(left, right, 1e-11);
+        EXPECT_NEAR(d_left, d_right, 1e-10) << degree << " node " << node << " knot " << knot;
+      }
+    }
+  }
+}
+
+TEST(ShapeFunctions, BsplineEdgeNodeAloneOnTheEdge) {
+  // On a grid edge only the edge node's function is nonzero: a velocity fixed there holds on
+  // the whole edge.
+  for (const int degree : {2, 3}) {
+    for (const int n : {degree, 9}) {
+      double value[4], derivative[4];
+      int base = bspline_1d(degree, n, 0.0, value, derivative);
+      EXPECT_EQ(base, 0);
+      EXPECT_EQ(value[0], 1.0);
+      for (int a = 1; a <= degree; ++a) EXPECT_EQ(value[a], 0.0);
+      base = bspline_1d(degree, n, n, value, derivative);
+      EXPECT_EQ(base, n - degree);
+      EXPECT_NEAR(value[degree], 1.0, 1e-15);
+      for (int a = 0; a < degree; ++a) EXPECT_NEAR(value[a], 0.0, 1e-15);
+    }
+  }
+}
+
+// Largest frequency of the 1D lumped-mass wave equation on n cells (E = rho = h = 1), its
+// stiffness and masses integrated exactly (a 6-point Gauss rule on every half cell, where the
+// functions are polynomials), as the ratio of its stable time step 2 / omega to h / c.
+// Degree 1: the linear (hat) functions.
+double lumped_time_step_ratio(int degree, int n) {
+  const double g[3] = {0.2386191860831969, 0.6612093864662645, 0.9324695142031521};
+  const double w[3] = {0.4679139345726910, 0.3607615730481386, 0.1713244923791704};
+  Eigen::MatrixXd stiffness = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  Eigen::VectorXd mass = Eigen::VectorXd::Zero(n + 1);
+  for (int half = 0; half < 2 * n; ++half) {
+    for (int q = 0; q < 6; ++q) {
+      const double u = 0.5 * half + 0.25 + 0.25 * (q < 3 ? -g[q] : g[q - 3]);
+      const double weight = 0.25 * w[q % 3];
+      double value[4] = {1.0 - (u - std::floor(u)), u - std::floor(u)}, derivative[4] = {-1, 1};
+      const int base = degree == 1 ? static_cast<int>(std::floor(u))
+                                   : bspline_1d(degree, n, u, value, derivative);
+      for (int a = 0; a <= degree; ++a) {
+        mass(base + a) += weight * value[a];
+        for (int b = 0; b <= degree; ++b) {
+          stiffness(base + a, base + b) += weight * derivative[a] * derivative[b];
+        }
+      }
+    }
+  }
+  const Eigen::VectorXd scale = mass.cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd a = scale.asDiagonal() * stiffness * scale.asDiagonal();
+  const double omega =
+      std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(a).eigenvalues().maxCoeff());
+  return 2.0 / omega;
+}
+
+TEST(ShapeFunctions, BsplineCriticalTimeStepIsAboveTheLinearOne) {
+  // Linear functions: exactly h / c (the solver's limit). The B-splines allow more on every
+  // grid, edges included, so h / c_p is a safe limit for them too (the header's figures).
+  EXPECT_NEAR(lumped_time_step_ratio(1, 16), 1.0, 1e-12);
+  for (const int degree : {2, 3}) {
+    for (int n = degree; n <= 16; ++n) EXPECT_GE(lumped_time_step_ratio(degree, n), 1.2);
+  }
+  EXPECT_NEAR(lumped_time_step_ratio(2, 16), 1.311, 1e-3);
+  EXPECT_NEAR(lumped_time_step_ratio(3, 16), 1.441, 1e-3);
 }
 
 TEST(ShapeFunctions, Q4PartitionOfUnityAndIsoparametricMap) {
