@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "mpm/core/shape_functions.hpp"
+
 namespace pfm::boundary {
 
 namespace {
@@ -79,10 +81,20 @@ const GaussRule& BoundaryLoadIntegrator::gauss_rule(int k) const {
   return rules_[k];
 }
 
-BoundaryLoadIntegrator::BoundaryLoadIntegrator(const Grid& grid)
+BoundaryLoadIntegrator::BoundaryLoadIntegrator(const Grid& grid, int shape_degree)
     : grid_(grid),
+      degree_(shape_degree),
+      knot_grid_(grid),
       accumulated_(static_cast<std::size_t>(grid.n_nodes()), Vec2::Zero()),
       touched_flag_(static_cast<std::size_t>(grid.n_nodes()), 0) {
+  if (shape_degree < 1 || shape_degree > 3) {
+    throw std::invalid_argument("BoundaryLoadIntegrator: shape_degree not in 1..3");
+  }
+  if (shape_degree == 2) {
+    knot_grid_.cell_size = 0.5 * grid.cell_size;
+    knot_grid_.n_cells_x = 2 * grid.n_cells_x;
+    knot_grid_.n_cells_y = 2 * grid.n_cells_y;
+  }
   for (int k = 1; k <= kMaxGaussPoints; ++k) rules_[k] = gauss_legendre(k);
   touched_.reserve(256);
   unit_.reserve(256);
@@ -108,6 +120,16 @@ void BoundaryLoadIntegrator::add_node_force(int i, int j, const Vec2& force) {
 
 void BoundaryLoadIntegrator::add_point_force(int cell_i, int cell_j, const Vec2& x,
                                              const Vec2& force) {
+  if (degree_ > 1) {
+    const ShapeStencil s = bspline_stencil(grid_, degree_, x);
+    for (int b = 0; b < s.width; ++b) {
+      for (int a = 0; a < s.width; ++a) {
+        const double value = s.value[b * s.width + a];
+        if (value != 0.0) add_node_force(s.base_i + a, s.base_j + b, value * force);
+      }
+    }
+    return;
+  }
   // Bilinear functions of cell (cell_i, cell_j) (thesis 3.2), used as polynomials: a point
   // that roundoff puts a hair outside the cell still gets this cell's functions.
   const Vec2 local = (x - grid_.node_position(cell_i, cell_j)) / grid_.cell_size;
@@ -154,6 +176,22 @@ void BoundaryLoadIntegrator::integrate_piece_exact(const BezierSegment& segment,
   if (has_fixed && !fixed_is_polynomial) {
     // N_a(B(t)) |B'(t)| is not a polynomial on a curved piece: adaptive quadrature per node.
     const double tolerance = 1e-14 * segment.length(t0, t1) + 1e-300;
+    if (degree_ > 1) {
+      // The nodes of the piece's knot span (one span: the piece is cut at the knot lines).
+      const ShapeStencil at_mid = bspline_stencil(grid_, degree_, segment.point(mid));
+      for (int k = 0; k < at_mid.width * at_mid.width; ++k) {
+        const int a = k % at_mid.width, b = k / at_mid.width;
+        auto weighted_speed = [&](double t) {
+          const ShapeStencil s = bspline_stencil(grid_, degree_, segment.point(t));
+          const int sa = at_mid.base_i + a - s.base_i, sb = at_mid.base_j + b - s.base_j;
+          const bool in = sa >= 0 && sb >= 0 && sa < s.width && sb < s.width;
+          return in ? s.value[sb * s.width + sa] * segment.derivative(t).norm() : 0.0;
+        };
+        const double value = adaptive_gauss(weighted_speed, t0, t1, tolerance);
+        add_node_force(at_mid.base_i + a, at_mid.base_j + b, value * law.fixed_traction);
+      }
+      return;
+    }
     const Vec2 corner = grid_.node_position(cell_i, cell_j);
     const double h = grid_.cell_size;
     for (int a = 0; a < 4; ++a) {
@@ -199,7 +237,7 @@ void BoundaryLoadIntegrator::add_unit(const BezierSegment& segment, double t0, d
     }
   };
   if (options.split_at_cell_edges) {
-    grid_crossing_parameters(segment, grid_, t0, t1, breaks_);
+    grid_crossing_parameters(segment, knot_grid_, t0, t1, breaks_);
     for (std::size_t p = 0; p + 1 < breaks_.size(); ++p) {
       const double a = breaks_[p], b = breaks_[p + 1];
       int ci = 0, cj = 0;
@@ -236,7 +274,7 @@ void BoundaryLoadIntegrator::add_unit(const BezierSegment& segment, double t0, d
 
 void BoundaryLoadIntegrator::add_segment(const BezierSegment& segment, double t0, double t1,
                                          const TractionLaw& law, const QuadratureOptions& options) {
-  add_unit(segment, t0, t1, law, options, gauss_rule(options.gauss_points));
+  add_unit(segment, t0, t1, law, options, gauss_rule(options.gauss_points + 3 * (degree_ - 1)));
 }
 
 void BoundaryLoadIntegrator::take_forces(std::span<Vec2> out) {
@@ -391,7 +429,7 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
   }
   BoundaryLoadResult result;
   const TractionLaw law = spec.traction_law(load_factor);
-  const GaussRule& rule = gauss_rule(spec.quadrature.gauss_points);
+  const GaussRule& rule = gauss_rule(spec.quadrature.gauss_points + 3 * (degree_ - 1));
   const bool upward_only = spec.faces != LoadedFaces::kAll;
   const bool top_only = spec.faces == LoadedFaces::kTop;
   if (top_only) index_shadows(curves);

@@ -1,6 +1,12 @@
 // Surface loads on a detected boundary, integrated into nodal forces on the background grid
 // (thesis 6.1, eq. 6.1 and 6.4):  f_I = integral over Gamma of N_I(x) t dGamma, with N_I the
-// bilinear grid functions (mpm/core/grid.hpp; node index grid.node_index(i, j)).
+// grid functions of the MPM step (node index grid.node_index(i, j)): the bilinear functions
+// (mpm/core/grid.hpp) for linear and uGIMP shape functions (uGIMP's functions at a point of
+// zero size), the edge-modified B-splines of degree p for B-spline shape functions
+// (mpm/core/shape_functions.hpp). The B-splines are polynomials between their knot lines: the
+// cell edges and, for p = 2, the cell midlines too, where the segments are then also cut; their
+// Gauss rules take 3 (p - 1) points more than gauss_points (8 and 11 by default), which keeps
+// the exact mode exact (degree 6 p + 2 for the normal part on a cubic).
 //
 // Traction law. t depends on the outward unit normal n (material on the left of the curve,
 // n = tangent turned clockwise):  t(n) = normal_scale (.) n + fixed_traction, kPa, where (.)
@@ -142,7 +148,8 @@ struct BoundaryLoadResult {
 /// repeated calls (one per time step) do not allocate once warmed up. Not thread-safe.
 class BoundaryLoadIntegrator {
  public:
-  explicit BoundaryLoadIntegrator(const Grid& grid);
+  /// shape_degree: 1 for the bilinear functions, 2 or 3 for the B-splines of that degree.
+  explicit BoundaryLoadIntegrator(const Grid& grid, int shape_degree = 1);
 
   /// Adds the load of `spec` at `load_factor` (the solver's time function, 1 = full load)
   /// acting on `curves` to node_force_out (size grid.n_nodes(), kN/m). node_mass (t, size
@@ -174,6 +181,8 @@ class BoundaryLoadIntegrator {
   void flush_unit(const Vec2& exact_total, bool scale);
 
   Grid grid_;
+  int degree_ = 1;  ///< of the grid functions (1: bilinear; 2, 3: B-splines)
+  Grid knot_grid_;  ///< the lines where the grid functions change polynomial (segments cut there)
   std::array<GaussRule, kMaxGaussPoints + 1> rules_;  // rules_[k]: the k-point rule
   std::vector<Vec2> accumulated_;                     // per node
   std::vector<char> touched_flag_;                    // per node

@@ -33,7 +33,9 @@ double initial_particle_spacing(const Case& c) {
 }  // namespace
 
 BoundaryCoupling::BoundaryCoupling(const Case& c)
-    : case_(c), initial_spacing_(initial_particle_spacing(c)), integrator_(c.grid) {
+    : case_(c),
+      initial_spacing_(initial_particle_spacing(c)),
+      integrator_(c.grid, shape_degree(c.solver.shape_function)) {
   for (std::size_t k = 0; k < c.loads.size(); ++k) {
     const LoadSpec& load = c.loads[k];
     if (load.apply_on != LoadTarget::kDetectedBoundary) continue;

@@ -88,18 +88,18 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
 
   // Work arrays. Bands: about 128 of them on the grid (enough for load balance, a function of
   // the grid alone so that results do not depend on the thread count), at least 1 cell row
-  // (linear) or 3 (GIMP: a particle reaches one node row beyond its cell on either side, and
-  // two bands of one parity must share no node).
+  // (linear) or 3 (GIMP and B-splines: a particle in cell row j reaches node rows j - 1 to
+  // j + 2 at most, and two bands of one parity must share no node).
   const std::size_t n = particles_.size();
-  const bool gimp = case_.solver.shape_function == ShapeFunctionKind::kGimp;
-  if (gimp) {
-    gimp_stencil_.resize(n);
-    gimp_base_.resize(n);
-  } else {
+  const int width = stencil_width(case_.solver.shape_function);
+  if (width == 2) {
     linear_stencil_.resize(n);
+  } else {
+    stencil_factors_.resize(n * 4 * static_cast<std::size_t>(width));
+    stencil_base_.resize(n);
   }
   const int n_rows = case_.grid.n_cells_y;
-  band_rows_ = std::max(gimp ? 3 : 1, (n_rows + 127) / 128);
+  band_rows_ = std::max(width > 2 ? 3 : 1, (n_rows + 127) / 128);
   n_bands_ = (n_rows + band_rows_ - 1) / band_rows_;
   n_chunks_ = static_cast<int>(std::clamp<std::size_t>(n / 4096, 1, 64));
   parallel_ = n + static_cast<std::size_t>(n_nodes) >= kMinParallelItems;
@@ -203,10 +203,15 @@ double MpmSolver::gravity_factor(double t) const {
 }
 
 void MpmSolver::step() {
-  if (case_.solver.shape_function == ShapeFunctionKind::kLinear) {
-    run_step<2>();
-  } else {
-    run_step<3>();
+  switch (stencil_width(case_.solver.shape_function)) {
+    case 2:
+      run_step<2>();
+      break;
+    case 3:
+      run_step<3>();
+      break;
+    default:
+      run_step<4>();
   }
 }
 
@@ -268,7 +273,7 @@ struct MpmSolver::Shape {
 template <int W>
 struct MpmSolver::StencilReader {
   const LinearStencil* linear;
-  const std::array<double, 12>* gimp;
+  const double* factors;  ///< 4 W per particle
   const std::array<int, 2>* base;
   int nnx;
   double inv_h;
@@ -286,7 +291,7 @@ struct MpmSolver::StencilReader {
       s.node0 = static_cast<std::size_t>(l.j * nnx + l.i);
     } else {
       // Storage: W values along x, W along y, W x-derivatives, W y-derivatives.
-      const double* f = gimp[p].data();
+      const double* f = factors + 4 * W * p;
       for (int a = 0; a < W; ++a) {
         s.nx[a] = f[a];
         s.ny[a] = f[W + a];
@@ -301,8 +306,8 @@ struct MpmSolver::StencilReader {
 
 template <int W>
 MpmSolver::StencilReader<W> MpmSolver::stencil_reader() const {
-  return {linear_stencil_.data(), gimp_stencil_.data(), gimp_base_.data(), case_.grid.n_nodes_x(),
-          1.0 / case_.grid.cell_size};
+  return {linear_stencil_.data(), stencil_factors_.data(), stencil_base_.data(),
+          case_.grid.n_nodes_x(), 1.0 / case_.grid.cell_size};
 }
 
 template <int W>
@@ -317,8 +322,10 @@ void MpmSolver::locate_particles(bool clear_grid) {
   const Vec2* position = particles_.position.data();
   const Vec2* half_length = particles_.half_length.data();
   LinearStencil* linear = linear_stencil_.data();
-  std::array<double, 12>* gimp = gimp_stencil_.data();
-  std::array<int, 2>* gimp_base = gimp_base_.data();
+  double* factors = stencil_factors_.data();
+  std::array<int, 2>* stencil_base = stencil_base_.data();
+  const bool gimp = case_.solver.shape_function == ShapeFunctionKind::kGimp;
+  const int degree = shape_degree(case_.solver.shape_function);
   int* particle_band = particle_band_.data();
   int* particle_cell = particle_cell_.data();  // null without the mean dilatation
   const int n_cells_row = grid.n_cells_x;
@@ -370,11 +377,18 @@ void MpmSolver::locate_particles(bool clear_grid) {
         const double eta = (x.y() - y0) * inv_h - cj;
         if constexpr (W == 2) {
           linear[p] = {xi, eta, ci, cj};
+        } else if (!gimp) {
+          // B-splines: W values along x, W along y, W d/dx, W d/dy.
+          double* f = factors + 4 * W * p;
+          const int bi = bspline_1d(degree, grid.n_cells_x, tx, f, f + 2 * W);
+          const int bj = bspline_1d(degree, grid.n_cells_y, ty, f + W, f + 3 * W);
+          for (int a = 0; a < 2 * W; ++a) f[2 * W + a] *= inv_h;
+          stencil_base[p] = {bi, bj};
         } else {
-          double* f = gimp[p].data();
+          double* f = factors + 4 * W * p;
           const int bi = xi < 0.5 ? ci - 1 : ci;
           const int bj = eta < 0.5 ? cj - 1 : cj;
-          gimp_base[p] = {bi, bj};
+          stencil_base[p] = {bi, bj};
           const Vec2& lp = half_length[p];
           for (int a = 0; a < 3; ++a) {
             const double node_x = x0 + (bi + a) * h;
@@ -487,7 +501,7 @@ void MpmSolver::particles_to_grid() {
         for (int a = 0; a < W; ++a) {
           const double weight = f.nx[a] * f.ny[b];
           const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
-          if (W == 3 && weight == 0.0 && gx == 0.0 && gy == 0.0) continue;
+          if (W > 2 && weight == 0.0 && gx == 0.0 && gy == 0.0) continue;
           const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a;
           mass[node] += weight * m;
           momentum[node] += weight * mv;
@@ -605,7 +619,7 @@ void MpmSolver::grid_to_particles() {
     for (int b = 0; b < W; ++b) {
       for (int a_ = 0; a_ < W; ++a_) {
         const double weight = f.nx[a_] * f.ny[b];
-        if (W == 3 && weight == 0.0) continue;
+        if (W > 2 && weight == 0.0) continue;
         const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a_;
         a += weight * acceleration[node];
         v += weight * velocity[node];
@@ -625,7 +639,7 @@ void MpmSolver::grid_to_particles() {
       for (int b = 0; b < W; ++b) {
         for (int a_ = 0; a_ < W; ++a_) {
           const double weight = f.nx[a_] * f.ny[b];
-          if (W == 3 && weight == 0.0) continue;
+          if (W > 2 && weight == 0.0) continue;
           momentum[f.node0 + static_cast<std::size_t>(b) * nnx + a_] += weight * mv;
         }
       }
@@ -705,7 +719,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
     for (int b = 0; b < W; ++b) {
       for (int a = 0; a < W; ++a) {
         const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
-        if (W == 3 && gx == 0.0 && gy == 0.0) continue;
+        if (W > 2 && gx == 0.0 && gy == 0.0) continue;
         const Vec2& v = vel[f.node0 + static_cast<std::size_t>(b) * nnx + a];
         column_x += gx * v;
         column_y += gy * v;
@@ -875,16 +889,23 @@ void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_v
   if (node_velocity.size() != grid_.mass.size()) {
     throw std::invalid_argument("update_stress_from_grid_velocity: one velocity per grid node");
   }
-  if (case_.solver.shape_function == ShapeFunctionKind::kLinear) {
-    locate_particles<2>(false);
-    update_stress<2>(node_velocity, false);
-  } else {
-    locate_particles<3>(false);
-    update_stress<3>(node_velocity, false);
+  switch (stencil_width(case_.solver.shape_function)) {
+    case 2:
+      locate_particles<2>(false);
+      update_stress<2>(node_velocity, false);
+      break;
+    case 3:
+      locate_particles<3>(false);
+      update_stress<3>(node_velocity, false);
+      break;
+    default:
+      locate_particles<4>(false);
+      update_stress<4>(node_velocity, false);
   }
 }
 
 template void MpmSolver::run_step<2>();
 template void MpmSolver::run_step<3>();
+template void MpmSolver::run_step<4>();
 
 }  // namespace pfm

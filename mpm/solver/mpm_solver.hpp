@@ -197,9 +197,11 @@ class MpmSolver {
     int j;
   };
   std::vector<LinearStencil> linear_stencil_;
-  std::vector<std::array<double, 12>> gimp_stencil_;  ///< GIMP 1D factors per particle (.cpp)
-  std::vector<std::array<int, 2>> gimp_base_;         ///< GIMP stencil base node
-  int band_rows_ = 1;                                 ///< cell rows per band
+  /// GIMP and B-splines: the 1D factors of each particle's W x W stencil, 4 W per particle
+  /// (StencilReader in the .cpp), and the stencil's base node.
+  std::vector<double> stencil_factors_;
+  std::vector<std::array<int, 2>> stencil_base_;
+  int band_rows_ = 1;  ///< cell rows per band
   int n_bands_ = 1;
   int n_chunks_ = 1;                ///< fixed particle chunks of the parallel binning
   std::vector<int> particle_band_;  ///< band of each particle

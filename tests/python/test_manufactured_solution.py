@@ -7,7 +7,10 @@ On 16 and 32 cells across, the relative L2 displacement error must fall at order
 stress error at order >= 0.9 for the MPM (linear and uGIMP, MUSL) and the UL-FEM: second order
 for the displacement of linear elements and first for their gradients, as for a smooth field
 without cell crossing (A = 1e-5 m moves no point across a cell). Measured: 2.00 and 1.00 for
-every method on 8 to 64 cells (make study-convergence). And the energy ledger closes with the
+every method on 8 to 64 cells (make study-convergence). The B-splines (on a grid whose edges are
+the square's, their edge functions holding the fixed edges) have gradients of one degree more:
+their stress error must fall at order >= 1.6 (measured 1.77 quadratic and 1.89 cubic on 16 to
+32 cells, 2.0 for the displacement of both). And the energy ledger closes with the
 body force's work booked as gravity_work (1e-6 of the largest term, as test_energy_identity)."""
 
 import json
@@ -23,10 +26,17 @@ CELLS = (16, 32)
 
 
 @pytest.mark.parametrize(
-    "solver, shape", [("mpm", "linear"), ("mpm", "gimp"), ("ulfem", "linear")]
+    "solver, shape, stress_order",
+    [
+        ("mpm", "linear", 0.9),
+        ("mpm", "gimp", 0.9),
+        ("ulfem", "linear", 0.9),
+        ("mpm", "quadratic_bspline", 1.6),
+        ("mpm", "cubic_bspline", 1.6),
+    ],
 )
-def test_errors_fall_at_the_orders_of_linear_elements(
-    pfm_binary, tmp_path, solver, shape
+def test_errors_fall_at_the_orders_of_the_shape_functions(
+    pfm_binary, tmp_path, solver, shape, stress_order
 ):
     errors = []
     for cells in CELLS:
@@ -48,4 +58,6 @@ def test_errors_fall_at_the_orders_of_linear_elements(
     assert (
         u_order >= 1.8
     ), f"{solver} {shape}: displacement order {u_order:.2f}, {errors}"
-    assert s_order >= 0.9, f"{solver} {shape}: stress order {s_order:.2f}, {errors}"
+    assert (
+        s_order >= stress_order
+    ), f"{solver} {shape}: stress order {s_order:.2f}, {errors}"
