@@ -5,13 +5,14 @@ What it measures, for h = 0.5, 0.25, 0.125, 0.0625 m (quick: 0.5, 0.25):
 * manufactured solution (mpm/core/manufactured.hpp; Wallstedt and Guilkey 2008): a unit
   square of elastic soil, edges fixed, driven by the body force that makes
   u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi x) sin(pi y) (1, 1) exact, on 8, 16, 32 and 64 cells
-  across (quick: 8 to 32), for the MPM (linear and uGIMP, MUSL and USL) and the UL-FEM: the
-  relative L2 errors of displacement and stress at t = T / 2 (``manufactured.png``);
+  across (quick: 8 to 32), for the MPM (linear and uGIMP, MUSL and USL; quadratic and cubic
+  B-splines, MUSL, on a grid whose edges are the square's) and the UL-FEM: the relative L2
+  errors of displacement and stress at t = T / 2 (``manufactured.png``);
 * squeezed disk (the same file's uniform dilatation): a free disk (R = 1 m) squeezed by a
   follower pressure on its detected boundary, smooth ramp to p0 = 0.1 (2 (lambda + mu)), so its
   radius shrinks by 9.5 % and the loaded boundary crosses cells; 8, 16, 32 and 64 cells per
-  radius (quick: 8 to 32), linear and uGIMP: relative L2 errors at the end of the ramp against
-  the exact finite-strain motion;
+  radius (quick: 8 to 32), linear, uGIMP and the two B-splines: relative L2 errors at the end
+  of the ramp against the exact finite-strain motion;
 
 * column settlement: the benchmark column (studies.benchmarks: 1 m x 5 m, weight and 50 kPa
   surcharge from zero stress) against q H / M + gamma H^2 / (2 M), and the largest point-wise
@@ -22,6 +23,9 @@ What it measures, for h = 0.5, 0.25, 0.125, 0.0625 m (quick: 0.5, 0.25):
   field's remedy. Both keep the surcharge on the grid-top nodes, where the surface no longer is
   once the settlement (0.037 m) is a sizeable part of h: the error that remains in the GIMP
   column (its top row) is that of a load left behind by a moving boundary;
+* the same column with quadratic B-splines (``column settlement (quadratic B-spline)``): no
+  margin (the grid's edges hold the column, their edge functions alone nonzero there) and the
+  surcharge on the detected top, since the B-splines take no load on grid-top nodes;
 * bearing settlement: an elastic bearing block (15 m x 5 m, E = 1e4 kPa, nu = 0.15, K0 start,
   q = 50 kPa on [5, 10] m on the grid top nodes, ramped over 0.5 s, damped to rest) under the
   load centre, against the dolfinx P2 model of the same case (static, small strain). The
@@ -106,6 +110,8 @@ MANUFACTURED_METHODS = (
     ("mpm gimp musl", "mpm", "gimp", "musl"),
     ("mpm gimp usl", "mpm", "gimp", "usl"),
     ("ulfem musl", "ulfem", "linear", "musl"),
+    ("mpm quadratic_bspline musl", "mpm", "quadratic_bspline", "musl"),
+    ("mpm cubic_bspline musl", "mpm", "cubic_bspline", "musl"),
 )
 
 EXPECTED_METRICS = [
@@ -113,6 +119,10 @@ EXPECTED_METRICS = [
     "convergence.manufactured.mpm_gimp_musl.displacement_order",
     "convergence.manufactured.ulfem_musl.displacement_order",
     "convergence.dilatation.mpm_gimp.displacement_order",
+    "convergence.manufactured.mpm_quadratic_bspline_musl.displacement_order",
+    "convergence.manufactured.mpm_cubic_bspline_musl.displacement_order",
+    "convergence.dilatation.mpm_quadratic_bspline.displacement_order",
+    "convergence.dilatation.mpm_cubic_bspline.displacement_order",
     "convergence.column.settlement_order",
     "convergence.bearing.settlement_order",
     "convergence.boundary.slope_k0.max_order",
@@ -125,6 +135,29 @@ def refine(case: dict, h: float) -> dict:
     scale = grid["cell_size"] / h
     n_cells = [max(1, int(round(n * scale))) for n in grid["n_cells"]]
     return derive(case, {"grid": {"cell_size": h, "n_cells": n_cells}})
+
+
+def bspline_column_case(h: float) -> dict:
+    """The benchmark column with quadratic B-splines: the grid's edges are the column's base and
+    sides (two cell rows of headroom above it), and the surcharge acts on the detected top.
+    """
+    c = benchmarks.COLUMN
+    case = benchmarks.column_case(h)
+    case["title"] += ", quadratic B-splines"
+    case["grid"] = {
+        "origin": [0.0, 0.0],
+        "cell_size": h,
+        "n_cells": [int(round(c["width"] / h)), int(round(c["height"] / h)) + 2],
+    }
+    case.pop("node_sets")
+    case["boundary_conditions"] = [
+        {"where": "bottom", "fix": "xy"},
+        {"where": "left", "fix": "x"},
+        {"where": "right", "fix": "x"},
+    ]
+    case["loads"][0]["apply_on"] = "detected_boundary"
+    case["solver"]["shape_function"] = "quadratic_bspline"
+    return case
 
 
 def bearing_case() -> dict:
@@ -226,7 +259,12 @@ DILATATION = {
 }
 DILATATION_CELLS = (8, 16, 32, 64)  # cells per radius
 QUICK_DILATATION_CELLS = (8, 16, 32)
-DILATATION_METHODS = (("mpm linear", "linear"), ("mpm gimp", "gimp"))
+DILATATION_METHODS = (
+    ("mpm linear", "linear"),
+    ("mpm gimp", "gimp"),
+    ("mpm quadratic_bspline", "quadratic_bspline"),
+    ("mpm cubic_bspline", "cubic_bspline"),
+)
 
 
 def dilatation_case(cells_per_radius: int, shape_function: str) -> dict:
@@ -383,6 +421,7 @@ def run(context) -> StudyOutcome:
             ("bearing", refine(bearing, h), "mpm"),
             ("column", column_h, "mpm"),
             ("column_gimp", column_gimp, "mpm"),
+            ("column_bspline", bspline_column_case(h), "mpm"),
         ):
             tasks.append((case, solver))
             keys.append((kind, h))
@@ -452,6 +491,18 @@ def run(context) -> StudyOutcome:
                 "value": gimp["settlement"],
                 "reference": column_exact,
                 "error": abs(gimp["settlement"] - column_exact),
+            }
+        )
+        bspline = benchmarks.column_read_outs(
+            final_particles(outs[("column_bspline", h)]), h
+        )
+        rows.append(
+            {
+                "quantity": "column settlement (quadratic B-spline)",
+                "h_m": h,
+                "value": bspline["settlement"],
+                "reference": column_exact,
+                "error": abs(bspline["settlement"] - column_exact),
             }
         )
         particles = final_particles(outs[("bearing", h)])

@@ -27,6 +27,13 @@ def mutate(path, value=None, delete=False):
     return case
 
 
+def bspline_with(path, value):
+    """The base case with cubic B-splines and the value at `path` replaced."""
+    case = mutate(path, value)
+    case["solver"]["shape_function"] = "cubic_bspline"
+    return case
+
+
 def elastic_with(key, value):
     """The base case with its soil linear elastic (as a manufactured solution needs) and
     `key` set to `value`."""
@@ -195,6 +202,31 @@ MALFORMED = [
         "smooth_ramp_without_time",
         mutate(["loads", 0, "time_function"], {"type": "smooth_ramp"}),
         "/loads/0/time_function",
+    ),
+    (
+        "unknown_shape_function",
+        mutate(["solver", "shape_function"], "quartic_bspline"),
+        "/solver/shape_function",
+    ),
+    (
+        "cubic_bspline_on_two_cells",
+        bspline_with(
+            ["grid"], {"origin": [0.0, 0.0], "cell_size": 7.5, "n_cells": [2, 2]}
+        ),
+        "/solver/shape_function",
+    ),
+    (
+        "bspline_with_a_grid_top_nodes_load",
+        bspline_with(
+            ["loads", 0],
+            {"type": "vertical_pressure", "pressure": 50.0, "x_range": [5.0, 10.0]},
+        ),
+        "/solver/shape_function",
+    ),
+    (
+        "bspline_gauss_points_past_the_table",
+        bspline_with(["loads", 0, "gauss_points"], 15),
+        "/loads/0/gauss_points",
     ),
     ("truncated_json", "TRUNCATED", "invalid JSON"),
     ("empty_file", "", "file is empty"),
