@@ -88,7 +88,7 @@ int bspline_1d(int degree, int n_cells, double u, double* value, double* derivat
   constexpr int kMaxDegree = 3;
   const int p = degree, n = n_cells;
   // Away from the edges (every node of the stencil in 2 .. n - 2) the functions are the uniform
-  // B-splines: their closed forms, which cost a third of the recursion below.
+  // B-splines: their closed forms, cheaper than the recursion below.
   if (p == 2) {
     const int i = static_cast<int>(std::floor(u + 0.5));  // nearest node
     if (i >= 3 && i <= n - 3) {
