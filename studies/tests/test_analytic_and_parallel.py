@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from studies import analytic
+from studies.common.convergence import ConvergenceStudy
 from studies.common.parallel import SchedulerUnavailable, parallel_map
 
 
@@ -48,6 +49,46 @@ def test_observed_orders_of_a_second_order_error():
     h = [0.5, 0.25, 0.125]
     orders = analytic.observed_orders(h, [3 * x**2 for x in h])
     assert orders[0] is None and all(abs(o - 2.0) <= 1e-12 for o in orders[1:])
+
+
+def test_convergence_study_orders_from_coarse_to_fine_whatever_the_order_added():
+    # e = 3 h^2 and e = h added finest first: orders 2 and 1 exactly, None at the coarsest.
+    study = ConvergenceStudy()
+    for h in (0.125, 0.5, 0.25):
+        study.add("second", h, 3 * h**2, value=1.0 + 3 * h**2, reference=1.0)
+        study.add("first", h, h)
+    assert study.quantities() == ["second", "first"]
+    assert [h for h, _ in study.orders("second")] == [0.5, 0.25, 0.125]
+    assert study.orders("second")[0][1] is None
+    assert abs(study.final_order("second") - 2.0) <= 1e-12
+    assert abs(study.final_order("first") - 1.0) <= 1e-12
+    table = study.table()
+    assert list(table["quantity"]) == ["first"] * 3 + ["second"] * 3
+    assert list(table["h_m"])[:3] == [0.5, 0.25, 0.125]
+    second = table[table["quantity"] == "second"]
+    assert np.allclose(second["value"] - second["reference"], second["error"])
+    assert np.allclose(second["observed_order"].iloc[1:].astype(float), 2.0)
+    # A zero error has no order; a single size has no final order.
+    study.add("exact", 0.5, 0.0)
+    study.add("exact", 0.25, 0.0)
+    assert study.final_order("exact") is None
+    study.add("once", 0.5, 1.0)
+    assert study.final_order("once") is None
+
+
+@pytest.mark.parametrize(
+    "h, error", [(0.0, 1.0), (-0.5, 1.0), (float("nan"), 1.0), (0.5, -1.0), (0.5, None)]
+)
+def test_convergence_study_refuses_what_has_no_order(h, error):
+    with pytest.raises((ValueError, TypeError)):
+        ConvergenceStudy().add("q", h, error)
+
+
+def test_convergence_study_refuses_a_size_twice():
+    study = ConvergenceStudy()
+    study.add("q", 0.5, 1.0)
+    with pytest.raises(ValueError, match="twice"):
+        study.add("q", 0.5, 2.0)
 
 
 def square(x):
