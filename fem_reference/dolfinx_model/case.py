@@ -749,7 +749,13 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             "/solver/damping_form: the explicit dolfinx model damps per axis"
         )
     _choice(solver, "scheme", file, "/solver", ("musl", "usl"))
-    _choice(solver, "shape_function", file, "/solver", ("linear", "gimp"))
+    _choice(
+        solver,
+        "shape_function",
+        file,
+        "/solver",
+        ("linear", "gimp", "quadratic_bspline", "cubic_bspline"),
+    )
     _choice(solver, "anti_locking", file, "/solver", ("none", "bbar"))
     _number(
         solver,

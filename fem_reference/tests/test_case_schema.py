@@ -313,3 +313,20 @@ def test_interval_material_follows_the_material_in_updated_lagrangian():
     print(f"\nstretched: fixed {fixed:.12f}, material {material:.12f} kN/m")
     assert abs(fixed + 250.0) <= 1e-10 * 250.0
     assert abs(material + 275.0) <= 1e-10 * 275.0
+
+
+@pytest.mark.parametrize(
+    "shape", ["linear", "gimp", "quadratic_bspline", "cubic_bspline", "quartic_bspline"]
+)
+def test_every_mpm_shape_function_is_read_and_ignored(shape):
+    """The dolfinx model reads the MPM's shape functions as the C++ reader does (README,
+    solver.shape_function): it accepts the four and refuses another with its pointer, and
+    lists the key as MPM only."""
+    raw = shipped("thesis62_bearing_dynamic_zero_start.json")
+    raw["solver"]["shape_function"] = shape
+    if shape == "quartic_bspline":
+        with pytest.raises(CaseError, match="/solver/shape_function: must be"):
+            case_from_dict(raw, "bearing.json")
+        return
+    case = case_from_dict(raw, "bearing.json")
+    assert any("/solver/shape_function: MPM only" in i for i in case.ignored)
