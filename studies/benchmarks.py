@@ -14,8 +14,9 @@ What it measures:
   Tresca soil (nu = 0.49, E = 1e4 kPa), half model, 8 cells under b, the pressure ramped on
   the detected top from 0 to 1.2 (2 + pi) c over 16 s per m of b: the collapse pressure (where
   the tangent stiffness dq/ds falls below 5 % of its initial value) against Prandtl's
-  (2 + pi) c, for c = 10 and 20 kPa and b = 1 and 2 m, on the MPM (uGIMP) and the UL-FEM, both
-  with anti-locking (``solver.anti_locking: "bbar"``), and once on the MPM without it;
+  (2 + pi) c, for c = 10 and 20 kPa and b = 1 and 2 m, on the MPM (uGIMP, and quadratic
+  B-splines on a grid whose edges are the symmetry plane, base and far side) and the UL-FEM,
+  all with anti-locking (``solver.anti_locking: "bbar"``), and once on the MPM without it;
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -91,6 +92,7 @@ EXPECTED_METRICS = [
     "benchmarks.column.stress_max_rel_error",
     "benchmarks.strip.sigma_z_max_rel_error",
     "benchmarks.prandtl.collapse_pressure_rel_error",
+    "benchmarks.prandtl.bspline_collapse_pressure_rel_error",
     "benchmarks.prandtl.ulfem_collapse_pressure_rel_error",
     "benchmarks.disk.radial_displacement_rel_error",
 ]
@@ -267,6 +269,21 @@ def prandtl_case(
     )
     case["solver"].update(shape_function=shape_function, anti_locking=anti_locking)
     case["output"]["timeseries_interval"] = ramp / outputs
+    if shape_function.endswith("bspline"):
+        # B-splines: the grid's edges are the symmetry plane, the base and the far side (their
+        # edge functions hold them), with the same free grid above.
+        cells = int(round(extent / h))
+        case["grid"] = {
+            "origin": [0.0, 0.0],
+            "cell_size": h,
+            "n_cells": [cells, cells + cells // 2],
+        }
+        case.pop("node_sets")
+        case["boundary_conditions"] = [
+            {"where": "bottom", "fix": "xy"},
+            {"where": "left", "fix": "x"},
+            {"where": "right", "fix": "x"},
+        ]
     return case
 
 
@@ -352,14 +369,19 @@ def _run(job):
 
 
 def prandtl_jobs() -> dict:
-    """The Prandtl runs by key: the MPM and the UL-FEM with anti-locking (B-bar) for every
-    cohesion and half-width, and the MPM without it (c and b the first of each)."""
+    """The Prandtl runs by key: the MPM (uGIMP, and quadratic B-splines as mpm_bspline) and
+    the UL-FEM with anti-locking (B-bar) for every cohesion and half-width, and the MPM without
+    it (c and b the first of each)."""
     p = PRANDTL
     jobs = {}
     for c in p["cohesions"]:
         for b in p["half_widths"]:
             for solver in ("mpm", "ulfem"):
                 jobs[f"prandtl/{solver}/c{c:g}/b{b:g}"] = (prandtl_case(c, b), solver)
+            jobs[f"prandtl/mpm_bspline/c{c:g}/b{b:g}"] = (
+                prandtl_case(c, b, shape_function="quadratic_bspline"),
+                "mpm",
+            )
     c, b = p["cohesions"][0], p["half_widths"][0]
     jobs[f"prandtl/mpm_none/c{c:g}/b{b:g}"] = (prandtl_case(c, b, "none"), "mpm")
     return jobs
@@ -714,6 +736,7 @@ def _prandtl(outs, jobs, outcome, folder):
     )
     for solver, metric in (
         ("mpm", "collapse_pressure_rel_error"),
+        ("mpm_bspline", "bspline_collapse_pressure_rel_error"),
         ("ulfem", "ulfem_collapse_pressure_rel_error"),
     ):
         errors = table.loc[table["solver"] == solver, "rel_error"].abs()

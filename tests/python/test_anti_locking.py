@@ -28,14 +28,21 @@ COHESION = 10.0  # kPa
 RAMP = 4.0  # s
 
 
-def run_footing(binary, folder, solver, anti_locking):
+def run_footing(
+    binary,
+    folder,
+    solver,
+    anti_locking,
+    shape_function="linear",
+    apply_on="grid_top_nodes",
+):
     case = prandtl_case(
         COHESION,
         0.5,
         anti_locking,
         cells_under_half_width=4,
-        shape_function="linear",
-        apply_on="grid_top_nodes",
+        shape_function=shape_function,
+        apply_on=apply_on,
         ramp_time=RAMP,
         outputs=130,
     )
@@ -73,3 +80,24 @@ def test_the_mean_dilatation_collapses_at_prandtl_and_without_it_the_footing_loc
     curve, collapse, code = run_footing(pfm_binary, tmp_path / "none", solver, "none")
     assert code == 0
     assert collapse is None, f"{solver}: collapse at {collapse:.2f} kPa"
+
+
+def test_quadratic_b_splines_with_the_mean_dilatation_collapse_at_prandtl(
+    pfm_binary, tmp_path
+):
+    """The same footing with quadratic B-splines (the grid's edges as the supports) and the
+    load on the detected top, as B-splines take it: the collapse within the same 3 %, and the
+    energy ledger closes with the load's work on the detected boundary."""
+    q_u = analytic.prandtl_bearing_capacity(COHESION)
+    curve, collapse, code = run_footing(
+        pfm_binary,
+        tmp_path,
+        "mpm",
+        "bbar",
+        shape_function="quadratic_bspline",
+        apply_on="detected_boundary",
+    )
+    assert code == 0
+    assert collapse is not None, f"no collapse up to {curve.pressure.max():.1f} kPa"
+    assert abs(collapse / q_u - 1) <= 0.03, f"{collapse:.2f} kPa against {q_u:.2f}"
+    assert_ledger_closes(tmp_path / "out", RAMP)
