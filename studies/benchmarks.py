@@ -121,19 +121,21 @@ def _block(
     damping=0.5,
     output_interval=None,
     headroom=0,
+    margin_cells=2,
 ):
-    """A rectangle [0, width] x [0, height] inside a grid with a 2-cell margin (and `headroom`
-    more cell rows above), fixed base, rollers on both sides. The node sets hold the nodes on the
-    walls and beyond them (the base set every node at y <= 0, the side sets every node outside
-    the body's width up to its top, or up to the grid's top with headroom, where the soil may
-    heave): the walls are rigid, and a GIMP particle next to one reaches the nodes behind it
-    (with linear shape functions those nodes carry no mass and the extra fixities change
-    nothing).
+    """A rectangle [0, width] x [0, height] inside a grid with a margin of `margin_cells` cells
+    (and `headroom` more cell rows above), fixed base, rollers on both sides. The node sets hold
+    the nodes on the walls and beyond them (the base set every node at y <= 0, the side sets
+    every node outside the body's width up to its top, or up to the grid's top with headroom,
+    where the soil may heave): the walls are rigid, and a GIMP particle next to one reaches the
+    nodes behind it (with linear shape functions those nodes carry no mass and the extra
+    fixities change nothing). B-splines take margin_cells = 0: the walls are then the grid's
+    edges, which their edge functions hold (mpm/core/shape_functions.hpp).
     """
     far = 1e3  # m, beyond any grid of these cases
     wall_top = height if headroom == 0 else far
     case = {
-        "grid": _grid(width, height, h),
+        "grid": _grid(width, height, h, margin_cells),
         "materials": [material],
         "bodies": [
             {
@@ -166,9 +168,12 @@ def _block(
     return case
 
 
-def column_case(h: float = H) -> dict:
-    """The column from zero stress: weight (gravity ramp 0.5 s) and surcharge (ramp 0.5 s)."""
+def column_case(h: float = H, shape_function: str = "linear") -> dict:
+    """The column from zero stress: weight (gravity ramp 0.5 s) and surcharge (ramp 0.5 s).
+    With B-splines the grid's edges are its base and sides (two cell rows of headroom above
+    it), and the surcharge acts on the detected top, as B-splines take it."""
     c = COLUMN
+    bspline = shape_function.endswith("bspline")
     case = _block(
         c["width"],
         c["height"],
@@ -185,8 +190,16 @@ def column_case(h: float = H) -> dict:
         end_time=c["end_time"],
         h=h,
         damping=c["damping"],
+        headroom=2 if bspline else 0,
+        margin_cells=0 if bspline else 2,
     )
     case["title"] = f"benchmark column, h = {h} m"
+    if shape_function != "linear":
+        names = {"gimp": "GIMP", "quadratic_bspline": "quadratic B-splines"}
+        case["title"] += ", " + names.get(shape_function, shape_function)
+        case["solver"]["shape_function"] = shape_function
+    if bspline:
+        case["loads"][0]["apply_on"] = "detected_boundary"
     return case
 
 
@@ -262,6 +275,7 @@ def prandtl_case(
         damping=p["damping"],
         output_interval=ramp / outputs,
         headroom=int(round(extent / h)) // 2,
+        margin_cells=0 if shape_function.endswith("bspline") else 2,
     )
     case["title"] = (
         f"benchmark Prandtl: c = {cohesion:g} kPa, b = {b:g} m, h = {h:g} m, "
@@ -269,21 +283,6 @@ def prandtl_case(
     )
     case["solver"].update(shape_function=shape_function, anti_locking=anti_locking)
     case["output"]["timeseries_interval"] = ramp / outputs
-    if shape_function.endswith("bspline"):
-        # B-splines: the grid's edges are the symmetry plane, the base and the far side (their
-        # edge functions hold them), with the same free grid above.
-        cells = int(round(extent / h))
-        case["grid"] = {
-            "origin": [0.0, 0.0],
-            "cell_size": h,
-            "n_cells": [cells, cells + cells // 2],
-        }
-        case.pop("node_sets")
-        case["boundary_conditions"] = [
-            {"where": "bottom", "fix": "xy"},
-            {"where": "left", "fix": "x"},
-            {"where": "right", "fix": "x"},
-        ]
     return case
 
 

@@ -142,29 +142,6 @@ def refine(case: dict, h: float) -> dict:
     return derive(case, {"grid": {"cell_size": h, "n_cells": n_cells}})
 
 
-def bspline_column_case(h: float) -> dict:
-    """The benchmark column with quadratic B-splines: the grid's edges are the column's base and
-    sides (two cell rows of headroom above it), and the surcharge acts on the detected top.
-    """
-    c = benchmarks.COLUMN
-    case = benchmarks.column_case(h)
-    case["title"] += ", quadratic B-splines"
-    case["grid"] = {
-        "origin": [0.0, 0.0],
-        "cell_size": h,
-        "n_cells": [int(round(c["width"] / h)), int(round(c["height"] / h)) + 2],
-    }
-    case.pop("node_sets")
-    case["boundary_conditions"] = [
-        {"where": "bottom", "fix": "xy"},
-        {"where": "left", "fix": "x"},
-        {"where": "right", "fix": "x"},
-    ]
-    case["loads"][0]["apply_on"] = "detected_boundary"
-    case["solver"]["shape_function"] = "quadratic_bspline"
-    return case
-
-
 def bearing_case() -> dict:
     b = BEARING
     return {
@@ -415,9 +392,6 @@ def run(context) -> StudyOutcome:
     # Finest first: the longest runs start early and the pool ends with the short ones.
     for h in sorted(sizes):
         column_h = benchmarks.column_case(h)
-        column_gimp = benchmarks.column_case(h)
-        column_gimp["solver"]["shape_function"] = "gimp"
-        column_gimp["title"] += ", GIMP"
         reference_slope = refine(slope, h)
         reference_slope.pop("detection")
         for kind, case, solver in (
@@ -425,8 +399,12 @@ def run(context) -> StudyOutcome:
             ("slope_reference", reference_slope, "ulfem"),
             ("bearing", refine(bearing, h), "mpm"),
             ("column", column_h, "mpm"),
-            ("column_gimp", column_gimp, "mpm"),
-            ("column_bspline", bspline_column_case(h), "mpm"),
+            ("column_gimp", benchmarks.column_case(h, "gimp"), "mpm"),
+            (
+                "column_bspline",
+                benchmarks.column_case(h, "quadratic_bspline"),
+                "mpm",
+            ),
         ):
             tasks.append((case, solver))
             keys.append((kind, h))

@@ -274,7 +274,8 @@ void BoundaryLoadIntegrator::add_unit(const BezierSegment& segment, double t0, d
 
 void BoundaryLoadIntegrator::add_segment(const BezierSegment& segment, double t0, double t1,
                                          const TractionLaw& law, const QuadratureOptions& options) {
-  add_unit(segment, t0, t1, law, options, gauss_rule(options.gauss_points + 3 * (degree_ - 1)));
+  add_unit(segment, t0, t1, law, options,
+           gauss_rule(gauss_points_for_degree(options.gauss_points, degree_)));
 }
 
 void BoundaryLoadIntegrator::take_forces(std::span<Vec2> out) {
@@ -429,7 +430,8 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
   }
   BoundaryLoadResult result;
   const TractionLaw law = spec.traction_law(load_factor);
-  const GaussRule& rule = gauss_rule(spec.quadrature.gauss_points + 3 * (degree_ - 1));
+  const GaussRule& rule =
+      gauss_rule(gauss_points_for_degree(spec.quadrature.gauss_points, degree_));
   const bool upward_only = spec.faces != LoadedFaces::kAll;
   const bool top_only = spec.faces == LoadedFaces::kTop;
   if (top_only) index_shadows(curves);

@@ -144,6 +144,13 @@ struct BoundaryLoadResult {
   std::vector<NodalForce> nodal_forces;  ///< filled when asked for (plots), sorted by node
 };
 
+/// Points of the Gauss rule that the integrator uses for `gauss_points` (the option, counted
+/// for bilinear functions) with grid functions of degree shape_degree: 3 (p - 1) more, which
+/// keeps the exact mode exact (the header comment). Must be <= kMaxGaussPoints.
+constexpr int gauss_points_for_degree(int gauss_points, int shape_degree) {
+  return gauss_points + 3 * (shape_degree - 1);
+}
+
 /// Integrates loads along composite curves into nodal forces; keeps scratch arrays so that
 /// repeated calls (one per time step) do not allocate once warmed up. Not thread-safe.
 class BoundaryLoadIntegrator {

@@ -654,15 +654,15 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
     for (std::size_t k = 0; k < c.loads.size(); ++k) {
       const auto& surface = c.loads[k].surface;
-      if (surface &&
-          surface->quadrature.gauss_points + 3 * (degree - 1) > boundary::kMaxGaussPoints) {
+      const int extra = boundary::gauss_points_for_degree(0, degree);
+      if (surface && surface->quadrature.gauss_points + extra > boundary::kMaxGaussPoints) {
         root.at("loads")
             .at(k)
             .at("gauss_points")
             .fail("with B-splines of degree " + std::to_string(degree) + " the rule takes " +
-                  std::to_string(3 * (degree - 1)) + " points more, and at most " +
+                  std::to_string(extra) + " points more, and at most " +
                   std::to_string(boundary::kMaxGaussPoints) + " are available: give at most " +
-                  std::to_string(boundary::kMaxGaussPoints - 3 * (degree - 1)));
+                  std::to_string(boundary::kMaxGaussPoints - extra));
       }
       if (degree > 1 && c.loads[k].apply_on == LoadTarget::kGridTopNodes) {
         s->at("shape_function")
