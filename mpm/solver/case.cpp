@@ -639,38 +639,13 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
         {"scheme", "shape_function", "damping", "damping_form", "pic_fraction", "anti_locking"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
-    const std::string shape = s->choice_or(
-        "shape_function", {"linear", "gimp", "quadratic_bspline", "cubic_bspline"}, "linear");
+    const std::string shape =
+        s->choice_or("shape_function", {"linear", "gimp", "quadratic_bspline", "cubic_bspline"},
+                     "quadratic_bspline");
     c.solver.shape_function = shape == "gimp"                ? ShapeFunctionKind::kGimp
                               : shape == "quadratic_bspline" ? ShapeFunctionKind::kQuadraticBspline
                               : shape == "cubic_bspline"     ? ShapeFunctionKind::kCubicBspline
                                                              : ShapeFunctionKind::kLinear;
-    const int degree = shape_degree(c.solver.shape_function);
-    if (degree > 1 && std::min(c.grid.n_cells_x, c.grid.n_cells_y) < degree) {
-      s->at("shape_function")
-          .fail("B-splines of degree " + std::to_string(degree) + " need at least " +
-                std::to_string(degree) + " cells along each axis of the grid (it has " +
-                std::to_string(c.grid.n_cells_x) + " x " + std::to_string(c.grid.n_cells_y) + ")");
-    }
-    for (std::size_t k = 0; k < c.loads.size(); ++k) {
-      const auto& surface = c.loads[k].surface;
-      const int extra = boundary::gauss_points_for_degree(0, degree);
-      if (surface && surface->quadrature.gauss_points + extra > boundary::kMaxGaussPoints) {
-        root.at("loads")
-            .at(k)
-            .at("gauss_points")
-            .fail("with B-splines of degree " + std::to_string(degree) + " the rule takes " +
-                  std::to_string(extra) + " points more, and at most " +
-                  std::to_string(boundary::kMaxGaussPoints) + " are available: give at most " +
-                  std::to_string(boundary::kMaxGaussPoints - extra));
-      }
-      if (degree > 1 && c.loads[k].apply_on == LoadTarget::kGridTopNodes) {
-        s->at("shape_function")
-            .fail("load " + std::to_string(k) +
-                  " is applied on grid_top_nodes, whose nodal forces are those of the linear "
-                  "functions; with B-splines apply it on the detected_boundary");
-      }
-    }
     c.solver.damping = s->number_or("damping", 0.0);
     if (s->has("damping")) {
       s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
@@ -687,6 +662,33 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                    "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
     c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"}, "none") == "bbar";
+  }
+  // Checks that need the shape function, which has a default.
+  {
+    const int degree = shape_degree(c.solver.shape_function);
+    if (degree > 1 && std::min(c.grid.n_cells_x, c.grid.n_cells_y) < degree) {
+      const std::string message =
+          "B-splines of degree " + std::to_string(degree) + " need at least " +
+          std::to_string(degree) + " cells along each axis of the grid (it has " +
+          std::to_string(c.grid.n_cells_x) + " x " + std::to_string(c.grid.n_cells_y) + ")";
+      const auto s = root.find("solver");
+      if (s && s->has("shape_function")) s->at("shape_function").fail(message);
+      root.at("grid").at("n_cells").fail(
+          message + "; they are the default shape function: give solver.shape_function");
+    }
+    for (std::size_t k = 0; k < c.loads.size(); ++k) {
+      const auto& surface = c.loads[k].surface;
+      const int extra = boundary::gauss_points_for_degree(0, degree);
+      if (surface && surface->quadrature.gauss_points + extra > boundary::kMaxGaussPoints) {
+        root.at("loads")
+            .at(k)
+            .at("gauss_points")
+            .fail("with B-splines of degree " + std::to_string(degree) + " the rule takes " +
+                  std::to_string(extra) + " points more, and at most " +
+                  std::to_string(boundary::kMaxGaussPoints) + " are available: give at most " +
+                  std::to_string(boundary::kMaxGaussPoints - extra));
+      }
+    }
   }
 
   {

@@ -97,7 +97,7 @@ enum class Scheme { kMUSL, kUSL };
 
 struct SolverSpec {
   Scheme scheme = Scheme::kMUSL;
-  ShapeFunctionKind shape_function = ShapeFunctionKind::kLinear;
+  ShapeFunctionKind shape_function = ShapeFunctionKind::kQuadraticBspline;
   double damping = 0.0;  ///< local (Cundall) damping coefficient
   DampingForm damping_form = DampingForm::kPerAxis;
   /// beta of the particle velocity update v_p' = (1 - beta) (v_p + dt sum N a) + beta sum N v':

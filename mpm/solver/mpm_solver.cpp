@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/solver/body_fill.hpp"
@@ -171,9 +172,18 @@ void MpmSolver::build_top_node_loads() {
     }
   }
   const double h = grid.cell_size;
+  // Too light to carry a load: as for the loads on a detected boundary (surface_load.hpp), a
+  // node of mass <= 0.01 of a full cell's (the densest point's density x h^2).
+  double density = 0.0;
+  for (std::size_t p = 0; p < particles_.size(); ++p)
+    density = std::max(density, particles_.mass[p] / particles_.initial_volume[p]);
+  light_node_mass_ = boundary::BoundaryLoadSpec{}.min_node_mass_fraction * density * h * h;
+  const int degree = shape_degree(case_.solver.shape_function);
   for (const LoadSpec& load : case_.loads) {
     TopNodeLoad entry;
-    if (load.apply_on == LoadTarget::kGridTopNodes) {
+    if (load.apply_on == LoadTarget::kGridTopNodes && degree > 1) {
+      entry = bspline_top_load(load, occupied);
+    } else if (load.apply_on == LoadTarget::kGridTopNodes) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
         if (top[static_cast<std::size_t>(i)] < 0) continue;
         // Integral of the node's hat function over [x0, x1] (consistent nodal force).
@@ -195,6 +205,52 @@ void MpmSolver::build_top_node_loads() {
     }
     top_loads_.push_back(std::move(entry));
   }
+}
+
+MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const LoadSpec& load,
+                                                   const std::vector<char>& occupied) const {
+  const Grid& grid = case_.grid;
+  const int degree = shape_degree(case_.solver.shape_function);
+  const double h = grid.cell_size;
+  // f_I = int N_i(x) dx N_j(y_c) over the loaded part of each cell column c, y_c its top. N_i
+  // is a polynomial on each half cell (the knots are at the cell edges and, for the quadratic,
+  // the midlines): 3 Gauss points per half cell integrate it exactly.
+  const double gauss_u[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
+  const double gauss_w[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+  std::vector<double> force(static_cast<std::size_t>(grid.n_nodes()), 0.0);
+  double value_x[4], value_y[4], derivative[4];
+  for (int c = 0; c < grid.n_cells_x; ++c) {
+    int top_row = -1;  // node row of the column's top: above its highest occupied cell
+    for (int j = grid.n_cells_y - 1; j >= 0 && top_row < 0; --j) {
+      if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) top_row = j + 1;
+    }
+    if (top_row < 0) continue;
+    const int base_j = bspline_1d(degree, grid.n_cells_y, top_row, value_y, derivative);
+    for (int half = 0; half < 2; ++half) {
+      const double left = grid.origin.x() + (c + 0.5 * half) * h;
+      const double a = std::max(left, load.x0), b = std::min(left + 0.5 * h, load.x1);
+      if (b <= a) continue;
+      for (int g = 0; g < 3; ++g) {
+        const double x = 0.5 * (a + b) + 0.5 * (b - a) * gauss_u[g];
+        const double weight = 0.5 * (b - a) * gauss_w[g];
+        const int base_i =
+            bspline_1d(degree, grid.n_cells_x, (x - grid.origin.x()) / h, value_x, derivative);
+        for (int bj = 0; bj <= degree; ++bj) {
+          for (int ai = 0; ai <= degree; ++ai) {
+            force[static_cast<std::size_t>(grid.node_index(base_i + ai, base_j + bj))] +=
+                weight * value_x[ai] * value_y[bj];
+          }
+        }
+      }
+    }
+  }
+  TopNodeLoad entry;
+  for (int node = 0; node < grid.n_nodes(); ++node) {
+    if (force[static_cast<std::size_t>(node)] == 0.0) continue;
+    entry.node.push_back(node);
+    entry.vertical_force_per_kpa.push_back(force[static_cast<std::size_t>(node)]);
+  }
+  return entry;
 }
 
 double MpmSolver::gravity_factor(double t) const {
@@ -538,13 +594,19 @@ void MpmSolver::external_forces() {
   // The body force is in place (particles_to_grid); the surface loads are added to it.
   load_work_recorder_.clear();
   if (!counters_.loads_active) return;
+  const bool bspline = shape_degree(case_.solver.shape_function) > 1;
+  const auto row = static_cast<std::size_t>(case_.grid.n_nodes_x());
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     const LoadSpec& load = case_.loads[k];
     if (load.apply_on != LoadTarget::kGridTopNodes) continue;
     const double q = load.pressure * load.time_function.factor(counters_.time);
     const TopNodeLoad& top = top_loads_[k];
     for (std::size_t i = 0; i < top.node.size(); ++i) {
-      const auto node = static_cast<std::size_t>(top.node[i]);
+      auto node = static_cast<std::size_t>(top.node[i]);
+      if (bspline) {
+        // A node too light to carry its share passes it down its node column.
+        while (grid_.mass[node] <= light_node_mass_ && node >= row) node -= row;
+      }
       const Vec2 force(0.0, -q * top.vertical_force_per_kpa[i]);
       grid_.external_force[node] += force;
       load_work_recorder_.add(k, node, force);

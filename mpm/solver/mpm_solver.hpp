@@ -141,8 +141,14 @@ class MpmSolver {
   /// Restores counters() of a checkpoint (after the particles have been restored).
   void restore(const SolverCounters& n) { counters_ = n; }
 
-  /// Nodes on the initial top surface and their consistent nodal force per unit pressure for
-  /// a grid_top_nodes load (exposed for tests).
+  /// Consistent nodal forces per unit pressure of a grid_top_nodes load on the initial top
+  /// surface, the top edge of each cell column's highest occupied cell (exposed for tests).
+  /// Linear and uGIMP: the top nodes' hat integrals over x_range (a top node that the body
+  /// leaves carries its force on nothing, as in the thesis). B-splines: the integrals of N_I
+  /// along the top, on the node rows next to it too; in each step a node too light to carry
+  /// its share (mass <= 0.01 of a full cell's, the detected boundary's rule) passes it down its
+  /// node column, which keeps the resultant and the moment (the rows above the top hold little
+  /// mass at the start and none once the body settles).
   struct TopNodeLoad {
     std::vector<int> node;
     std::vector<double> vertical_force_per_kpa;  ///< kN per kPa (downwards positive)
@@ -173,6 +179,8 @@ class MpmSolver {
   void clear_band_cells(int band);
   void build_constraints();
   void build_top_node_loads();
+  /// A grid_top_nodes load's forces with B-splines (build_top_node_loads); occupied: per cell.
+  TopNodeLoad bspline_top_load(const LoadSpec& load, const std::vector<char>& occupied) const;
   double gravity_factor(double t) const;
   double particle_kinetic_energy() const;
 
@@ -186,6 +194,7 @@ class MpmSolver {
   ExternalForceHook hook_;
   GridVelocityHook velocity_hook_;
   std::vector<TopNodeLoad> top_loads_;
+  double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
   LoadWorkRecorder load_work_recorder_;
 
   // Per-step work arrays (sized once).

@@ -34,6 +34,14 @@ def bspline_with(path, value):
     return case
 
 
+def without_shape_function(path, value):
+    """The base case with the value at `path` replaced and no shape function: the default,
+    quadratic B-splines."""
+    case = mutate(path, value)
+    del case["solver"]["shape_function"]
+    return case
+
+
 def elastic_with(key, value):
     """The base case with its soil linear elastic (as a manufactured solution needs) and
     `key` set to `value`."""
@@ -216,12 +224,11 @@ MALFORMED = [
         "/solver/shape_function",
     ),
     (
-        "bspline_with_a_grid_top_nodes_load",
-        bspline_with(
-            ["loads", 0],
-            {"type": "vertical_pressure", "pressure": 50.0, "x_range": [5.0, 10.0]},
+        "default_bsplines_on_one_cell_row",
+        without_shape_function(
+            ["grid"], {"origin": [0.0, 0.0], "cell_size": 15.0, "n_cells": [1, 1]}
         ),
-        "/solver/shape_function",
+        "/grid/n_cells",
     ),
     (
         "bspline_gauss_points_past_the_table",

@@ -165,6 +165,76 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
   EXPECT_LE(last_hi - last_lo, 1.1 * (first_hi - first_lo));  // no growth
 }
 
+// A grid_top_nodes pressure with B-splines: the forces are the integrals of N_I along the initial
+// top (the top edge of each cell column's highest occupied cell), here a stepped top (y = 3 m
+// for x < 2 m, 2 m beyond) loaded over x in [0.3, 3.7] m, which starts and ends inside cells.
+// Partition of unity and linear precision make the force (x1 - x0) and its moment int x dx
+// exact, and the forces of a node column sum to int N_i(x) dx, which is h for a node whose
+// support lies inside the loaded range (x = 1.5, 2 and 2.5 m). In the step, nodes too light to
+// carry their share (mass <= 0.01 of a full cell's: the rows above the top with one point per
+// cell, and next to the corners with two) pass it down their node column, which keeps all three
+// sums; no node that carries load is light.
+TEST(SolverPhysics, GridTopLoadWithBsplinesIsTheIntegralAlongTheTop) {
+  const double q = 10.0;
+  for (const char* shape : {"quadratic_bspline", "cubic_bspline"}) {
+    for (const int points_per_cell : {1, 2}) {
+      SCOPED_TRACE(std::string(shape) + ", " + std::to_string(points_per_cell) + " per cell");
+      nlohmann::json j = nlohmann::json::parse(R"({
+        "grid": {"origin": [0, 0], "cell_size": 0.5, "n_cells": [10, 8]},
+        "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                       "poisson_ratio": 0.3, "unit_weight": 20.0}],
+        "bodies": [{"name": "block", "material": "soil",
+                    "polygon": [[0, 0], [4, 0], [4, 2], [2, 2], [2, 3], [0, 3]]}],
+        "gravity": {"g": 0.0},
+        "boundary_conditions": [{"where": "bottom", "fix": "xy"}],
+        "loads": [{"type": "vertical_pressure", "pressure": 10.0, "x_range": [0.3, 3.7]}],
+        "time": {"end_time": 1.0}
+      })");
+      j["solver"]["shape_function"] = shape;
+      j["bodies"][0]["points_per_cell"] = points_per_cell;
+      const Case c = parse_case(j, "stepped block");
+      MpmSolver solver(c);
+      const Grid& grid = solver.grid();
+      const double h = grid.cell_size;
+      const Particles& p = solver.particles();
+      const double full_cell = p.mass[0] / p.initial_volume[0] * h * h;
+      const auto& load = solver.top_node_loads().at(0);
+      std::vector<double> stored(static_cast<std::size_t>(grid.n_nodes()), 0.0);
+      for (std::size_t k = 0; k < load.node.size(); ++k)
+        stored[static_cast<std::size_t>(load.node[k])] = -q * load.vertical_force_per_kpa[k];
+      std::vector<double> applied, mass;
+      solver.set_external_force_hook([&](double, GridState& state, std::vector<Vec2>& force) {
+        for (const Vec2& f : force) applied.push_back(f.y());
+        mass = state.mass;
+      });
+      solver.step();
+      int light = 0;
+      for (const auto* forces : {&stored, &applied}) {
+        double force = 0.0, moment = 0.0;
+        std::map<int, double> column;  // node column -> its forces' sum
+        for (int node = 0; node < grid.n_nodes(); ++node) {
+          const double f = (*forces)[static_cast<std::size_t>(node)];
+          const int i = node % grid.n_nodes_x();
+          force += f;
+          moment += f * (grid.origin.x() + i * h);
+          column[i] += f;
+          if (forces == &applied && f != 0.0) {
+            EXPECT_GT(mass[static_cast<std::size_t>(node)], 0.01 * full_cell) << "node " << node;
+          }
+          if (forces == &stored && f != 0.0 &&
+              mass[static_cast<std::size_t>(node)] <= 0.01 * full_cell) {
+            ++light;
+          }
+        }
+        EXPECT_NEAR(force, -q * 3.4, 1e-12);
+        EXPECT_NEAR(moment, -q * 0.5 * (3.7 * 3.7 - 0.3 * 0.3), 1e-12);
+        for (const int i : {3, 4, 5}) EXPECT_NEAR(column[i], -q * h, 1e-13) << "column " << i;
+      }
+      EXPECT_GT(light, 0) << "the light-node rule must be at work for the test to tell";
+    }
+  }
+}
+
 // Two runs give bitwise identical particles, with 1 and with 2 threads.
 TEST(SolverPhysics, BitwiseDeterministicAcrossThreadCounts) {
   for (const std::string shape : {"linear", "gimp"}) {
