@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from studies import analytic
+from studies.common.cases import DEFAULT_SHAPE_FUNCTION
 from studies.common.ledger import plot_energy_ledger, relative_energy_error
 from studies.common.measures import initial_positions, surface_settlement_extrapolated
 from studies.common.outcome import Metric, StudyOutcome
@@ -121,17 +122,20 @@ def _block(
     damping=0.5,
     output_interval=None,
     headroom=0,
-    margin_cells=2,
+    shape_function="linear",
 ):
-    """A rectangle [0, width] x [0, height] inside a grid with a margin of `margin_cells` cells
-    (and `headroom` more cell rows above), fixed base, rollers on both sides. The node sets hold
+    """A rectangle [0, width] x [0, height] inside a grid with a margin of two cells (and
+    `headroom` more cell rows above), fixed base, rollers on both sides. The node sets hold
     the nodes on the walls and beyond them (the base set every node at y <= 0, the side sets
     every node outside the body's width up to its top, or up to the grid's top with headroom,
     where the soil may heave): the walls are rigid, and a GIMP particle next to one reaches the
     nodes behind it (with linear shape functions those nodes carry no mass and the extra
-    fixities change nothing). B-splines take margin_cells = 0: the walls are then the grid's
-    edges, which their edge functions hold (mpm/core/shape_functions.hpp).
+    fixities change nothing). B-splines have no margin: the walls are then the grid's edges,
+    which their edge functions hold (mpm/core/shape_functions.hpp). shape_function None leaves
+    the key out, for pfm-mpm's default (DEFAULT_SHAPE_FUNCTION).
     """
+    resolved = shape_function or DEFAULT_SHAPE_FUNCTION
+    margin_cells = 0 if resolved.endswith("bspline") else 2
     far = 1e3  # m, beyond any grid of these cases
     wall_top = height if headroom == 0 else far
     case = {
@@ -164,16 +168,23 @@ def _block(
         "time": {"end_time": end_time},
         "output": {"interval": output_interval or end_time},
     }
+    if shape_function:
+        case["solver"]["shape_function"] = shape_function
     case["grid"]["n_cells"][1] += headroom
     return case
 
 
-def column_case(h: float = H, shape_function: str = "linear") -> dict:
-    """The column from zero stress: weight (gravity ramp 0.5 s) and surcharge (ramp 0.5 s).
-    With B-splines the grid's edges are its base and sides (two cell rows of headroom above
-    it), and the surcharge acts on the detected top, as B-splines take it."""
+def column_case(
+    h: float = H,
+    shape_function: str | None = "linear",
+    apply_on: str = "grid_top_nodes",
+) -> dict:
+    """The column from zero stress: weight (gravity ramp 0.5 s) and surcharge (ramp 0.5 s), on
+    the grid-top nodes or on the detected top. shape_function None: pfm-mpm's default. With
+    B-splines the grid's edges are its base and sides, with two cell rows of headroom above it
+    (a B-spline at the top reaches the row above)."""
     c = COLUMN
-    bspline = shape_function.endswith("bspline")
+    bspline = (shape_function or DEFAULT_SHAPE_FUNCTION).endswith("bspline")
     case = _block(
         c["width"],
         c["height"],
@@ -191,15 +202,19 @@ def column_case(h: float = H, shape_function: str = "linear") -> dict:
         h=h,
         damping=c["damping"],
         headroom=2 if bspline else 0,
-        margin_cells=0 if bspline else 2,
+        shape_function=shape_function,
     )
     case["title"] = f"benchmark column, h = {h} m"
+    names = {
+        None: "the default shape function",
+        "gimp": "GIMP",
+        "quadratic_bspline": "quadratic B-splines",
+    }
     if shape_function != "linear":
-        names = {"gimp": "GIMP", "quadratic_bspline": "quadratic B-splines"}
         case["title"] += ", " + names.get(shape_function, shape_function)
-        case["solver"]["shape_function"] = shape_function
-    if bspline:
-        case["loads"][0]["apply_on"] = "detected_boundary"
+    if apply_on != "grid_top_nodes":
+        case["loads"][0]["apply_on"] = apply_on
+        case["title"] += ", load on the " + apply_on.replace("_", " ")
     return case
 
 
@@ -275,13 +290,13 @@ def prandtl_case(
         damping=p["damping"],
         output_interval=ramp / outputs,
         headroom=int(round(extent / h)) // 2,
-        margin_cells=0 if shape_function.endswith("bspline") else 2,
+        shape_function=shape_function,
     )
     case["title"] = (
         f"benchmark Prandtl: c = {cohesion:g} kPa, b = {b:g} m, h = {h:g} m, "
         f"anti_locking {anti_locking}"
     )
-    case["solver"].update(shape_function=shape_function, anti_locking=anti_locking)
+    case["solver"]["anti_locking"] = anti_locking
     case["output"]["timeseries_interval"] = ramp / outputs
     return case
 
@@ -337,7 +352,7 @@ def disk_case() -> dict:
             }
         ],
         "detection": {"method": "improved", "every_steps": 1},
-        "solver": {"damping": 0.5},
+        "solver": {"damping": 0.5, "shape_function": "linear"},
         "time": {"end_time": 2.0},
         "output": {"interval": 1.0},
     }

@@ -23,6 +23,10 @@ def base_case(name: str) -> tuple[dict, Path]:
     return json.loads(path.read_text()), path
 
 
+# pfm-mpm's shape function when a case leaves solver.shape_function out (mpm/solver/case.cpp).
+DEFAULT_SHAPE_FUNCTION = "quadratic_bspline"
+
+
 def derive(base: dict, overrides: dict) -> dict:
     merged = copy.deepcopy(base)
     for key, value in overrides.items():
