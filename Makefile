@@ -13,7 +13,7 @@ OUT ?= results/bearing_quasi_static
 # module (DEB_PYTHON_PREFIX, from $(PYTHON)); Python itself always runs as $(PYTHON).
 DEB_PYTHON_PREFIX := $(basename $(notdir $(PYTHON)))-
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas skimage pytest jinja2 tqdm tabulate h5py \
-  meshio gmsh dolfinx distributed
+  meshio gmsh dolfinx distributed docutils
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \

@@ -53,19 +53,18 @@ def command_line(name: str, options: StudyOptions) -> str:
 
 
 def docstring_parts(module) -> tuple[str, str]:
-    """(title, summary): the docstring's first paragraph, and the paragraphs after it up to
-    "Why:" or "Reproduce:" (what the study measures), each flattened to one line."""
-    paragraphs = [
-        " ".join(p.split()) for p in (inspect.getdoc(module) or "").split("\n\n")
-    ]
+    """(title, summary): the docstring's first paragraph, flattened to one line, and the
+    paragraphs after it up to "Why:" or "Reproduce:" (what the study measures), as written
+    (reStructuredText: the report renders it)."""
+    paragraphs = [p.strip() for p in (inspect.getdoc(module) or "").split("\n\n")]
     paragraphs = [p for p in paragraphs if p]
-    title = paragraphs[0] if paragraphs else module.__name__
+    title = " ".join(paragraphs[0].split()) if paragraphs else module.__name__
     summary = []
     for paragraph in paragraphs[1:]:
         if paragraph.startswith(("Why", "Reproduce")):
             break
         summary.append(paragraph)
-    return title, " ".join(summary)
+    return title, "\n\n".join(summary)
 
 
 def execute(module, options: StudyOptions) -> StudyOutcome:

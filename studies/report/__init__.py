@@ -1,8 +1,8 @@
 """The report: one HTML page and one Markdown file with every table and figure of the latest
 study results, the headline table (thesis beside ours), each metric against its threshold in
 ``reports/thresholds.json`` and the comparison with the previous report
-(``reports/history.jsonl``). ``python -m studies report`` exits 1 when a metric is past its
-threshold."""
+(``<results root>/history.jsonl``, outside the tracked tree). ``python -m studies report`` exits
+1 when a metric of a full study is past its threshold."""
 
 from studies.report.build import build_report, main
 

@@ -1,7 +1,8 @@
 """Build the report from the latest study results.
 
 Inputs: ``<results root>/<study>/study.json`` (+ its tables and figures) for every study in
-studies.STUDY_NAMES, ``reports/thresholds.json`` and ``reports/history.jsonl``.
+studies.STUDY_NAMES, ``reports/thresholds.json`` and the history, ``<results root>/history.jsonl``
+(outside the tracked tree: a report never modifies a tracked file).
 Outputs in ``<results root>/report/``: ``index.html``, ``report.md`` and ``report.json`` (the
 evaluated headline cells and metric verdicts); one line appended to the history.
 
@@ -9,8 +10,11 @@ Verdicts of a thresholded metric:
 ``pass`` / ``FAIL`` (value past the limit, or no finite value from a study that ran, or the
 study failed), ``not run`` (its study, or the part of it that makes the metric, has not run, or
 the quick variant leaves it out: the reason is shown), ``missing`` (the full study ran without
-trouble but did not produce the metric), ``info`` (the threshold has no limit). The command exits
-1 when any verdict is FAIL; a FAIL whose previous report passed is marked as a regression.
+trouble but did not produce the metric), ``info`` (the threshold has no limit). A metric of a
+quick variant is judged too, on its coarser grids, and marked ``quick``. The command exits 1 when
+a verdict of a full study is FAIL (a quick variant's FAIL is shown, not counted: its grids are
+not the gate's); a FAIL whose previous report passed is marked as a regression. A study's
+heading shows its FAILs beside its status.
 """
 
 from __future__ import annotations
@@ -42,8 +46,9 @@ def default_thresholds_path() -> Path:
     return repo_root() / "reports" / "thresholds.json"
 
 
-def default_history_path() -> Path:
-    return repo_root() / "reports" / "history.jsonl"
+def default_history_path(root: Optional[Path] = None) -> Path:
+    """The history of the reports built from the results root `root` (default results_root())."""
+    return Path(root or results_root()) / "history.jsonl"
 
 
 def templates_dir() -> Path:
@@ -108,6 +113,7 @@ class Verdict:
     previous: Optional[float] = None
     change: Optional[float] = None
     regression: bool = False  # FAIL now, passed in the previous report
+    quick: bool = False  # the value comes from a quick variant (coarser grids)
 
 
 def study_of_metric(name: str) -> str:
@@ -143,6 +149,7 @@ def evaluate(
                 )
         else:
             v.value = values[t.name]
+            v.quick = outcome.quick
             finite = v.value is not None and math.isfinite(v.value)
             if t.limit is None:
                 v.status = "info"
@@ -274,7 +281,24 @@ def _table_html(frame: pd.DataFrame) -> str:
     )
 
 
-def study_sections(outcomes: dict, root: Path, out_dir: Path) -> list[dict]:
+def summary_html(text: str) -> str:
+    """A study's summary (reStructuredText, from its docstring) as an HTML fragment."""
+    from docutils.core import publish_parts
+
+    return publish_parts(
+        text,
+        writer_name="html5",
+        settings_overrides={
+            "report_level": 5,
+            "halt_level": 5,
+            "doctitle_xform": False,
+        },
+    )["body"]
+
+
+def study_sections(
+    outcomes: dict, root: Path, out_dir: Path, failures: list[Verdict]
+) -> list[dict]:
     sections = []
     for name in STUDY_NAMES:
         outcome = outcomes[name]
@@ -306,7 +330,9 @@ def study_sections(outcomes: dict, root: Path, out_dir: Path) -> list[dict]:
                 "name": name,
                 "title": outcome.title or name,
                 "summary": outcome.summary,
+                "summary_html": summary_html(outcome.summary),
                 "status": outcome.status,
+                "failures": [v.name for v in failures if v.study == name],
                 "reason": outcome.reason,
                 "command": outcome.command,
                 "quick": outcome.quick,
@@ -350,7 +376,7 @@ def build_report(
     thresholds_path = (
         Path(thresholds_path) if thresholds_path else default_thresholds_path()
     )
-    history_path = Path(history_path) if history_path else default_history_path()
+    history_path = Path(history_path) if history_path else default_history_path(root)
     out_dir.mkdir(parents=True, exist_ok=True)
 
     outcomes = load_outcomes(root)
@@ -361,6 +387,7 @@ def build_report(
     columns, rows, footnotes = headline_table(outcomes)
     headline_md = markdown_table(pd.DataFrame(rows, columns=columns))
     failures = [v for v in verdicts if v.status == "FAIL"]
+    counted = [v for v in failures if not v.quick]
 
     verdict_rows = [
         {
@@ -382,7 +409,9 @@ def build_report(
                 + v["limit_text"]
                 if v["limit"] is not None
                 else "",
-                "verdict": v["status"] + (" (regression)" if v["regression"] else ""),
+                "verdict": v["status"]
+                + (" (quick)" if v["quick"] else "")
+                + (" (regression)" if v["regression"] else ""),
                 "previous": v["previous_text"],
                 "change": v["change_text"],
                 "note": v["reason"],
@@ -417,9 +446,10 @@ def build_report(
         "headline_md": headline_md,
         "verdicts": verdict_rows,
         "verdicts_md": markdown_table(verdict_frame),
-        "n_fail": len(failures),
+        "n_fail": len(counted),
+        "n_fail_quick": len(failures) - len(counted),
         "n_regressions": sum(v.regression for v in verdicts),
-        "studies": study_sections(outcomes, root, out_dir),
+        "studies": study_sections(outcomes, root, out_dir, failures),
     }
     render(context, out_dir)
     (out_dir / "report.json").write_text(
@@ -446,16 +476,22 @@ def build_report(
                 + "\n"
             )
     for v in failures:
-        tag = " REGRESSION" if v.regression else ""
+        tag = (" (quick)" if v.quick else "") + (" REGRESSION" if v.regression else "")
         print(
             f"report: FAIL{tag} {v.name} = {format_value(v.value)} {v.unit} "
             f"(limit {v.direction} {format_value(v.limit)}) {v.reason}",
             file=sys.stderr,
         )
     print(
-        f"report: {out_dir / 'index.html'} ({len(failures)} metric(s) past threshold)"
+        f"report: {out_dir / 'index.html'} ({len(counted)} metric(s) past threshold"
+        + (
+            f", and {len(failures) - len(counted)} of quick variants"
+            if len(failures) > len(counted)
+            else ""
+        )
+        + ")"
     )
-    return 1 if failures else 0
+    return 1 if counted else 0
 
 
 def main(argv=None) -> int:
@@ -475,7 +511,7 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--thresholds", type=Path, help="default: reports/thresholds.json"
     )
-    parser.add_argument("--history", type=Path, help="default: reports/history.jsonl")
+    parser.add_argument("--history", type=Path, help="default: <results>/history.jsonl")
     parser.add_argument(
         "--no-history",
         action="store_true",

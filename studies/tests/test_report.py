@@ -46,16 +46,17 @@ PNG = bytes.fromhex(
 )
 
 
-def write_study(root, name, quadrature_error=1e-15, status="ok"):
+def write_study(root, name, quadrature_error=1e-15, status="ok", quick=False):
     folder = root / name
     folder.mkdir(parents=True, exist_ok=True)
     outcome = StudyOutcome(
         study=name,
         status=status,
         title=f"{name} title",
-        summary=f"{name} summary",
+        summary=f"{name} summary:\n\n* the ``{name}`` part\n  over two lines;\n* another",
         command=f"python -m studies {name}",
         reason="" if status == "ok" else "boom",
+        quick=quick,
     )
     if name == "quadrature" and status == "ok":
         frame = pd.DataFrame(
@@ -118,6 +119,12 @@ def build(setup):
     )
 
 
+def verdicts(setup) -> dict:
+    """The report's verdicts by metric name."""
+    report = json.loads((setup["out"] / "report.json").read_text())
+    return {v["name"]: v for v in report["verdicts"]}
+
+
 def test_report_holds_every_table_figure_and_the_headline(setup):
     assert build(setup) == 0
     html = (setup["out"] / "index.html").read_text()
@@ -131,16 +138,13 @@ def test_report_holds_every_table_figure_and_the_headline(setup):
     assert cells[2] == "0.047 s (5.2)" and cells[5] == "0.04321"
     # Studies without results are marked as such, with the reason as a footnote.
     assert "not run [" in html and "`make study-boundary` (no results yet)" in html
-    verdicts = {
-        v["name"]: v
-        for v in json.loads((setup["out"] / "report.json").read_text())["verdicts"]
-    }
+    found = verdicts(setup)
     assert (
-        verdicts["quadrature.exact.k5.split1.max_total_force_rel_error"]["status"]
+        found["quadrature.exact.k5.split1.max_total_force_rel_error"]["status"]
         == "pass"
     )
-    assert verdicts["benchmarks.column.settlement_rel_error"]["status"] == "not run"
-    assert verdicts["timing.block_100k.mpm_particle_steps_per_s"]["status"] == "info"
+    assert found["benchmarks.column.settlement_rel_error"]["status"] == "not run"
+    assert found["timing.block_100k.mpm_particle_steps_per_s"]["status"] == "info"
     history = setup["history"].read_text().splitlines()
     assert len(history) == 1 and json.loads(history[0])["failed"] == []
 
@@ -149,10 +153,7 @@ def test_report_exits_non_zero_on_a_regression_past_the_threshold(setup, capsys)
     assert build(setup) == 0
     write_study(setup["root"], "quadrature", quadrature_error=3e-3)  # past 1e-10
     assert build(setup) == 1
-    verdict = {
-        v["name"]: v
-        for v in json.loads((setup["out"] / "report.json").read_text())["verdicts"]
-    }["quadrature.exact.k5.split1.max_total_force_rel_error"]
+    verdict = verdicts(setup)["quadrature.exact.k5.split1.max_total_force_rel_error"]
     assert verdict["status"] == "FAIL" and verdict["regression"]
     assert verdict["previous"] == 1e-15
     assert "FAIL REGRESSION quadrature.exact.k5.split1" in capsys.readouterr().err
@@ -183,3 +184,38 @@ def test_the_repository_thresholds_file_is_valid():
 
     version, thresholds = read_thresholds(default_thresholds_path())
     assert version >= 1 and len(thresholds) >= 10
+
+
+def test_a_quick_variants_fail_is_shown_and_not_counted(setup, capsys):
+    write_study(setup["root"], "quadrature", quadrature_error=3e-3, quick=True)
+    assert build(setup) == 0
+    verdict = verdicts(setup)["quadrature.exact.k5.split1.max_total_force_rel_error"]
+    assert verdict["status"] == "FAIL" and verdict["quick"]
+    assert "FAIL (quick) quadrature.exact" in capsys.readouterr().err
+    html = (setup["out"] / "index.html").read_text()
+    assert "0 metric(s) past threshold (and 1 of quick variants" in html
+
+
+def test_a_study_with_a_failing_metric_is_never_green(setup):
+    write_study(setup["root"], "quadrature", quadrature_error=3e-3)
+    assert build(setup) == 1
+    html = (setup["out"] / "index.html").read_text()
+    heading = re.search(r'<h3 id="study-quadrature">.*?</h3>', html, re.S).group(0)
+    assert 'class="status-failed"' in heading and "1 metric(s) FAIL" in heading
+    assert 'class="status-ok"' not in heading
+    markdown = (setup["out"] / "report.md").read_text()
+    assert "### quadrature: quadrature title [ok, 1 metric(s) FAIL]" in markdown
+
+
+def test_study_texts_are_rendered_from_restructuredtext(setup):
+    build(setup)
+    html = (setup["out"] / "index.html").read_text()
+    section = html.split('id="study-timing"', 1)[1].split("<h3", 1)[0]
+    assert '<span class="docutils literal">timing</span>' in section
+    assert section.count("<li>") == 2 and "``" not in section
+
+
+def test_the_history_lives_beside_the_results_not_in_the_tracked_tree(setup):
+    code = build_report(setup["root"], setup["out"], setup["thresholds"])
+    assert code == 0
+    assert len((setup["root"] / "history.jsonl").read_text().splitlines()) == 1
