@@ -2,8 +2,9 @@
 
 Every detector but the library baseline runs inside ``pfm-mpm`` (a ``detection`` block in the
 case, or ``pfm-mpm detect`` on a particle file) with the configuration below: the defaults of
-mpm/detect/detector.hpp, i.e. the thesis's final PFM configuration without smoothing
-(``pfm``) and the improved detector (``improved``). The library baseline (scikit-image,
+mpm/detect/detector.hpp for the plain thesis PFM (``pfm_thesis``: fixed kernels, no filter,
+contour level 0) and the improved detector (``pfm_improved``), and the thesis PFM as the thesis
+finally ran it (``pfm_thesis_final``, THESIS_FINAL_PFM). The library baseline (scikit-image,
 ``studies/detectors/skimage_detector.py``) only post-processes particle files: its "total"
 boundary is computed on the particles of the MPM run that used the improved detector.
 """
@@ -16,8 +17,23 @@ from typing import Optional
 from studies.report.headline import DETECTORS
 
 LIBRARY = "library"
+# The thesis PFM as the thesis finally ran it: kernels deformed by the small-strain rule
+# (eq. 4.17) within the size limits s_min = 2/3 s_0, s_max = 2 s_0 (eq. 5.11, fig. 5.29), the
+# field smoothed by the Gaussian filter with sigma = 1 (5.3.1, which needs the edge points from
+# the cells' shape functions) and contoured at the lowered level z = -30 that brings the
+# filtered surface back out to the unfiltered one (fig. 5.22; the thesis's field units, those of
+# mpm/detect: unit-volume kernels, 1/m^2). The advice of 7.1 and the runs of 6.2.
+THESIS_FINAL_PFM = {
+    "deformation": "small_strain",
+    "min_size_factor": 2.0 / 3.0,
+    "max_size_factor": 2.0,
+    "edge_location": "shape_functions",
+    "gaussian_sigma": 1.0,
+    "contour_level": -30.0,
+}
 METHODS = {
     "pfm_thesis": {"method": "pfm"},
+    "pfm_thesis_final": {"method": "pfm", "pfm": THESIS_FINAL_PFM},
     "pfm_improved": {"method": "improved"},
     "smm": {"method": "smm"},
     "vof": {"method": "vof"},

@@ -21,7 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 DETECTORS = (
-    ("pfm_thesis", "thesis PFM"),
+    ("pfm_thesis", "thesis PFM, plain"),
+    ("pfm_thesis_final", "thesis PFM as the thesis ran it"),
     ("pfm_improved", "improved PFM"),
     ("smm", "SMM"),
     ("vof", "VOF"),
@@ -31,8 +32,10 @@ DETECTORS = (
 ANY_DETECTOR = "*"
 COMPARISON_TIMES = (0.0, 0.625, 1.25)  # s; thesis 5.5.2 and 6.2.5
 BOUNDARY_CASES = (
+    ("slope_zero", "slope, zero-stress start (the thesis's)"),
     ("slope_k0", "slope, K0 start"),
     ("slope_gravity", "slope, gravity start"),
+    ("block_zero", "bearing block, zero-stress start (the thesis's)"),
     ("block_k0", "bearing block, K0 start"),
     ("block_gravity", "bearing block, gravity start"),
 )
@@ -44,6 +47,7 @@ THESIS_SLOPE = {
     1.25: "larger than at 0.625 s, not quantified (fig. 5.34b)",
 }
 THESIS_BLOCK = "compared graphically only (6.2.5, fig. 6.23)"
+THESIS_OTHER_START = "the thesis started from zero stress only"
 
 
 def time_key(time: float) -> str:
@@ -70,7 +74,9 @@ def headline_rows() -> list[HeadlineRow]:
     for case, case_label in BOUNDARY_CASES:
         for measure, measure_label in MEASURES:
             for time in COMPARISON_TIMES:
-                if case.startswith("slope"):
+                if not case.endswith("_zero"):
+                    thesis = THESIS_OTHER_START
+                elif case.startswith("slope"):
                     thesis = (
                         THESIS_SLOPE[time]
                         if measure == "total"

@@ -27,8 +27,8 @@ def test_boundary_study_measures_the_known_offsets(fake_mpm):
     folder = fake_mpm["results"] / "boundary"
     errors = pd.read_csv(folder / "boundary_errors.csv")
     overall = errors[errors["region"] == "all"]
-    # quick: 2 cases x 2 detectors x 2 measures x 2 times
-    assert len(overall) == 16
+    # quick: 2 cases x 3 detectors x 2 measures x 2 times
+    assert len(overall) == 24
     for measure, shift in (
         ("total", synthetic.MPM_SHIFT),
         ("detector_only", synthetic.DETECT_SHIFT),
