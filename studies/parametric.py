@@ -4,11 +4,13 @@
 What it measures:
 
 * bearing block (15 m x 5 m, q_v on the centre 5 m on the detected boundary, table 6.2), one
-  parameter at a time around the base case (nu = 0.15, E = 1000 kPa, cohesion 20/10/5 kPa,
-  q_v = 100 kPa): Poisson's ratio nu = 0.15, 0.25, 0.35, 0.45; Young's modulus
-  E = 1e3, 1e4, 1e5 kPa; strength x1 and x2 (cohesion 20/10/5 -> 40/20/10 kPa);
-  q_v = 50, 100, 150 kPa. Read-outs at t = 2.5 s (or the last output of a run that stopped:
-  the softest and most loaded blocks collapse and violate the CFL condition): settlement under
+  parameter at a time around the thesis's baseline (table 6.2: nu = 0.15, E = 1000 kPa,
+  cohesion 20/10/5 kPa, q_v = 50 kPa): Poisson's ratio nu = 0.15, 0.25, 0.35, 0.45; Young's
+  modulus E = 1e3, 1e4, 1e5 kPa; strength x1 and x2 (cohesion 20/10/5 -> 40/20/10 kPa);
+  q_v = 50, 100, 150 kPa, also with E = 1e4 kPa (6.2.3, fig. 6.18) and with strength x2 (6.2.4,
+  fig. 6.21). Read-outs at t = 2.5 s, or, when a run of the sweep stopped (the
+  softest and most loaded blocks collapse and violate the CFL condition), for every run of that
+  sweep at the last output all of them reached (the stop times in the table): settlement under
   the load centre and hole depth (the surface under the load at t = 0 minus the lowest detected
   boundary point there, down to 1.5 h above the base: a hole through the block reads 4.25 m);
 * load-settlement against the independent dolfinx model: the block with a constant cohesion of
@@ -18,7 +20,9 @@ What it measures:
   deviator, so the same admissible state in both codes; from a gravity-loading start the two
   procedures leave different plastic states and the comparison measured those instead);
 * slope (4 m, 45 degrees) with a 5 m wide 50 kPa load on the detected boundary at distances
-  0-6 m behind the crest: hole depth, and the crest and toe displacement added by the load
+  0-6 m behind the crest, on the face and in front of the toe (the thesis's distances, crest to
+  the load's edge, positive towards the face: -6 to 0, 5 and 10 m; figs. 6.26, 6.28-6.30):
+  hole depth and the height of its bottom, and the crest and toe displacement added by the load
   (loaded minus unloaded run) at the last output time every run reached (up to 2.5 s; at
   100 kPa every loaded slope collapsed and stopped by 1.6 s).
 
@@ -38,7 +42,7 @@ Reproduce: ``make study-parametric`` = ``/usr/bin/python3 -m studies parametric 
 Needs ``pfm-mpm``, ``cases/thesis62_bearing_dynamic_zero_start.json``, ``cases/thesis55_slope_dynamic_zero_start.json`` and
 ``fem_reference/dolfinx_model``. The three parts run and are reported independently. Writes
 ``block_sweep.csv/.md``, ``load_settlement.csv/.md``, ``slope_load_position.csv/.md``,
-``block_<parameter>.png``, ``load_settlement.png``, ``slope_load_position.png``.
+``block_<sweep>.png``, ``load_settlement.png``, ``slope_load_position.png``.
 """
 
 from __future__ import annotations
@@ -63,7 +67,6 @@ from studies.common.measures import (
 )
 from studies.common.outcome import Metric, StudyOutcome
 from studies.common.outputs import (
-    final_particles,
     need,
     read_boundary,
     read_index,
@@ -78,19 +81,25 @@ from studies.common.study import run_parts
 from studies.common.tables import save_figure, write_table
 from studies.metrics import grid_edge_band
 
+# The thesis's baseline (table 6.2): q_v = 50 kPa.
 BLOCK_BASE = {
     "poisson_ratio": 0.15,
     "youngs_modulus": 1.0e3,
     "strength": 1.0,
-    "pressure": 100.0,
+    "pressure": 50.0,
 }
+# name -> (parameter, values, the other settings that differ from BLOCK_BASE): one parameter at
+# a time around the baseline, and the thesis's combinations: the load on the stiffer soil
+# (6.2.3, fig. 6.18) and on the stronger one (6.2.4, fig. 6.21).
 BLOCK_SWEEPS = {
-    "poisson_ratio": (0.15, 0.25, 0.35, 0.45),
-    "youngs_modulus": (1.0e3, 1.0e4, 1.0e5),
-    "strength": (1.0, 2.0),
-    "pressure": (50.0, 100.0, 150.0),
+    "poisson_ratio": ("poisson_ratio", (0.15, 0.25, 0.35, 0.45), {}),
+    "youngs_modulus": ("youngs_modulus", (1.0e3, 1.0e4, 1.0e5), {}),
+    "strength": ("strength", (1.0, 2.0), {}),
+    "pressure": ("pressure", (50.0, 100.0, 150.0), {}),
+    "pressure_at_E_1e4": ("pressure", (50.0, 100.0, 150.0), {"youngs_modulus": 1.0e4}),
+    "pressure_at_strength_x2": ("pressure", (50.0, 100.0, 150.0), {"strength": 2.0}),
 }
-QUICK_BLOCK_SWEEPS = {"pressure": (50.0, 100.0)}
+QUICK_BLOCK_SWEEPS = {"pressure": ("pressure", (50.0, 100.0), {})}
 END_TIME = 2.5  # s
 QUICK_END_TIME = 0.625  # s
 OUTPUT_INTERVAL = 0.625  # s
@@ -99,8 +108,11 @@ OUTPUT_INTERVAL = 0.625  # s
 # up to 0.625 s the two boundaries of the block agree within 0.014 m.
 DETECTOR_BLOCK = {"method": "improved", "improved": {"refinement": 4}}
 SLOPE_LOAD_WIDTH = 5.0  # m
-# m behind the crest; the top is 11.875 m long, so a 5 m load fits up to 6.875 m behind it.
-SLOPE_LOAD_OFFSETS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+# m behind the crest (the load's edge nearest the crest); the top is 11.875 m long, so a 5 m
+# load fits up to 6.875 m behind it. Negative: towards the face, the thesis's positive
+# distances (fig. 6.28): -5 covers the face (4 m wide) and 1 m in front of the toe, -10 lies
+# on the ground in front of the toe, 1 m from it (fig. 6.26).
+SLOPE_LOAD_OFFSETS = (-10.0, -5.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
 SLOPE_OUTPUT_INTERVAL = 0.3125  # s
 QUICK_SLOPE_OFFSETS = (0.0, 4.0)
 # kPa. At 100 kPa every loaded slope (offsets 0-6 m) collapsed and stopped (CFL) by 1.6 s.
@@ -147,9 +159,14 @@ def block_load(pressure: float, time_function=None) -> dict:
 
 
 def block_variant(
-    base: dict, parameter: str, value: float, end_time: float = END_TIME
+    base: dict,
+    parameter: str,
+    value: float,
+    end_time: float = END_TIME,
+    others: dict | None = None,
 ) -> dict:
-    settings = dict(BLOCK_BASE, **{parameter: value})
+    """The baseline block with `parameter` = value and the settings in `others`."""
+    settings = dict(BLOCK_BASE, **(others or {}), **{parameter: value})
     materials = []
     for material in base["materials"]:
         changed = dict(
@@ -166,7 +183,8 @@ def block_variant(
     case.update(
         materials=materials,
         loads=[block_load(settings["pressure"])],
-        title=f"parametric block {parameter} = {value:g}",
+        title=f"parametric block {parameter} = {value:g}"
+        + "".join(f", {k} = {v:g}" for k, v in (others or {}).items()),
     )
     return case
 
@@ -318,37 +336,55 @@ def _block_part(context, outcome: StudyOutcome) -> None:
     sweeps = QUICK_BLOCK_SWEEPS if context.quick else BLOCK_SWEEPS
     end_time = QUICK_END_TIME if context.quick else END_TIME
     block_cases = [
-        (parameter, value, block_variant(block, parameter, value, end_time))
-        for parameter, values in sweeps.items()
+        (
+            name,
+            parameter,
+            value,
+            block_variant(block, parameter, value, end_time, others),
+        )
+        for name, (parameter, values, others) in sweeps.items()
         for value in values
     ]
     outs = [
         Path(p)
         for p in parallel_map(
             _mpm,
-            [c for _, _, c in block_cases],
+            [c for *_, c in block_cases],
             context.options.jobs,
             context.options.scheduler,
             "parametric block runs",
         )
     ]
+    runs = [
+        (name, parameter, value, case, out, read_index(out, "particles"))
+        for (name, parameter, value, case), out in zip(block_cases, outs)
+    ]
+    # Each sweep is read at the last output that every run of it reached: the softest and most
+    # loaded blocks collapse and stop early, and reading each run at its own end would mix the
+    # stop times into the trend.
+    common = {}
+    for name, *_, frames in runs:
+        common[name] = min(common.get(name, len(frames)), len(frames))
     rows = []
-    for (parameter, value, case), out in zip(block_cases, outs):
-        final = final_particles(out)
+    for name, parameter, value, case, out, frames in runs:
+        frame = frames.iloc[common[name] - 1]
+        boundary = read_index(out, "boundary")
+        boundary = boundary[boundary["step"] == frame["step"]].iloc[0]
         load = case["loads"][0]
-        last = read_index(out, "boundary").iloc[-1]
-        top0, lowest = surface_under(out, case, last)
+        top0, lowest = surface_under(out, case, boundary)
         status = run_status(out)
         rows.append(
             {
+                "sweep": name,
                 "parameter": parameter,
                 "value": value,
                 "settlement_centre_m": settlement_at_centre(
-                    final, case, 0.5 * sum(load["x_range"])
+                    read_particles(frame["file"]), case, 0.5 * sum(load["x_range"])
                 ),
                 "hole_depth_m": top0 - lowest,
                 "surface_at_t0_m": top0,
-                "time_s": float(last["time"]),
+                "time_s": float(frame["time"]),
+                "last_output_s": float(frames.iloc[-1]["time"]),
                 "status": status["status"],
                 "note": status["error"][:80],
             }
@@ -359,18 +395,20 @@ def _block_part(context, outcome: StudyOutcome) -> None:
             context.folder,
             sweep,
             "block_sweep",
-            f"Bearing block at t = {end_time:g} s (or when the run "
-            f"stopped): one parameter at a time (base nu 0.15, "
-            f"E 1000 kPa, strength x1, q 100 kPa)",
+            f"Bearing block, one parameter at a time around the thesis's baseline (nu "
+            f"0.15, E 1000 kPa, strength x1, q 50 kPa; table 6.2), and the load on the "
+            f"stiffer and on the stronger soil; each sweep at the last output every run of it "
+            f"reached (time_s; up to {end_time:g} s; last_output_s: where each run "
+            f"stopped)",
         )
     )
-    for parameter, group in sweep.groupby("parameter"):
+    for name, group in sweep.groupby("sweep", sort=False):
         outcome.figures.append(
             save_figure(
                 context.folder,
-                sweep_figure(group, parameter),
-                f"block_{parameter}",
-                f"Bearing block: {parameter}",
+                sweep_figure(group, group["parameter"].iloc[0]),
+                f"block_{name}",
+                f"Bearing block: {name}, at t = {group['time_s'].min():.3g} s",
             )
         )
 
@@ -511,9 +549,11 @@ def _slope_part(context, outcome: StudyOutcome) -> None:
         rows.append(
             {
                 "load_offset_m": offset,
+                "thesis_distance_m": -offset,
                 "x_range": f"{case['loads'][0]['x_range']}",
                 "time_s": float(row["time"]),
                 "hole_depth_m": top0 - lowest,
+                "hole_bottom_y_m": lowest,
                 "crest_dux_m": c[0] - c0[0],
                 "crest_duy_m": c[1] - c0[1],
                 "toe_dux_m": t[0] - t0[0],
@@ -572,20 +612,27 @@ def sweep_figure(group: pd.DataFrame, parameter: str):
 
 
 def position_figure(position: pd.DataFrame):
+    """Against the thesis's distance (crest to the load's edge, positive towards the face): the
+    hole (fig. 6.28) and the crest and toe displacements the load adds (figs. 6.29, 6.30).
+    """
     import matplotlib.pyplot as plt
 
-    figure, axis = plt.subplots(figsize=(6, 4))
-    for column in (
-        "hole_depth_m",
-        "crest_dux_m",
-        "crest_duy_m",
-        "toe_dux_m",
-        "toe_duy_m",
-    ):
-        axis.plot(position["load_offset_m"], position[column], "o-", label=column)
-    axis.set_xlabel("distance of the load from the crest [m]")
-    axis.set_ylabel("m")
-    axis.legend(fontsize=7)
+    position = position.sort_values("thesis_distance_m")
+    x = position["thesis_distance_m"]
+    figure, (hole, moved) = plt.subplots(1, 2, figsize=(11, 4))
+    hole.plot(x, position["hole_depth_m"], "o-", label="hole depth")
+    hole.plot(x, position["hole_bottom_y_m"], "s--", label="height of its bottom")
+    hole.set_ylabel("m")
+    hole.set_title("hole under the load (fig. 6.28)")
+    for column in ("crest_dux_m", "crest_duy_m", "toe_dux_m", "toe_duy_m"):
+        moved.plot(x, position[column], "o-", label=column)
+    moved.set_ylabel("m, loaded minus unloaded")
+    moved.set_title("crest and toe (figs. 6.29, 6.30)")
+    for axis in (hole, moved):
+        axis.set_xlabel("distance crest to load [m], > 0 towards the face")
+        axis.axvline(0.0, color="0.6", lw=0.8)
+        axis.legend(fontsize=7)
+    figure.tight_layout()
     return figure
 
 
