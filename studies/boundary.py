@@ -73,6 +73,7 @@ from studies.common.cases import (
 from studies.common.outcome import Headline, Metric, StudyOutcome
 from studies.common.outputs import (
     read_boundary,
+    read_run,
     read_index,
     read_particles,
     read_summary,
@@ -139,6 +140,7 @@ CASES = [
 ]
 assert [c.name for c in CASES] == [name for name, _ in BOUNDARY_CASES]
 QUICK_CASES = ("slope_k0", "block_k0")
+NODAL_FORCE_DETECTOR = "pfm_thesis_final"  # the thesis's fig. 6.6 came from its PFM
 QUICK_DETECTORS = ("pfm_thesis", "pfm_thesis_final", "pfm_improved")
 QUICK_TIMES = (0.0, 0.625)
 
@@ -181,6 +183,8 @@ def study_case(spec: BoundaryCase, detector, end_time: float) -> dict:
     )
     if spec.kind == "block":
         overrides["loads"] = [block_load()]
+        # The nodal forces of the load at the outputs, for the figure of thesis fig. 6.6.
+        overrides["output"]["nodal_loads"] = True
     if detector is not None:
         # The unloaded slope's boundary does not act on its motion: detect at the outputs
         # only (every step would cost ~20 MPM steps per step with the improved detector).
@@ -633,6 +637,32 @@ def run(context) -> StudyOutcome:
         outcome.reason = "partly not run: " + ", ".join(missing)
         if failed:
             outcome.reason += " (some failed, see error.log)"
+    # Thesis fig. 6.6: the load's nodal forces on the grid as the block deforms, for the
+    # thesis's start and detector (or the first detector that ran the block).
+    for spec in cases:
+        if spec.kind != "block":
+            continue
+        ran = [d for d in hosts if "value" in runs.get((spec.name, d), {})]
+        if not ran:
+            continue
+        detector = NODAL_FORCE_DETECTOR if NODAL_FORCE_DETECTOR in ran else ran[0]
+        figure = nodal_force_figure(
+            Path(runs[(spec.name, detector)]["value"]),
+            tasks[keys.index((spec.name, detector))]["case"],
+            spec.name,
+            detector,
+        )
+        if figure is None:
+            continue
+        outcome.figures.append(
+            save_figure(
+                context.folder,
+                figure,
+                f"nodal_forces_{spec.name}",
+                f"{spec.name}, {detector}: the load's nodal forces at the outputs "
+                f"(thesis fig. 6.6); red: nodes too light to carry a load",
+            )
+        )
     for (name, time), (reference, overlay, ignore) in overlays.items():
         outcome.figures.append(
             save_figure(
@@ -673,6 +703,72 @@ def traction_errors(series: pd.DataFrame, load: dict) -> dict:
         "lost_force_rel": float((loaded["load_lost_fy"].abs() / target).max()),
         "nominal_kn_per_m": nominal,
     }
+
+
+def nodal_force_figure(out: Path, case: dict, name: str, detector: str):
+    """One panel per output (thesis fig. 6.6): the points near the load, the detected boundary
+    and the load's nodal forces as arrows; nodes of mass <= 0.01 of a full cell (those the
+    load may not act on: mpm/solver/boundary_coupling.hpp) in red. None when the run wrote no
+    nodal forces."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    h = float(case["grid"]["cell_size"])
+    x0, x1 = case["loads"][0]["x_range"]
+    outputs = [
+        (o, forces)
+        for o in read_run(out).get("outputs", [])
+        if "nodal_loads" in o
+        for forces in [pd.read_csv(out / o["nodal_loads"])]
+        if len(forces)  # none before the first step
+    ][:4]
+    if not outputs:
+        return None
+    # t/m^3: the densest material's, unit weight / g (g = 9.81 when gravity is off, as the
+    # solver's mass)
+    g = float(case.get("gravity", {}).get("g", 9.81)) or 9.81
+    density = max(float(m["unit_weight"]) for m in case["materials"]) / g
+    particles = read_index(out, "particles")
+    figure, axes = plt.subplots(
+        len(outputs), 1, figsize=(10, 3.2 * len(outputs)), squeeze=False
+    )
+    for axis, (entry, forces) in zip(axes[:, 0], outputs):
+        frame = particles[particles["step"] == entry["step"]].iloc[0]
+        points = read_particles(frame["file"])
+        axis.plot(points["x"], points["y"], ".", color="0.7", markersize=2)
+        for loop in read_boundary(out / entry["boundary"]):
+            closed = (
+                np.vstack([loop.points, loop.points[:1]])
+                if loop.closed
+                else loop.points
+            )
+            axis.plot(closed[:, 0], closed[:, 1], color="tab:blue", linewidth=0.9)
+        scale = forces[["fx", "fy"]].abs().to_numpy().max() or 1.0
+        light = forces["mass"] <= 0.01 * density * h * h
+        for mask, colour in ((~light, "black"), (light, "red")):
+            f = forces[mask]
+            axis.quiver(
+                f["x"],
+                f["y"],
+                f["fx"] / scale,
+                f["fy"] / scale,
+                color=colour,
+                angles="xy",
+                scale_units="xy",
+                scale=1.0 / h,
+                width=0.002,
+            )
+        axis.set_xlim(x0 - 2.0, x1 + 2.0)
+        top = float(points["y"].max())
+        axis.set_ylim(top - 3.0, top + 0.75)
+        axis.set_aspect("equal")
+        axis.set_title(
+            f"{name}, {detector}, t = {entry['time']:.3g} s (largest force "
+            f"{scale:.3g} kN/m = one cell)"
+        )
+    axes[-1, 0].set_xlabel("x [m]")
+    figure.tight_layout()
+    return figure
 
 
 def overlay_figure(reference, overlay: dict, name: str, time: float, ignore=None):
