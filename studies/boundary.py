@@ -4,7 +4,8 @@ What it measures: the distance between a detected boundary and the boundary of t
 updated-Lagrangian FEM (UL-FEM: the MPM's own step without the Eulerian reset; its outer mesh
 boundary is exact) for the slope and the bearing block (q_v = 100 kPa on [5, 10] m, applied on
 the detected boundary), each from a zero-stress start (the thesis's), a K0 and a
-gravity-loading start, at
+gravity-loading start, and the slope with 50 kPa on 5 m of its top from 1 m behind the crest,
+applied at once on the detected boundary from zero stress (6.3.1, fig. 6.31), at
 t = 0, 0.625, 1.25 s (the thesis's comparison times; the full study adds 1.875 and 2.5 s for
 the slope; the loaded block collapses soon after 1.25 s, its runs end there): mean,
 RMS and max (Hausdorff), overall and per region (top, face, crest, toe, loaded strip, bottom;
@@ -20,26 +21,28 @@ the body rests on the edge of the detectors' field grid) are left out. Two measu
 
 For every detector: the thesis PFM plain (fixed kernels, no filter, contour level 0) and as the
 thesis ran it (deformed kernels within the size limits, Gaussian filter, lowered contour level:
-studies.common.detectors.THESIS_FINAL_PFM), improved PFM, SMM, VOF, density and the library baseline
-(scikit-image; it does not run inside pfm-mpm, so its "total" is computed on the particles of
-the improved-PFM run). The loaded block detects every step (its load follows the boundary);
-the unloaded slope only at the output steps (same boundaries, a fraction of the cost). Loaded
-runs also give the traction error from ``timeseries.csv``: the
-applied vertical force against the exact resultant of the load on the detected curve, that
-resultant against q (x1 - x0) (eq. 6.13), and the force lost on nodes of empty cells (6.2);
+studies.common.detectors.THESIS_FINAL_PFM), improved PFM, SMM, VOF, density and the library
+baseline (scikit-image; it does not run inside pfm-mpm, so its "total" is computed on the
+particles of the improved-PFM run). The loaded block and slope detect every step (their load
+follows the boundary); the unloaded slope only at the output steps (same boundaries, a fraction
+of the cost). Loaded runs also give the traction error from ``timeseries.csv``: the applied
+vertical force against the exact resultant of the load on the detected curve, that resultant
+against q (x1 - x0) (eq. 6.13), and the force lost on nodes of empty cells (6.2); the block
+runs the nodal forces at the outputs (fig. 6.6, ``nodal_forces_<case>.png``);
 and the detection cost per call (run.json ``summary.detection``).
 
-Starts. ``zero``: the thesis's, no initial stress: gravity acts from t = 0 and the body
-settles under it while it is compared (the thesis's figures are for this start). ``k0``: the K0 stress of the case reader; on the thesis's soils the K0 state violates
-Tresca below about 2.4 m (block, nu = 0.15) and 3.9 m (slope), so the first steps yield there.
-``gravity``: the damped gravity-loading procedure, stopped at a kinetic-energy ratio of 1e-2:
-with the softening soil (cohesion 20 -> 10 -> 5 kPa) the MPM's ratio levels off near 5e-3 and
-never reaches the default 1e-6 (there is no static equilibrium once softening starts, see
-fem_reference/README.md), and the deformed state it reaches is the start (t = 0). The two
-solvers stop at different stages of that collapse: on the slope the MPM reaches the ratio after
-~240 steps (crest still near 9.3 m), the UL-FEM after ~2100 steps (crest down to ~8.6 m), so the
-``total`` measure of the gravity cases compares two different starting states (about 1.4 m
-apart at t = 0); ``detector_only`` is not affected.
+Starts. ``zero``: the thesis's, no initial stress: gravity acts from t = 0 and the body settles
+under it while it is compared (the thesis's figures are for this start). ``k0``: the K0 stress
+of the case reader; on the thesis's soils the K0 state violates Tresca below about 2.4 m (block,
+nu = 0.15) and 3.9 m (slope), so the first steps yield there. ``gravity``: the damped gravity-
+loading procedure, stopped at a kinetic-energy ratio of 1e-2: with the softening soil (cohesion
+20 -> 10 -> 5 kPa) the MPM's ratio levels off near 5e-3 and never reaches the default 1e-6
+(there is no static equilibrium once softening starts, see fem_reference/README.md), and the
+deformed state it reaches is the start (t = 0). The two solvers stop at different stages of that
+collapse: on the slope the MPM reaches the ratio after ~240 steps (crest still near 9.3 m), the
+UL-FEM after ~2100 steps (crest down to ~8.6 m), so the ``total`` measure of the gravity cases
+compares two different starting states (about 1.4 m apart at t = 0); ``detector_only`` is not
+affected.
 
 Why: the thesis judged its boundary by eye (figures 5.33, 5.34: ~0.3 m on the face at t = 0,
 ~0.15-0.2 m at 0.625 s); this study gives the numbers, per region, and separates the detector's
@@ -126,6 +129,17 @@ class BoundaryCase:
     base: str  # cases/<base>.json
     kind: str  # "slope" or "block"
     overrides: dict = field(default_factory=dict)
+    # slope: a SLOPE_PRESSURE load over SLOPE_LOAD_WIDTH on the detected top, its near edge this
+    # far (m) behind the crest (thesis 6.3.1); None: unloaded
+    load_behind_crest: float | None = None
+
+    @property
+    def loaded(self) -> bool:
+        return self.kind == "block" or self.load_behind_crest is not None
+
+
+SLOPE_PRESSURE = 50.0  # kPa, table 6.3
+SLOPE_LOAD_WIDTH = 5.0  # m
 
 
 SLOPE = "thesis55_slope_dynamic_zero_start"  # the thesis cases, chapter 5 and 6.2
@@ -134,6 +148,7 @@ CASES = [
     BoundaryCase("slope_zero", SLOPE, "slope"),  # the base cases start from zero stress
     BoundaryCase("slope_k0", SLOPE, "slope", {"initial_stress": K0_START}),
     BoundaryCase("slope_gravity", SLOPE, "slope", {"initial_stress": GRAVITY_START}),
+    BoundaryCase("slope_loaded_zero", SLOPE, "slope", load_behind_crest=1.0),
     BoundaryCase("block_zero", BLOCK, "block"),
     BoundaryCase("block_k0", BLOCK, "block", {"initial_stress": K0_START}),
     BoundaryCase("block_gravity", BLOCK, "block", {"initial_stress": GRAVITY_START}),
@@ -153,7 +168,7 @@ EXPECTED_METRICS = [
 ] + [
     f"boundary.{c.name}.traction.{d}.total_force_rel_error"
     for c in CASES
-    if c.kind == "block"
+    if c.loaded
     for d, _ in DETECTORS
     if det.in_run(d)
 ]
@@ -166,6 +181,22 @@ def block_load(pressure: float = BLOCK_PRESSURE) -> dict:
         "type": "vertical_pressure",
         "pressure": pressure,
         "x_range": [5.0, 10.0],
+        "apply_on": "detected_boundary",
+        "time_function": {"type": "constant"},
+    }
+
+
+def slope_load(base: dict, behind_crest: float) -> dict:
+    """SLOPE_PRESSURE over SLOPE_LOAD_WIDTH on the slope's detected top, its near edge
+    `behind_crest` m behind the crest, applied at once (thesis 6.3, table 6.3)."""
+    crest, toe = inclined_edge(body_polygon(base))
+    away = 1.0 if crest[0] > toe[0] else -1.0  # from the face into the top
+    near = crest[0] + away * behind_crest
+    far = near + away * SLOPE_LOAD_WIDTH
+    return {
+        "type": "vertical_pressure",
+        "pressure": SLOPE_PRESSURE,
+        "x_range": [min(near, far), max(near, far)],
         "apply_on": "detected_boundary",
         "time_function": {"type": "constant"},
     }
@@ -185,10 +216,12 @@ def study_case(spec: BoundaryCase, detector, end_time: float) -> dict:
         overrides["loads"] = [block_load()]
         # The nodal forces of the load at the outputs, for the figure of thesis fig. 6.6.
         overrides["output"]["nodal_loads"] = True
+    if spec.load_behind_crest is not None:
+        overrides["loads"] = [slope_load(base, spec.load_behind_crest)]
     if detector is not None:
-        # The unloaded slope's boundary does not act on its motion: detect at the outputs
+        # An unloaded slope's boundary does not act on its motion: detect at the outputs
         # only (every step would cost ~20 MPM steps per step with the improved detector).
-        every = 1 if spec.kind == "block" else OUTPUTS_ONLY
+        every = 1 if spec.loaded else OUTPUTS_ONLY
         overrides["detection"] = det.detection_block(detector, every_steps=every)
     case = derive(base, overrides)
     case["title"] = f"boundary study: {spec.name}" + (
@@ -519,7 +552,7 @@ def run(context) -> StudyOutcome:
                 "detect_calls": detection.get("calls"),
                 "detect_seconds_per_call": detection.get("seconds_per_call"),
             }
-            if spec.kind == "block":
+            if spec.loaded:
                 row.update(traction_errors(read_timeseries(out), case["loads"][0]))
                 if row.get("total_force_rel_error") is not None:
                     outcome.metrics.append(
