@@ -34,15 +34,15 @@ and the detection cost per call (run.json ``summary.detection``).
 Starts. ``zero``: the thesis's, no initial stress: gravity acts from t = 0 and the body settles
 under it while it is compared (the thesis's figures are for this start). ``k0``: the K0 stress
 of the case reader; on the thesis's soils the K0 state violates Tresca below about 2.4 m (block,
-nu = 0.15) and 3.9 m (slope), so the first steps yield there. ``gravity``: the damped gravity-
-loading procedure, stopped at a kinetic-energy ratio of 1e-2: with the softening soil (cohesion
-20 -> 10 -> 5 kPa) the MPM's ratio levels off near 5e-3 and never reaches the default 1e-6
-(there is no static equilibrium once softening starts, see fem_reference/README.md), and the
-deformed state it reaches is the start (t = 0). The two solvers stop at different stages of that
-collapse: on the slope the MPM reaches the ratio after ~240 steps (crest still near 9.3 m), the
-UL-FEM after ~2100 steps (crest down to ~8.6 m), so the ``total`` measure of the gravity cases
-compares two different starting states (about 1.4 m apart at t = 0); ``detector_only`` is not
-affected.
+nu = 0.15) and 3.9 m (slope), so the first steps yield there. ``gravity``: the damped
+gravity-loading procedure, stopped at a kinetic-energy ratio of 1e-2: with the softening soil
+(cohesion 20 -> 10 -> 5 kPa) the MPM's ratio levels off near 5e-3 and never reaches the default
+1e-6 (there is no static equilibrium once softening starts, see fem_reference/README.md), and
+the deformed state it reaches is the start (t = 0). The two solvers stop at different stages of
+that collapse: on the slope the MPM reaches the ratio after ~240 steps (crest still near 9.3 m),
+the UL-FEM after ~2100 steps (crest down to ~8.6 m), so the ``total`` measure of the gravity
+cases compares two different starting states (about 1.4 m apart at t = 0); ``detector_only`` is
+not affected.
 
 Why: the thesis judged its boundary by eye (figures 5.33, 5.34: ~0.3 m on the face at t = 0,
 ~0.15-0.2 m at 0.625 s); this study gives the numbers, per region, and separates the detector's
