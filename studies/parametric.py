@@ -113,6 +113,7 @@ SLOPE_LOAD_WIDTH = 5.0  # m
 # distances (fig. 6.28): -5 covers the face (4 m wide) and 1 m in front of the toe, -10 lies
 # on the ground in front of the toe, 1 m from it (fig. 6.26).
 SLOPE_LOAD_OFFSETS = (-10.0, -5.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+ON_FACE_OFFSET = -5.0
 SLOPE_OUTPUT_INTERVAL = 0.3125  # s
 QUICK_SLOPE_OFFSETS = (0.0, 4.0)
 # kPa. At 100 kPa every loaded slope (offsets 0-6 m) collapsed and stopped (CFL) by 1.6 s.
@@ -365,7 +366,7 @@ def _block_part(context, outcome: StudyOutcome) -> None:
     common = {}
     for name, *_, frames in runs:
         common[name] = min(common.get(name, len(frames)), len(frames))
-    rows = []
+    rows, states = [], {}  # states: sweep -> [(value, case, particles, boundary file)]
     for name, parameter, value, case, out, frames in runs:
         frame = frames.iloc[common[name] - 1]
         boundary = read_index(out, "boundary")
@@ -373,13 +374,15 @@ def _block_part(context, outcome: StudyOutcome) -> None:
         load = case["loads"][0]
         top0, lowest = surface_under(out, case, boundary)
         status = run_status(out)
+        particles = read_particles(frame["file"])
+        states.setdefault(name, []).append((value, case, particles, boundary["file"]))
         rows.append(
             {
                 "sweep": name,
                 "parameter": parameter,
                 "value": value,
                 "settlement_centre_m": settlement_at_centre(
-                    read_particles(frame["file"]), case, 0.5 * sum(load["x_range"])
+                    particles, case, 0.5 * sum(load["x_range"])
                 ),
                 "hole_depth_m": top0 - lowest,
                 "surface_at_t0_m": top0,
@@ -403,12 +406,22 @@ def _block_part(context, outcome: StudyOutcome) -> None:
         )
     )
     for name, group in sweep.groupby("sweep", sort=False):
+        time = group["time_s"].min()
         outcome.figures.append(
             save_figure(
                 context.folder,
                 sweep_figure(group, group["parameter"].iloc[0]),
                 f"block_{name}",
-                f"Bearing block: {name}, at t = {group['time_s'].min():.3g} s",
+                f"Bearing block: {name}, at t = {time:.3g} s",
+            )
+        )
+        outcome.figures.append(
+            save_figure(
+                context.folder,
+                regions_figure(states[name], group["parameter"].iloc[0], time),
+                f"block_{name}_regions",
+                f"Bearing block: {name}, the points' softening stage and the detected "
+                f"boundary at t = {time:.3g} s (thesis figs. 6.15-6.22)",
             )
         )
 
@@ -534,22 +547,42 @@ def _slope_part(context, outcome: StudyOutcome) -> None:
     tolerance = 0.5 * SLOPE_OUTPUT_INTERVAL
     first = read_particles(frames[0].iloc[0]["file"])
     crest, toe = (tuple(p) for p in corner_points(first, slope))
-    unloaded = read_particles(row_at_time(frames[0], time, tolerance)["file"])
+    unloaded_row = row_at_time(frames[0], time, tolerance)
+    unloaded = read_particles(unloaded_row["file"])
     c0, t0 = displacement_near(unloaded, crest), displacement_near(unloaded, toe)
     rows = []
+    surfaces = [
+        (
+            "unloaded",
+            row_at_time(
+                read_index(outs[0], "boundary"), float(unloaded_row["time"]), 1e-9
+            )["file"],
+            None,
+        )
+    ]
+    propelled = None
     for (offset, case), out, index in zip(slope_cases[1:], outs[1:], frames[1:]):
         row = row_at_time(index, time, tolerance)
         loaded = read_particles(row["file"])
         boundary_row = row_at_time(
             read_index(out, "boundary"), float(row["time"]), 1e-9
         )
+        surfaces.append(
+            (
+                f"load at {0.0 - offset:g} m",
+                boundary_row["file"],
+                case["loads"][0]["x_range"],
+            )
+        )
+        if offset == ON_FACE_OFFSET:
+            propelled = (f"load at {0.0 - offset:g} m (on the face)", loaded)
         top0, lowest = surface_under(out, case, boundary_row)
         c, t = displacement_near(loaded, crest), displacement_near(loaded, toe)
         status = run_status(out)
         rows.append(
             {
                 "load_offset_m": offset,
-                "thesis_distance_m": -offset,
+                "thesis_distance_m": 0.0 - offset,
                 "x_range": f"{case['loads'][0]['x_range']}",
                 "time_s": float(row["time"]),
                 "hole_depth_m": top0 - lowest,
@@ -571,6 +604,14 @@ def _slope_part(context, outcome: StudyOutcome) -> None:
             f"Slope, {SLOPE_PRESSURE:g} kPa over 5 m, at t = {time:.3g} s (the last output "
             f"every run reached): effect of the load position (figs. 6.28-6.30); "
             f"displacements added by the load (loaded minus unloaded)",
+        )
+    )
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            surfaces_figure(surfaces, propelled, time),
+            "slope_surfaces",
+            f"Slope: the detected surface for every load position, t = {time:.3g} s",
         )
     )
     outcome.figures.append(
@@ -608,6 +649,113 @@ def sweep_figure(group: pd.DataFrame, parameter: str):
     axis.set_xlabel(parameter)
     axis.set_ylabel("m")
     axis.legend()
+    return figure
+
+
+REGION_COLOURS = ("#c8c8c8", "#f2c14e", "#f78154", "#9b1d20")
+
+
+def softening_regions(eps_p: np.ndarray, cohesion) -> tuple[np.ndarray, list[str]]:
+    """Each point's stage of the cohesion law (thesis figs. 6.19-6.21): 0 elastic so far (eps_p
+    = 0), 1 softening towards the peak cohesion, 2 towards the residual one, 3 residual; the
+    labels. A constant cohesion has stages 0 and 1 (yielded) only."""
+    if not isinstance(cohesion, dict) or "peak_plastic_strain" not in cohesion:
+        return (eps_p > 0).astype(int), ["elastic", "yielded"]
+    peak, residual = (
+        cohesion["peak_plastic_strain"],
+        cohesion["residual_plastic_strain"],
+    )
+    stage = np.where(
+        eps_p <= 0, 0, np.where(eps_p < peak, 1, np.where(eps_p < residual, 2, 3))
+    )
+    return stage, [
+        "elastic",
+        f"to peak c (eps_p < {peak:g})",
+        f"to residual c (eps_p < {residual:g})",
+        "residual c",
+    ]
+
+
+def regions_figure(states: list, parameter: str, time: float):
+    """One panel per run of a sweep: the points coloured by their stage of the cohesion law
+    and the detected boundary (thesis figs. 6.15-6.22 show these fields)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    figure, axes = plt.subplots(
+        len(states), 1, figsize=(9, 2.6 * len(states)), squeeze=False
+    )
+    for axis, (value, case, particles, boundary_file) in zip(axes[:, 0], states):
+        stage, labels = softening_regions(
+            particles["eps_p"].to_numpy(), case["materials"][0].get("cohesion")
+        )
+        axis.scatter(
+            particles["x"],
+            particles["y"],
+            c=[REGION_COLOURS[k] for k in stage],
+            s=3,
+            linewidths=0,
+        )
+        for loop in read_boundary(boundary_file):
+            closed = (
+                np.vstack([loop.points, loop.points[:1]])
+                if loop.closed
+                else loop.points
+            )
+            axis.plot(closed[:, 0], closed[:, 1], color="tab:blue", linewidth=0.8)
+        axis.set_aspect("equal")
+        axis.set_title(f"{parameter} = {value:g}, t = {time:.3g} s", fontsize=9)
+    axes[0, 0].legend(
+        handles=[
+            Patch(color=REGION_COLOURS[k], label=label)
+            for k, label in enumerate(labels)
+        ],
+        fontsize=7,
+        loc="lower left",
+        ncol=4,
+    )
+    figure.tight_layout()
+    return figure
+
+
+def surfaces_figure(surfaces: list, propelled, time: float):
+    """The detected surface of the slope for every load position against the unloaded one
+    (thesis figs. 6.24-6.26), and the points of the load on the face (fig. 6.27)."""
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(
+        2 if propelled is not None else 1, 1, figsize=(11, 8), squeeze=False
+    )
+    top = axes[0, 0]
+    for k, (label, boundary_file, load) in enumerate(surfaces):
+        loops = read_boundary(boundary_file)
+        style = {"color": "black", "linewidth": 2.0} if load is None else {"lw": 0.9}
+        for i, loop in enumerate(loops):
+            closed = (
+                np.vstack([loop.points, loop.points[:1]])
+                if loop.closed
+                else loop.points
+            )
+            (line,) = top.plot(
+                closed[:, 0], closed[:, 1], label=label if i == 0 else None, **style
+            )
+            style = {"color": line.get_color(), "lw": style.get("lw", 2.0)}
+        if load is not None:
+            bar = 10.4 + 0.15 * k
+            top.plot(load, [bar, bar], color=line.get_color(), lw=3)
+    top.set_ylim(4.5, 12.0)
+    top.set_aspect("equal")
+    top.legend(fontsize=7, ncol=3)
+    top.set_title(
+        f"detected surfaces at t = {time:.3g} s; bars: the loads (thesis figs. 6.24-6.26)"
+    )
+    if propelled is not None:
+        label, particles = propelled
+        points = axes[1, 0]
+        points.plot(particles["x"], particles["y"], ".", markersize=2, color="0.3")
+        points.set_aspect("equal")
+        points.set_title(f"{label}: the points at t = {time:.3g} s (thesis fig. 6.27)")
+    figure.tight_layout()
     return figure
 
 
