@@ -744,7 +744,6 @@ def nodal_force_figure(out: Path, case: dict, name: str, detector: str):
     load may not act on: mpm/solver/boundary_coupling.hpp) in red. None when the run wrote no
     nodal forces."""
     import matplotlib.pyplot as plt
-    import numpy as np
 
     h = float(case["grid"]["cell_size"])
     x0, x1 = case["loads"][0]["x_range"]
@@ -770,11 +769,7 @@ def nodal_force_figure(out: Path, case: dict, name: str, detector: str):
         points = read_particles(frame["file"])
         axis.plot(points["x"], points["y"], ".", color="0.7", markersize=2)
         for loop in read_boundary(out / entry["boundary"]):
-            closed = (
-                np.vstack([loop.points, loop.points[:1]])
-                if loop.closed
-                else loop.points
-            )
+            closed = loop.drawn()
             axis.plot(closed[:, 0], closed[:, 1], color="tab:blue", linewidth=0.9)
         scale = forces[["fx", "fy"]].abs().to_numpy().max() or 1.0
         light = forces["mass"] <= 0.01 * density * h * h
@@ -821,11 +816,7 @@ def overlay_figure(reference, overlay: dict, name: str, time: float, ignore=None
         ] + [(d, l, {"linewidth": 0.9}) for d, l in overlay[measure].items()]:
             color = None
             for i, loop in enumerate(loops):
-                points = (
-                    np.vstack([loop.points, loop.points[:1]])
-                    if loop.closed
-                    else loop.points
-                )
+                points = loop.drawn()
                 (line,) = axis.plot(
                     points[:, 0],
                     points[:, 1],

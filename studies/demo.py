@@ -316,11 +316,7 @@ def figures(case: dict, outs: dict, table: pd.DataFrame, out: Path) -> list:
     ]
     for label, loops, style in styles:
         for i, loop in enumerate(loops):
-            p = (
-                np.vstack([loop.points, loop.points[:1]])
-                if loop.closed
-                else loop.points
-            )
+            p = loop.drawn()
             axis.plot(p[:, 0], p[:, 1], label=label if i == 0 else None, **style)
     axis.set_aspect("equal")
     axis.set_xlabel("x [m]")

@@ -64,6 +64,12 @@ class Polyline:
         a, b = self.segments()
         return float(np.sum(np.hypot(*(b - a).T)))
 
+    def drawn(self) -> np.ndarray:
+        """The points to draw: a closed loop repeats its first point at the end."""
+        if self.closed and len(self.points):
+            return np.vstack([self.points, self.points[:1]])
+        return self.points
+
 
 def read_loops(path: Path) -> list[Polyline]:
     frame = pd.read_csv(path)

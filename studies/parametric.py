@@ -697,11 +697,7 @@ def regions_figure(states: list, parameter: str, time: float):
             linewidths=0,
         )
         for loop in read_boundary(boundary_file):
-            closed = (
-                np.vstack([loop.points, loop.points[:1]])
-                if loop.closed
-                else loop.points
-            )
+            closed = loop.drawn()
             axis.plot(closed[:, 0], closed[:, 1], color="tab:blue", linewidth=0.8)
         axis.set_aspect("equal")
         axis.set_title(f"{parameter} = {value:g}, t = {time:.3g} s", fontsize=9)
@@ -731,11 +727,7 @@ def surfaces_figure(surfaces: list, propelled, time: float):
         loops = read_boundary(boundary_file)
         style = {"color": "black", "linewidth": 2.0} if load is None else {"lw": 0.9}
         for i, loop in enumerate(loops):
-            closed = (
-                np.vstack([loop.points, loop.points[:1]])
-                if loop.closed
-                else loop.points
-            )
+            closed = loop.drawn()
             (line,) = top.plot(
                 closed[:, 0], closed[:, 1], label=label if i == 0 else None, **style
             )
