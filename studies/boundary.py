@@ -28,7 +28,8 @@ follows the boundary); the unloaded slope only at the output steps (same boundar
 of the cost). Loaded runs also give the traction error from ``timeseries.csv``: the applied
 vertical force against the exact resultant of the load on the detected curve, that resultant
 against q (x1 - x0) (eq. 6.13), and the force lost on nodes of empty cells (6.2); the block
-runs the nodal forces at the outputs (fig. 6.6, ``nodal_forces_<case>.png``);
+runs the nodal forces at the outputs (figs. 6.6, 6.14, ``nodal_forces_<case>_<detector>.png``,
+and from zero stress once more with the points at the cells' Gauss points, fig. 6.13);
 and the detection cost per call (run.json ``summary.detection``).
 
 Starts. ``zero``: the thesis's, no initial stress: gravity acts from t = 0 and the body settles
@@ -156,6 +157,7 @@ CASES = [
 assert [c.name for c in CASES] == [name for name, _ in BOUNDARY_CASES]
 QUICK_CASES = ("slope_k0", "block_k0")
 NODAL_FORCE_DETECTOR = "pfm_thesis_final"  # the thesis's fig. 6.6 came from its PFM
+PLACEMENT_CASE = "block_zero"  # the thesis's figs. 6.13, 6.14 compare on its own start
 QUICK_DETECTORS = ("pfm_thesis", "pfm_thesis_final", "pfm_improved")
 QUICK_TIMES = (0.0, 0.625)
 
@@ -318,6 +320,14 @@ def run(context) -> StudyOutcome:
                 }
             )
             keys.append((spec.name, detector))
+    # Thesis fig. 6.13: the block from zero stress with its points at the cells' Gauss points
+    # instead of equally spaced, for the nodal forces of the thesis's PFM.
+    gauss = [c for c in cases if c.name == PLACEMENT_CASE]
+    if gauss and NODAL_FORCE_DETECTOR in hosts:
+        case = study_case(gauss[0], NODAL_FORCE_DETECTOR, case_end(gauss[0], end_time))
+        case["bodies"][0]["placement"] = "gauss"
+        tasks.append({"case": case, "solver": "mpm"})
+        keys.append((f"{PLACEMENT_CASE}_gauss", NODAL_FORCE_DETECTOR))
     runs = dict(
         zip(
             keys,
@@ -670,19 +680,21 @@ def run(context) -> StudyOutcome:
         outcome.reason = "partly not run: " + ", ".join(missing)
         if failed:
             outcome.reason += " (some failed, see error.log)"
-    # Thesis fig. 6.6: the load's nodal forces on the grid as the block deforms, for the
-    # thesis's start and detector (or the first detector that ran the block).
-    for spec in cases:
-        if spec.kind != "block":
+    # Thesis figs. 6.6, 6.13, 6.14: the load's nodal forces on the grid as the block deforms,
+    # with the thesis's PFM as run on every start; on the zero start also with the plain PFM
+    # (no filter: fig. 6.14) and with the points at the Gauss points (fig. 6.13).
+    figures = [(c.name, NODAL_FORCE_DETECTOR) for c in cases if c.kind == "block"]
+    figures += [
+        (PLACEMENT_CASE, "pfm_thesis"),
+        (f"{PLACEMENT_CASE}_gauss", NODAL_FORCE_DETECTOR),
+    ]
+    for name, detector in figures:
+        if "value" not in runs.get((name, detector), {}):
             continue
-        ran = [d for d in hosts if "value" in runs.get((spec.name, d), {})]
-        if not ran:
-            continue
-        detector = NODAL_FORCE_DETECTOR if NODAL_FORCE_DETECTOR in ran else ran[0]
         figure = nodal_force_figure(
-            Path(runs[(spec.name, detector)]["value"]),
-            tasks[keys.index((spec.name, detector))]["case"],
-            spec.name,
+            Path(runs[(name, detector)]["value"]),
+            tasks[keys.index((name, detector))]["case"],
+            name,
             detector,
         )
         if figure is None:
@@ -691,9 +703,9 @@ def run(context) -> StudyOutcome:
             save_figure(
                 context.folder,
                 figure,
-                f"nodal_forces_{spec.name}",
-                f"{spec.name}, {detector}: the load's nodal forces at the outputs "
-                f"(thesis fig. 6.6); red: nodes too light to carry a load",
+                f"nodal_forces_{name}_{detector}",
+                f"{name}, {detector}: the load's nodal forces at the outputs "
+                f"(thesis figs. 6.6, 6.13, 6.14); red: nodes too light to carry a load",
             )
         )
     for (name, time), (reference, overlay, ignore) in overlays.items():
