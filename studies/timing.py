@@ -11,7 +11,9 @@ the slope; the throughput in particle-steps per second.
 Cases: a block of soil (4 points per cell, linear elastic, gravity, K0 start, h = 0.5 m)
 sized to N points, run for a fixed number of steps with a fixed dt (about 3e6 particle-steps
 per run, at least 10 and at most 100 steps) with the improved detector every step, and the slope
-(``cases/thesis55_slope_dynamic_zero_start.json``, the thesis-sized problem, 0.5 s = 54 steps) with each detector. The slope
+(``cases/thesis55_slope_dynamic_zero_start.json``, the thesis-sized problem, K0 start, 0.5 s =
+54 steps) with each detector, and from zero stress (``slope_zero``, the thesis's start) with the
+thesis PFM plain and as run and the improved PFM. The slope
 is also timed through its failure and run-out (``slope_runout``: 2.5 s = 270 steps, the boundary
 study's last time, improved and thesis PFM): the body then lies spread and sheared, its points
 no longer 2 x 2 per cell, and both the step (plastic points) and the detection (a wider band)
@@ -64,6 +66,8 @@ SLOPE_END_TIME = 0.5  # s: 54 steps of the slope
 QUICK_SLOPE_END_TIME = 0.1  # s: 11 steps
 RUNOUT_END_TIME = 2.5  # s: 270 steps of the slope, through its failure
 RUNOUT_DETECTORS = ("pfm_improved", "pfm_thesis")
+# The slope from zero stress (the thesis's start), beside the K0 start of every detector.
+ZERO_START_DETECTORS = ("pfm_thesis", "pfm_thesis_final", "pfm_improved")
 QUICK_RUNOUT_DETECTORS = ("pfm_improved",)
 BOUNDARY_STAGES = ("detect", "bezier", "traction")
 THESIS_DETECT_S, THESIS_STEP_S, THESIS_POINTS = 0.047, 0.048, 3368
@@ -305,6 +309,11 @@ def run(context) -> StudyOutcome:
         else:
             rows = attempt(f"slope {name}", lambda: library_timings(slope, REPETITIONS))
             raw += rows or []
+    if not quick:
+        # The thesis's start: no initial stress, the slope settling under gravity from t = 0.
+        zero = derive(slope, {"initial_stress": {"method": "zero"}})
+        for name in ZERO_START_DETECTORS:
+            raw += slope_rows(zero, "slope_zero", name)
     runout = derive(
         slope,
         {
