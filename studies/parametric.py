@@ -29,7 +29,8 @@ What it measures:
 Starts: every other run starts from the gravity-loading state (kinetic-energy ratio 1e-2, see
 studies.boundary), not from K0: with K0 = nu / (1 - nu) the Tresca block violates the yield
 condition below about 2.4 m for nu = 0.15 (|sxx - syy| / 2 > c), so a K0 start would mix the
-response to the load with the collapse of the K0 state. Detection: improved PFM every step with
+response to the load with the collapse of the K0 state. The load sweep is also run from zero
+stress (``pressure_zero_start``), as the thesis ran it: gravity and load at once. Detection: improved PFM every step with
 a fixed field refinement of 4 (its automatic refinement climbs to 10-32 on the deforming block
 and costs ~30 times as much; the boundaries agree within 0.014 m up to 0.625 s).
 
@@ -81,6 +82,7 @@ from studies.common.study import run_parts
 from studies.common.tables import save_figure, write_table
 from studies.metrics import grid_edge_band
 
+ZERO_START = {"method": "zero"}  # the thesis's: gravity and load at once from no stress
 # The thesis's baseline (table 6.2): q_v = 50 kPa.
 BLOCK_BASE = {
     "poisson_ratio": 0.15,
@@ -88,9 +90,10 @@ BLOCK_BASE = {
     "strength": 1.0,
     "pressure": 50.0,
 }
-# name -> (parameter, values, the other settings that differ from BLOCK_BASE): one parameter at
-# a time around the baseline, and the thesis's combinations: the load on the stiffer soil
-# (6.2.3, fig. 6.18) and on the stronger one (6.2.4, fig. 6.21).
+# name -> (parameter, values, the other settings that differ from BLOCK_BASE, and the start):
+# one parameter at a time around the baseline, the thesis's combinations, the load on the
+# stiffer soil (6.2.3, fig. 6.18) and on the stronger one (6.2.4, fig. 6.21), and the load
+# from the thesis's zero-stress start.
 BLOCK_SWEEPS = {
     "poisson_ratio": ("poisson_ratio", (0.15, 0.25, 0.35, 0.45), {}),
     "youngs_modulus": ("youngs_modulus", (1.0e3, 1.0e4, 1.0e5), {}),
@@ -98,6 +101,7 @@ BLOCK_SWEEPS = {
     "pressure": ("pressure", (50.0, 100.0, 150.0), {}),
     "pressure_at_E_1e4": ("pressure", (50.0, 100.0, 150.0), {"youngs_modulus": 1.0e4}),
     "pressure_at_strength_x2": ("pressure", (50.0, 100.0, 150.0), {"strength": 2.0}),
+    "pressure_zero_start": ("pressure", (50.0, 100.0, 150.0), {"start": ZERO_START}),
 }
 QUICK_BLOCK_SWEEPS = {"pressure": ("pressure", (50.0, 100.0), {})}
 END_TIME = 2.5  # s
@@ -140,9 +144,11 @@ QUICK_CURVE_MODULI = (1.0e4,)
 EXPECTED_METRICS = ["parametric.block.base.settlement_rel_diff_dolfinx"]
 
 
-def _common(base: dict, end_time: float = END_TIME) -> dict:
+def _common(
+    base: dict, end_time: float = END_TIME, start: dict = GRAVITY_START
+) -> dict:
     return {
-        "initial_stress": GRAVITY_START,
+        "initial_stress": dict(start),
         "time": {"end_time": end_time},
         "output": {"interval": OUTPUT_INTERVAL, "timeseries_interval": 0.05},
         "detection": dict(DETECTOR_BLOCK),
@@ -166,8 +172,11 @@ def block_variant(
     end_time: float = END_TIME,
     others: dict | None = None,
 ) -> dict:
-    """The baseline block with `parameter` = value and the settings in `others`."""
-    settings = dict(BLOCK_BASE, **(others or {}), **{parameter: value})
+    """The baseline block with `parameter` = value and the settings in `others` (its "start":
+    the initial stress, GRAVITY_START by default)."""
+    others = dict(others or {})
+    start = others.pop("start", GRAVITY_START)
+    settings = dict(BLOCK_BASE, **others, **{parameter: value})
     materials = []
     for material in base["materials"]:
         changed = dict(
@@ -180,12 +189,13 @@ def block_variant(
                 changed["cohesion"], settings["strength"]
             )
         materials.append(changed)
-    case = derive(base, _common(base, end_time))
+    case = derive(base, _common(base, end_time, start))
     case.update(
         materials=materials,
         loads=[block_load(settings["pressure"])],
         title=f"parametric block {parameter} = {value:g}"
-        + "".join(f", {k} = {v:g}" for k, v in (others or {}).items()),
+        + "".join(f", {k} = {v:g}" for k, v in others.items())
+        + ("" if start == GRAVITY_START else f", {start['method']} start"),
     )
     return case
 
