@@ -9,6 +9,7 @@ validated like the C++ reader does and listed in Case.ignored with the reason.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
@@ -139,6 +140,20 @@ class Material:
     friction_angle: float = 0.0
     dilation_angle: float = 0.0
     tension_cutoff: Optional[float] = None
+    # m: the band width the cohesion law is meant for (the C++ reader's softening_length): the
+    # model scales the law's plastic strains by softening_length / element size
+    softening_length: Optional[float] = None
+
+    def regularised(self, element_size: float) -> "Material":
+        """This material with its cohesion law's plastic strains scaled by softening_length /
+        element_size (itself without a softening length)."""
+        if self.softening_length is None:
+            return self
+        scale = self.softening_length / element_size
+        return dataclasses.replace(
+            self,
+            cohesion=Cohesion([x * scale for x in self.cohesion.x], self.cohesion.y),
+        )
 
     @property
     def shear_modulus(self):
@@ -558,7 +573,7 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         )
         keys = {"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight"}
         if model != "linear_elastic":
-            keys.add("cohesion")
+            keys |= {"cohesion", "softening_length"}
         if model == "mohr_coulomb":
             keys |= {"friction_angle", "dilation_angle", "tension_cutoff"}
         # as the C++ reader: keys of other models are unknown
@@ -585,6 +600,16 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             if "cohesion" not in m:
                 _fail(file, p + "/cohesion", "missing key")
             mat.cohesion = _read_cohesion(m["cohesion"], file, p + "/cohesion")
+            if "softening_length" in m:
+                mat.softening_length = _number(
+                    m, "softening_length", file, p, required=True, rule=_POSITIVE
+                )
+                if len(mat.cohesion.x) < 2:
+                    _fail(
+                        file,
+                        p + "/softening_length",
+                        "needs a cohesion that changes with the plastic strain",
+                    )
         if model == "mohr_coulomb":
             mat.friction_angle = _number(
                 m,

@@ -79,8 +79,13 @@ class Model:
         # materials per quadrature point
         body_of_cell = np.zeros(self.n_cells, dtype=np.int32)
         body_of_cell[self.cell_tags.indices] = self.cell_tags.values - 1
+        # A softening length scales the cohesion laws by itself / the element size (the
+        # target size of the mesh, as the MPM's cell size for its grid).
+        size = element_size or case.cell_size
         self.models = [
-            ElasticPlasticModel(case.materials[b.material], kappa_measure)
+            ElasticPlasticModel(
+                case.materials[b.material].regularised(size), kappa_measure
+            )
             for b in case.bodies
         ]
         self.point_body = np.repeat(body_of_cell, self.nq)

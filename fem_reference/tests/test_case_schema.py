@@ -330,3 +330,29 @@ def test_every_mpm_shape_function_is_read_and_ignored(shape):
         return
     case = case_from_dict(raw, "bearing.json")
     assert any("/solver/shape_function: MPM only" in i for i in case.ignored)
+
+
+def test_a_softening_length_scales_the_law_by_itself_over_the_element_size():
+    """materials[].softening_length, as the C++ reader: the cohesion law's plastic strains
+    times softening_length / element size (the model's target size), the cohesions unchanged;
+    refused on a constant cohesion and when not positive, with its pointer."""
+    raw = shipped("thesis62_bearing_dynamic_zero_start.json")
+    raw["materials"][0]["softening_length"] = 1.0
+    material = case_from_dict(raw, "bearing.json").materials["soil"]
+    scaled = material.regularised(0.5)
+    assert scaled.cohesion.x == [0.0, 0.1, 0.5]
+    assert scaled.cohesion.y == material.cohesion.y == [20.0, 10.0, 5.0]
+    assert material.regularised(1.0).cohesion.x == [0.0, 0.05, 0.25]
+    for bad, message in (
+        (0.0, "/materials/0/softening_length"),
+        (-1.0, "/materials/0/softening_length"),
+    ):
+        raw["materials"][0]["softening_length"] = bad
+        with pytest.raises(CaseError, match=message):
+            case_from_dict(raw, "bearing.json")
+    raw["materials"][0]["softening_length"] = 1.0
+    raw["materials"][0]["cohesion"] = 20.0
+    with pytest.raises(
+        CaseError, match="/materials/0/softening_length: needs a cohesion"
+    ):
+        case_from_dict(raw, "bearing.json")

@@ -60,16 +60,34 @@ PiecewiseLinear parse_cohesion(const JsonView& v) {
   return law;
 }
 
-MaterialRecord parse_material(const JsonView& v) {
+// materials[].softening_length, m: the width of the band that the cohesion law's plastic
+// strains are meant for. Softening localises in a band a few cells (or elements) wide, so with
+// one law for every cell size h the band softens faster, per metre of plastic displacement
+// across it, the finer the grid: the results depend on h. With a softening length L the law's
+// plastic strains are scaled by L / h, so the cohesion reaches each of its values at the same
+// plastic displacement across the band at every h (the dissipated energy per unit area of the
+// band is fixed: Pietruszczak and Mroz 1981). The law is the given one at h = L. h is the grid's
+// cell size, which is the UL-FEM's element size too.
+PiecewiseLinear regularised(PiecewiseLinear law, const JsonView& v, double cell_size) {
+  if (!v.has("softening_length")) return law;
+  const double length = v.at("softening_length").as_number();
+  v.at("softening_length").require(length > 0.0, "must be > 0 (m)");
+  v.at("softening_length")
+      .require(law.x.size() >= 2, "needs a cohesion that changes with the plastic strain");
+  for (double& x : law.x) x *= length / cell_size;
+  return law;
+}
+
+MaterialRecord parse_material(const JsonView& v, double cell_size) {
   const std::string model = v.at("model").as_choice({"linear_elastic", "tresca", "mohr_coulomb"});
   if (model == "linear_elastic") {
     v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight"});
   } else if (model == "tresca") {
-    v.expect_object(
-        {"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion"});
+    v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion",
+                     "softening_length"});
   } else {
     v.expect_object({"name", "model", "youngs_modulus", "poisson_ratio", "unit_weight", "cohesion",
-                     "friction_angle", "dilation_angle", "tension_cutoff"});
+                     "softening_length", "friction_angle", "dilation_angle", "tension_cutoff"});
   }
   MaterialRecord record;
   record.name = v.at("name").as_string();
@@ -85,11 +103,11 @@ MaterialRecord parse_material(const JsonView& v) {
   if (model == "linear_elastic") {
     record.model = LinearElastic{elastic};
   } else if (model == "tresca") {
-    record.model = Tresca{elastic, parse_cohesion(v.at("cohesion"))};
+    record.model = Tresca{elastic, regularised(parse_cohesion(v.at("cohesion")), v, cell_size)};
   } else {
     MohrCoulomb mc;
     mc.elastic = elastic;
-    mc.cohesion = parse_cohesion(v.at("cohesion"));
+    mc.cohesion = regularised(parse_cohesion(v.at("cohesion")), v, cell_size);
     mc.friction_angle_deg = v.at("friction_angle").as_number();
     v.at("friction_angle")
         .require(mc.friction_angle_deg >= 0.0 && mc.friction_angle_deg < 90.0,
@@ -444,7 +462,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     m.require(m.array_size() >= 1, "at least one material is required");
     std::set<std::string> names;
     for (std::size_t k = 0; k < m.array_size(); ++k) {
-      c.materials.push_back(parse_material(m.at(k)));
+      c.materials.push_back(parse_material(m.at(k), c.grid.cell_size));
       m.at(k).at("name").require(names.insert(c.materials.back().name).second,
                                  "duplicate material name");
     }

@@ -212,6 +212,19 @@ MALFORMED = [
         "/loads/0/time_function",
     ),
     (
+        "softening_length_not_positive",
+        mutate(["materials", 0, "softening_length"], 0.0),
+        "/materials/0/softening_length",
+    ),
+    (
+        "softening_length_on_a_constant_cohesion",
+        mutate(
+            ["materials", 0],
+            dict(BASE["materials"][0], cohesion=20.0, softening_length=0.5),
+        ),
+        "/materials/0/softening_length",
+    ),
+    (
         "unknown_shape_function",
         mutate(["solver", "shape_function"], "quartic_bspline"),
         "/solver/shape_function",
