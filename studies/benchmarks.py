@@ -17,6 +17,13 @@ What it measures:
   (2 + pi) c, for c = 10 and 20 kPa and b = 1 and 2 m, on the MPM (uGIMP, and quadratic
   B-splines on a grid whose edges are the symmetry plane, base and far side) and the UL-FEM,
   all with anti-locking (``solver.anti_locking: "bbar"``), and once on the MPM without it;
+* ``softening``: the same footing (b = 1 m, quadratic B-splines, B-bar) on Tresca soil whose
+  cohesion softens from 20 to 10 kPa over a plastic strain of 0.05, on 2, 4 and 8 cells under b:
+  with one law on every grid the band that localises thins with h and softens faster per metre
+  of displacement (mesh dependence); with ``materials[].softening_length`` = 0.25 m the law's
+  plastic strains are scaled by 0.25 m / h (the fracture-energy regularisation): the collapse
+  pressures and load-settlement curves of both, and each law's spread of the collapse pressure
+  over the grids;
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -28,12 +35,14 @@ Why: they check the loading and the solver apart from the boundary detection's a
 Reproduce: ``make study-benchmarks`` = ``/usr/bin/python3 -m studies benchmarks [--quick]``
 (quick: column and disk). Cases are built by this module from the README's case schema
 (h = 0.25 m but for the footings). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
-``strip_sigma_z.png``, ``prandtl.png`` and ``energy_ledger.png`` (the energy ledger of each
+``strip_sigma_z.png``, ``prandtl.png``, ``softening.csv/.md``, ``softening.png`` and
+``energy_ledger.png`` (the energy ledger of each
 run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 """
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import numpy as np
@@ -84,9 +93,19 @@ PRANDTL = {
     "outputs": 260,
     "stiffness_fraction": 0.05,
 }
+# The footing of PRANDTL (b = 1 m) on Tresca soil whose cohesion softens from 20 to 10 kPa over
+# a plastic strain of 0.05 (given for a band of softening_length), on three grids, with the law
+# as given at every h (plain) and scaled by softening_length / h (regularised; equal at h = L).
+SOFTENING = {
+    "cohesion": {"table": [[0.0, 20.0], [0.05, 10.0]]},
+    "softening_length": 0.25,  # m: the middle grid's h
+    "half_width": 1.0,
+    "cells_under_half_width": (2, 4, 8),
+    "outputs": 260,
+}
 DISK = {"radius": 2.0, "pressure": 10.0}
 QUICK_BENCHMARKS = ("column", "disk")
-ALL_BENCHMARKS = ("column", "strip", "prandtl", "disk")
+ALL_BENCHMARKS = ("column", "strip", "prandtl", "softening", "disk")
 
 EXPECTED_METRICS = [
     "benchmarks.column.settlement_rel_error",
@@ -95,6 +114,8 @@ EXPECTED_METRICS = [
     "benchmarks.prandtl.collapse_pressure_rel_error",
     "benchmarks.prandtl.bspline_collapse_pressure_rel_error",
     "benchmarks.prandtl.ulfem_collapse_pressure_rel_error",
+    "benchmarks.softening.plain_collapse_spread",
+    "benchmarks.softening.regularised_collapse_spread",
     "benchmarks.disk.radial_displacement_rel_error",
 ]
 
@@ -382,6 +403,36 @@ def _run(job):
         raise
 
 
+def softening_case(cells: int, regularised: bool) -> dict:
+    """The footing of SOFTENING on `cells` cells under its half-width (the default shape
+    function, B-bar, load on the detected boundary), plain or regularised."""
+    s = SOFTENING
+    case = prandtl_case(
+        s["cohesion"]["table"][0][1],
+        s["half_width"],
+        cells_under_half_width=cells,
+        shape_function=None,
+        outputs=s["outputs"],
+    )
+    material = case["materials"][0]
+    material["cohesion"] = copy.deepcopy(s["cohesion"])
+    if regularised:
+        material["softening_length"] = s["softening_length"]
+    case["title"] += ", softening " + ("regularised" if regularised else "plain")
+    return case
+
+
+def softening_jobs() -> dict:
+    return {
+        f"softening/{'regularised' if r else 'plain'}/cells{n}": (
+            softening_case(n, r),
+            "mpm",
+        )
+        for n in SOFTENING["cells_under_half_width"]
+        for r in (False, True)
+    }
+
+
 def prandtl_jobs() -> dict:
     """The Prandtl runs by key: the MPM (uGIMP, and quadratic B-splines as mpm_bspline) and
     the UL-FEM with anti-locking (B-bar) for every cohesion and half-width, and the MPM without
@@ -427,6 +478,8 @@ def run(context) -> StudyOutcome:
     for name in names:
         if name == "prandtl":
             jobs.update(prandtl_jobs())
+        elif name == "softening":
+            jobs.update(softening_jobs())
         else:
             jobs[name] = (builders[name](), "mpm")
     outs = dict(
@@ -466,6 +519,8 @@ def run(context) -> StudyOutcome:
         try:
             if name == "prandtl":
                 _prandtl(outs, jobs, outcome, context.folder)
+            elif name == "softening":
+                _softening(outs, outcome, context.folder)
             else:
                 functions[name](outs[name], add, outcome, context.folder)
         except PrerequisiteMissing as missing:
@@ -488,6 +543,77 @@ def run(context) -> StudyOutcome:
     if not_run:
         outcome.reason = "partly not run: " + "; ".join(not_run)
     return outcome
+
+
+def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
+    """The softening footing's collapse pressure on every grid, plain and regularised: the
+    table softening.md, the curves softening.png, and per law the spread of the collapse
+    pressure over the grids, (largest - smallest) / smallest
+    (benchmarks.softening.<law>_collapse_spread)."""
+    import matplotlib.pyplot as plt
+
+    s = SOFTENING
+    rows, curves = [], {}
+    for law in ("plain", "regularised"):
+        for cells in s["cells_under_half_width"]:
+            result = outs[f"softening/{law}/cells{cells}"]
+            if "missing" in result:
+                raise PrerequisiteMissing(result["missing"])
+            curve = result["curve"]
+            curves[(law, cells)] = curve
+            rows.append(
+                {
+                    "law": law,
+                    "cells_under_half_width": cells,
+                    "h_m": s["half_width"] / cells,
+                    "collapse_pressure_kpa": collapse_pressure(
+                        curve, PRANDTL["stiffness_fraction"]
+                    ),
+                }
+            )
+    table = pd.DataFrame(rows)
+    outcome.tables.append(
+        write_table(
+            folder,
+            table,
+            "softening",
+            f"Softening footing (b = {s['half_width']:g} m, c 20 -> 10 kPa over a plastic "
+            f"strain of 0.05, softening_length {s['softening_length']:g} m): collapse "
+            f"pressure on three grids, the law as given (plain) and regularised",
+        )
+    )
+    for law, group in table.groupby("law"):
+        q = group["collapse_pressure_kpa"].dropna()
+        if len(q) == len(group):
+            outcome.metrics.append(
+                Metric(
+                    f"benchmarks.softening.{law}_collapse_spread",
+                    float(q.max() / q.min() - 1.0),
+                    "1",
+                )
+            )
+    figure, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for axis, law in zip(axes, ("plain", "regularised")):
+        for cells in s["cells_under_half_width"]:
+            curve = curves[(law, cells)]
+            axis.plot(
+                curve["settlement"],
+                curve["pressure"],
+                label=f"h = b / {cells}",
+            )
+        axis.set_xlabel("settlement of the footing's centre [m]")
+        axis.set_title(law)
+        axis.legend(fontsize=8)
+    axes[0].set_ylabel("pressure [kPa]")
+    figure.tight_layout()
+    outcome.figures.append(
+        save_figure(
+            folder,
+            figure,
+            "softening",
+            "Softening footing: load-settlement on three grids, plain and regularised",
+        )
+    )
 
 
 def _energy_ledgers(outs: dict, outcome: StudyOutcome, folder: Path):
