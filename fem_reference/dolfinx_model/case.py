@@ -13,6 +13,7 @@ import dataclasses
 import json
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Optional
 
 
@@ -238,6 +239,71 @@ class Case:
             self.n_cells[1] * self.cell_size,
         )
         return (x0, y0, x0 + width, y0 + height)
+
+
+def _mesh_outline(path: Path, group: str, file, pointer) -> list:
+    """The counter-clockwise outline of the 3-node triangles and 4-node quadrangles of the
+    physical group `group` (all 2D elements when empty) of the gmsh file `path`: the element
+    edges that belong to one element only, chained into one loop."""
+    import gmsh
+
+    if not path.is_file():
+        _fail(file, pointer, f"{path} is not a readable file")
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        if group:
+            tags = [
+                t
+                for d, t in gmsh.model.getPhysicalGroups(2)
+                if gmsh.model.getPhysicalName(d, t) == group
+            ]
+            if not tags:
+                _fail(file, pointer, f'{path} has no 2D physical group "{group}"')
+            entities = [
+                e for t in tags for e in gmsh.model.getEntitiesForPhysicalGroup(2, t)
+            ]
+        else:
+            entities = [t for _, t in gmsh.model.getEntities(2)]
+        elements, position = [], {}
+        for entity in entities:
+            types, _, nodes = gmsh.model.mesh.getElements(2, entity)
+            for kind, tags in zip(types, nodes):
+                if kind not in (2, 3):
+                    _fail(file, pointer, f"{path}: bodies take 3- and 4-node elements")
+                corners = 3 if kind == 2 else 4
+                for e in range(len(tags) // corners):
+                    elements.append(
+                        [int(n) for n in tags[corners * e : corners * (e + 1)]]
+                    )
+        for n in {n for element in elements for n in element}:
+            coord = gmsh.model.mesh.getNode(n)[0]
+            position[n] = (float(coord[0]), float(coord[1]))
+    finally:
+        gmsh.finalize()
+    if not elements:
+        _fail(file, pointer, f"{path} has no triangle or quadrangle")
+    edges = set()
+    for element in elements:
+        area = sum(
+            position[a][0] * position[b][1] - position[b][0] * position[a][1]
+            for a, b in zip(element, element[1:] + element[:1])
+        )
+        if area < 0:
+            element = element[:1] + element[1:][::-1]
+        edges |= set(zip(element, element[1:] + element[:1]))
+    following = {a: b for a, b in edges if (b, a) not in edges}
+    start = min(following)
+    loop, node = [], start
+    while True:
+        loop.append(position[node])
+        node = following[node]
+        if node == start or len(loop) > len(following):
+            break
+    if len(loop) != len(following):
+        _fail(file, pointer, "the mesh's outline is not one closed loop")
+    return loop
 
 
 def _read_cohesion(value, file, pointer):
@@ -651,6 +717,8 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
                 "material",
                 "rectangle",
                 "polygon",
+                "mesh",
+                "physical_group",
                 "points_per_cell",
                 "placement",
             },
@@ -662,9 +730,18 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
                 ignored.append(f"{p}/{key}: MPM material points only")
         if b.get("material") not in materials:
             _fail(file, p + "/material", "must name a material")
-        if ("rectangle" in b) == ("polygon" in b):
-            _fail(file, p, "needs exactly one of rectangle, polygon")
-        if "rectangle" in b:
+        if sum(key in b for key in ("rectangle", "polygon", "mesh")) != 1:
+            _fail(file, p, "needs exactly one of rectangle, polygon, mesh")
+        if "physical_group" in b and "mesh" not in b:
+            _fail(file, p + "/physical_group", 'used only with "mesh" (a gmsh file)')
+        if "mesh" in b:
+            # The outline of the file's 2D elements, as the C++ reader's body polygon
+            # (mpm/solver/gmsh_surface.hpp); the model meshes it with its own elements.
+            path = Path(b["mesh"])
+            if not path.is_absolute():
+                path = Path(file).parent / path
+            poly = _mesh_outline(path, b.get("physical_group", ""), file, p + "/mesh")
+        elif "rectangle" in b:
             r = b["rectangle"]
             if not isinstance(r, list) or len(r) != 2:
                 _fail(file, p + "/rectangle", "must be [[x0, y0], [x1, y1]]")

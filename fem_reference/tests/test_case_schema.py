@@ -8,6 +8,7 @@ Each test states the fact it checks and its tolerance; run pytest -s to see the 
 import copy
 import glob
 import json
+import math
 import os
 
 import numpy as np
@@ -356,3 +357,41 @@ def test_a_softening_length_scales_the_law_by_itself_over_the_element_size():
         CaseError, match="/materials/0/softening_length: needs a cohesion"
     ):
         case_from_dict(raw, "bearing.json")
+
+
+def test_a_mesh_body_is_its_outline(tmp_path):
+    """bodies[].mesh, as the C++ reader: the outline of the gmsh file's 2D elements (of the
+    physical group) is the body polygon: the same area and corners as the polygon meshed;
+    an unknown group and a missing file are refused with the pointer."""
+    gmsh = pytest.importorskip("gmsh")
+    outline = [(0.0, 0.0), (15.0, 0.0), (12.0, 5.0), (0.0, 5.0)]
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    points = [gmsh.model.geo.addPoint(x, y, 0.0, 0.7) for x, y in outline]
+    lines = [gmsh.model.geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4)]
+    surface = gmsh.model.geo.addPlaneSurface([gmsh.model.geo.addCurveLoop(lines)])
+    gmsh.model.geo.synchronize()
+    gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [surface]), "soil")
+    gmsh.model.mesh.generate(2)
+    gmsh.write(str(tmp_path / "block.msh"))
+    gmsh.finalize()
+    raw = shipped("thesis62_bearing_dynamic_zero_start.json")
+    body = raw["bodies"][0]
+    for key in ("rectangle", "polygon"):
+        body.pop(key, None)
+    body.update(mesh="block.msh", physical_group="soil")
+    polygon = case_from_dict(raw, str(tmp_path / "case.json")).bodies[0].polygon
+    area = 0.5 * sum(
+        a[0] * b[1] - b[0] * a[1] for a, b in zip(polygon, polygon[1:] + polygon[:1])
+    )
+    assert area == pytest.approx(0.5 * (15.0 + 12.0) * 5.0, rel=1e-12)
+    for corner in outline:
+        assert min(math.dist(corner, v) for v in polygon) <= 1e-12
+    body["physical_group"] = "rock"
+    with pytest.raises(
+        CaseError, match='/bodies/0/mesh: .* no 2D physical group "rock"'
+    ):
+        case_from_dict(raw, str(tmp_path / "case.json"))
+    body.update(mesh="missing.msh", physical_group="soil")
+    with pytest.raises(CaseError, match="/bodies/0/mesh: .* is not a readable file"):
+        case_from_dict(raw, str(tmp_path / "case.json"))

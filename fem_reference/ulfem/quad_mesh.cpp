@@ -11,6 +11,7 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/solver/body_fill.hpp"
+#include "mpm/solver/gmsh_surface.hpp"
 
 namespace pfm::ulfem {
 
@@ -420,6 +421,28 @@ QuadMesh gmsh_body_mesh(const Case& c) {
   return mesh;
 }
 
+QuadMesh file_body_mesh(const Case& c) {
+  const std::string where = c.file + ": /bodies/0/mesh";
+  if (c.bodies.size() != 1) {
+    throw InputError(where + ": the UL-FEM takes a body given as a mesh when it is the only " +
+                     "body (got " + std::to_string(c.bodies.size()) + ")");
+  }
+  const BodySpec& body = c.bodies.front();
+  const SurfaceMesh surface = read_gmsh_surface(body.mesh_file, body.physical_group, where);
+  QuadMesh mesh;
+  mesh.generator = "gmsh-file";
+  mesh.node_position = surface.node;
+  for (const auto& element : surface.element) {
+    if (element.size() != 4) {
+      throw InputError(where + ": " + body.mesh_file + " holds triangles; the UL-FEM takes " +
+                       "4-node quadrangles (recombine the mesh: gmsh Mesh.RecombineAll = 1)");
+    }
+    mesh.element_nodes.push_back({element[0], element[1], element[2], element[3]});
+    mesh.element_body.push_back(0);
+  }
+  return mesh;
+}
+
 QuadMesh mesh_case(const Case& c) {
   for (std::size_t b = 0; b < c.bodies.size(); ++b) {
     if (c.bodies[b].from_file()) {
@@ -427,7 +450,12 @@ QuadMesh mesh_case(const Case& c) {
                        "/particles: the UL-FEM meshes rectangle and polygon bodies, not points");
     }
   }
-  QuadMesh mesh = bodies_are_grid_aligned(c) ? grid_cell_mesh(c) : gmsh_body_mesh(c);
+  QuadMesh mesh;
+  if (c.bodies.front().mesh_file.empty()) {
+    mesh = bodies_are_grid_aligned(c) ? grid_cell_mesh(c) : gmsh_body_mesh(c);
+  } else {
+    mesh = file_body_mesh(c);
+  }
   orient_elements(mesh);
   renumber(mesh, c.grid.cell_size);
   return mesh;

@@ -35,7 +35,7 @@ struct QuadMesh {
   std::vector<Vec2> node_position;                ///< reference (initial) coordinates, m
   std::vector<std::array<int, 4>> element_nodes;  ///< counter-clockwise node indices
   std::vector<int> element_body;                  ///< index into Case::bodies
-  std::string generator;  ///< "grid", "gmsh-transfinite" or "gmsh-unstructured"
+  std::string generator;  ///< "grid", "gmsh-transfinite", "gmsh-unstructured" or "gmsh-file"
 
   std::size_t n_nodes() const { return node_position.size(); }
   std::size_t n_elements() const { return element_nodes.size(); }
@@ -50,7 +50,12 @@ QuadMesh grid_cell_mesh(const Case& c);
 /// gmsh mesh of the case's single body (see the header comment). InputError for several bodies.
 QuadMesh gmsh_body_mesh(const Case& c);
 
-/// grid_cell_mesh when the bodies are grid-aligned, gmsh_body_mesh otherwise.
+/// The quadrangles of the single body given as a gmsh mesh (bodies[0].mesh). InputError for
+/// several bodies or a mesh with triangles.
+QuadMesh file_body_mesh(const Case& c);
+
+/// file_body_mesh for a body given as a mesh, else grid_cell_mesh when the bodies are
+/// grid-aligned, gmsh_body_mesh otherwise.
 QuadMesh mesh_case(const Case& c);
 
 /// Boundary edges (edges of exactly one element), each oriented as in its element (material on

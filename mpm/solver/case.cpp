@@ -13,6 +13,7 @@
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
+#include "mpm/solver/gmsh_surface.hpp"
 
 namespace pfm {
 
@@ -131,7 +132,8 @@ MaterialRecord parse_material(const JsonView& v, double cell_size) {
 // bodies[k].particles: a CSV file (relative to the case file's folder) with columns x, y and
 // volume (read_particle_csv; other columns are not read). Every point inside the grid.
 void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
-  for (const char* key : {"rectangle", "polygon", "points_per_cell", "placement"}) {
+  for (const char* key :
+       {"rectangle", "polygon", "mesh", "physical_group", "points_per_cell", "placement"}) {
     if (body.has(key)) {
       body.at(key).fail(std::string("not used with \"particles\" (the file gives the points)"));
     }
@@ -163,6 +165,17 @@ void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
   out.point_volume = std::move(table.volume);
 }
 
+void require_inside_grid(const std::vector<Vec2>& polygon, const JsonView& at, const Grid& grid) {
+  const Vec2 lo = grid.origin, hi = grid.upper_corner();
+  for (const Vec2& v : polygon) {
+    if (v.x() < lo.x() || v.y() < lo.y() || v.x() > hi.x() || v.y() > hi.y()) {
+      at.fail("vertex (" + std::to_string(v.x()) + ", " + std::to_string(v.y()) +
+              ") lies outside the grid [" + std::to_string(lo.x()) + ", " + std::to_string(hi.x()) +
+              "] x [" + std::to_string(lo.y()) + ", " + std::to_string(hi.y()) + "]");
+    }
+  }
+}
+
 std::vector<Vec2> parse_polygon(const JsonView& body, const Grid& grid) {
   std::vector<Vec2> polygon;
   const bool has_rectangle = body.has("rectangle"), has_polygon = body.has("polygon");
@@ -185,18 +198,27 @@ std::vector<Vec2> parse_polygon(const JsonView& body, const Grid& grid) {
     p.require(std::abs(area) > 0.0, "polygon has zero area");
     if (area < 0.0) std::reverse(polygon.begin(), polygon.end());
   }
-  const Vec2 lo = grid.origin, hi = grid.upper_corner();
-  for (std::size_t k = 0; k < polygon.size(); ++k) {
-    const Vec2& v = polygon[k];
-    if (v.x() < lo.x() || v.y() < lo.y() || v.x() > hi.x() || v.y() > hi.y()) {
-      body.at(has_rectangle ? "rectangle" : "polygon")
-          .fail("vertex (" + std::to_string(v.x()) + ", " + std::to_string(v.y()) +
-                ") lies outside the grid [" + std::to_string(lo.x()) + ", " +
-                std::to_string(hi.x()) + "] x [" + std::to_string(lo.y()) + ", " +
-                std::to_string(hi.y()) + "]");
-    }
-  }
+  require_inside_grid(polygon, body.at(has_rectangle ? "rectangle" : "polygon"), grid);
   return polygon;
+}
+
+// bodies[k].mesh: a gmsh .msh file (relative to the case file's folder) whose 2D elements (of
+// bodies[k].physical_group, or all) make the body; its outline is the body polygon.
+void read_body_mesh(const JsonView& body, const Case& c, BodySpec& out) {
+  for (const char* key : {"rectangle", "polygon", "particles"}) {
+    if (body.has(key)) body.at(key).fail(std::string("not used with \"mesh\" (it gives the body)"));
+  }
+  const JsonView entry = body.at("mesh");
+  std::filesystem::path path = entry.as_string();
+  if (path.is_relative()) path = std::filesystem::path(c.file).parent_path() / path;
+  out.mesh_file = path.string();
+  if (body.has("physical_group")) {
+    out.physical_group = body.at("physical_group").as_string();
+    body.at("physical_group").require(!out.physical_group.empty(), "must not be empty");
+  }
+  const std::string where = c.file + ": " + entry.pointer();
+  out.polygon = surface_outline(read_gmsh_surface(out.mesh_file, out.physical_group, where), where);
+  require_inside_grid(out.polygon, entry, c.grid);
 }
 
 unsigned parse_fix(const JsonView& v) {
@@ -475,8 +497,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     std::set<std::string> names;
     for (std::size_t k = 0; k < b.array_size(); ++k) {
       const JsonView v = b.at(k);
-      v.expect_object({"name", "material", "rectangle", "polygon", "particles", "points_per_cell",
-                       "placement"});
+      v.expect_object({"name", "material", "rectangle", "polygon", "particles", "mesh",
+                       "physical_group", "points_per_cell", "placement"});
       BodySpec body;
       body.name = v.at("name").as_string();
       v.at("name").require(names.insert(body.name).second, "duplicate body name");
@@ -492,7 +514,13 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
         c.bodies.push_back(std::move(body));
         continue;
       }
-      body.polygon = parse_polygon(v, c.grid);
+      if (v.has("mesh")) {
+        read_body_mesh(v, c, body);
+      } else {
+        if (v.has("physical_group"))
+          v.at("physical_group").fail("used only with \"mesh\" (a gmsh file)");
+        body.polygon = parse_polygon(v, c.grid);
+      }
       body.points_per_cell = v.int_or("points_per_cell", 2);
       if (v.has("points_per_cell")) {
         v.at("points_per_cell")

@@ -38,6 +38,11 @@ struct BodySpec {
   std::vector<Vec2> point_position;  ///< m
   std::vector<double> point_volume;  ///< m^2 per m
   bool from_file() const { return !point_position.empty(); }
+  /// A body given as a gmsh mesh (bodies[].mesh): the file and its physical group (empty: all
+  /// 2D elements); polygon is the mesh's outline (mpm/solver/gmsh_surface.hpp). The UL-FEM
+  /// meshes such a body with the file's elements.
+  std::string mesh_file;
+  std::string physical_group;
 };
 
 struct GravitySpec {

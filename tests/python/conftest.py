@@ -1,5 +1,7 @@
-"""Shared fixtures: where the built binaries are."""
+"""Shared fixtures: where the built binaries are, and a run of a case document."""
+import json
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -14,3 +16,21 @@ def pfm_binary() -> Path:
     if not binary.exists():
         pytest.fail(f"{binary} not built: run `make build` first")
     return binary
+
+
+@pytest.fixture
+def run_case(pfm_binary):
+    """run_case(case, folder, *options): `pfm-mpm run` of the case document written to
+    folder/case.json into folder/out (quiet); the CompletedProcess."""
+
+    def run(case: dict, folder: Path, *options):
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / "case.json"
+        path.write_text(json.dumps(case))
+        return subprocess.run(
+            [pfm_binary, "run", path, "--out", folder / "out", "--quiet", *options],
+            capture_output=True,
+            text=True,
+        )
+
+    return run
