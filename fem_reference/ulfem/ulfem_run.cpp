@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,6 +15,7 @@
 #include "mpm/core/provenance.hpp"
 #include "mpm/solver/hdf5_untimed.hpp"
 #include "mpm/solver/output.hpp"
+#include "mpm/solver/vtk_output.hpp"
 
 namespace pfm::ulfem {
 
@@ -170,8 +172,11 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     initial_steps = solver.initial_stress_steps();
     ParticleSeriesWriter particle_writer(folder, c.output.compress);
     MeshSeriesWriter mesh_writer(folder, solver.mesh(), c.output.compress);
+    std::unique_ptr<VtkSeriesWriter> vtk_writer;
+    if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder);
     auto output = [&](double t) {
       particle_writer.write(t, solver.step_count(), solver.particles());
+      if (vtk_writer) vtk_writer->write(t, solver.step_count(), solver.particles());
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
                         solver.node_state().velocity, solver.particles());
       char name[48];

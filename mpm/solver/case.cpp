@@ -755,8 +755,9 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
 
   c.output.interval = c.time.end_time / 20.0;
   if (const auto o = root.find("output")) {
-    o->expect_object({"interval", "timeseries_interval", "nodal_loads", "compression"});
+    o->expect_object({"interval", "timeseries_interval", "nodal_loads", "compression", "vtk"});
     if (const auto nodal = o->find("nodal_loads")) c.output.nodal_loads = nodal->as_bool();
+    if (const auto vtk = o->find("vtk")) c.output.vtk = vtk->as_bool();
     c.output.compress = o->choice_or("compression", {"none", "gzip"}, "none") == "gzip";
     c.output.interval = o->number_or("interval", c.output.interval);
     c.output.interval_given = o->has("interval");

@@ -132,6 +132,8 @@ struct OutputSpec {
   /// gzip (level 1) + byte shuffle on the HDF5 datasets ("compression": "gzip"); off by default
   /// (README "Outputs": 29 % fewer bytes for 18 ms per output of 3,384 points).
   bool compress = false;
+  /// Also particles_<step>.vtu at each output step and particles.pvd (mpm/solver/vtk_output.hpp).
+  bool vtk = false;
 };
 
 /// The "detection" block: the detector configuration of parse_detector_config (mpm/detect)

@@ -18,6 +18,7 @@
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
+#include "mpm/solver/vtk_output.hpp"
 
 namespace pfm {
 
@@ -130,6 +131,7 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
+  std::unique_ptr<VtkSeriesWriter> vtk_writer;  // with output.vtk
   double next_output = c.output.interval, next_series = c.output.timeseries_interval;
   auto save_checkpoint = [&]() {
     CheckpointFile file;
@@ -191,6 +193,7 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   auto write_output = [&](ParticleSeriesWriter& writer) {
     writer.write(solver.time(), solver.step_count(), solver.particles());
+    if (vtk_writer) vtk_writer->write(solver.time(), solver.step_count(), solver.particles());
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
     if (coupling.detection_enabled()) {
       const DetectedBoundary& boundary = coupling.current_boundary();
@@ -249,6 +252,7 @@ int run_case(const Case& c, const RunOptions& options) {
       for (const auto& entry : outputs)
         keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
       writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
+      if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, keep);
       if (coupling.detection_enabled())
         boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
     }
@@ -268,6 +272,7 @@ int run_case(const Case& c, const RunOptions& options) {
       solver.initialise_stress();
       coupling.attach(solver);
       writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
+      if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder);
       write_output(*writer_owner);
       record(solver);
     }

@@ -30,6 +30,7 @@ def short_bearing_block(tmp_path):
         "interval": 0.05,
         "timeseries_interval": 0.01,
         "nodal_loads": True,
+        "vtk": True,
     }
     case["loads"][0]["interval"] = "material"
     case["loads"][0]["redistribute_lost_load"] = True
@@ -62,8 +63,9 @@ def checkpoint_step(path):
 
 
 def assert_same_outputs(reference, restarted):
-    names = sorted(p.name for p in reference.iterdir() if p.suffix == ".csv")
-    assert names == sorted(p.name for p in restarted.iterdir() if p.suffix == ".csv")
+    text = (".csv", ".vtu", ".pvd")
+    names = sorted(p.name for p in reference.iterdir() if p.suffix in text)
+    assert names == sorted(p.name for p in restarted.iterdir() if p.suffix in text)
     for name in names:
         assert (reference / name).read_bytes() == (restarted / name).read_bytes(), name
     for h5 in ("particles.h5", "boundary.h5"):
