@@ -68,7 +68,8 @@ PiecewiseLinear parse_cohesion(const JsonView& v) {
 // plastic strains are scaled by L / h, so the cohesion reaches each of its values at the same
 // plastic displacement across the band at every h (the dissipated energy per unit area of the
 // band is fixed: Pietruszczak and Mroz 1981). The law is the given one at h = L. h is the grid's
-// cell size, which is the UL-FEM's element size too.
+// cell size, for the UL-FEM too: its elements are the grid's cells for grid-aligned bodies, and
+// of about that size (or twice it, unstructured) for polygons and meshes read from a file.
 PiecewiseLinear regularised(PiecewiseLinear law, const JsonView& v, double cell_size) {
   if (!v.has("softening_length")) return law;
   const double length = v.at("softening_length").as_number();

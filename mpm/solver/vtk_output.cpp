@@ -2,16 +2,21 @@
 
 #include <zlib.h>
 
+#include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <sstream>
+#include <stdexcept>
 
 #include "mpm/solver/output.hpp"
 
 namespace pfm {
 
 namespace {
+
+// The files say byte_order="LittleEndian" and hold the arrays' bytes as they are in memory.
+static_assert(std::endian::native == std::endian::little, "VTK output assumes little-endian");
 
 std::string base64(const unsigned char* data, std::size_t size) {
   static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -47,7 +52,8 @@ std::string encoded(const std::vector<T>& values) {
     const std::size_t length = std::min(kBlock, size - b * kBlock);
     uLongf room = compressBound(static_cast<uLong>(length));
     std::vector<unsigned char> block(room);
-    compress2(block.data(), &room, bytes + b * kBlock, static_cast<uLong>(length), 6);
+    if (compress2(block.data(), &room, bytes + b * kBlock, static_cast<uLong>(length), 6) != Z_OK)
+      throw std::runtime_error("zlib could not compress a VTK data block");
     header.push_back(room);
     compressed.insert(compressed.end(), block.begin(), block.begin() + static_cast<long>(room));
   }
