@@ -173,10 +173,10 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     ParticleSeriesWriter particle_writer(folder, c.output.compress);
     MeshSeriesWriter mesh_writer(folder, solver.mesh(), c.output.compress);
     std::unique_ptr<VtkSeriesWriter> vtk_writer;
-    if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder);
+    if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles");
     auto output = [&](double t) {
       particle_writer.write(t, solver.step_count(), solver.particles());
-      if (vtk_writer) vtk_writer->write(t, solver.step_count(), solver.particles());
+      if (vtk_writer) vtk_writer->write(t, solver.step_count(), particles_vtu(solver.particles()));
       mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
                         solver.node_state().velocity, solver.particles());
       char name[48];

@@ -133,6 +133,7 @@ std::vector<Vec2> surface_outline(const SurfaceMesh& mesh, const std::string& wh
     if (n != 1 || !next.emplace(edge.first, edge.second).second)
       throw InputError(where + ": the mesh's elements overlap or touch at a corner only");
   }
+  if (next.empty()) throw InputError(where + ": the mesh has no boundary edge");
   std::vector<Vec2> outline;
   int node = next.begin()->first;
   do {

@@ -131,7 +131,7 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
-  std::unique_ptr<VtkSeriesWriter> vtk_writer;  // with output.vtk
+  std::unique_ptr<VtkSeriesWriter> vtk_writer, boundary_vtk;  // with output.vtk
   double next_output = c.output.interval, next_series = c.output.timeseries_interval;
   auto save_checkpoint = [&]() {
     CheckpointFile file;
@@ -193,7 +193,8 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   auto write_output = [&](ParticleSeriesWriter& writer) {
     writer.write(solver.time(), solver.step_count(), solver.particles());
-    if (vtk_writer) vtk_writer->write(solver.time(), solver.step_count(), solver.particles());
+    if (vtk_writer)
+      vtk_writer->write(solver.time(), solver.step_count(), particles_vtu(solver.particles()));
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
     if (coupling.detection_enabled()) {
       const DetectedBoundary& boundary = coupling.current_boundary();
@@ -209,6 +210,10 @@ int run_case(const Case& c, const RunOptions& options) {
       if (!boundary_writer)
         boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress);
       boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
+      if (c.output.vtk) {
+        if (!boundary_vtk) boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary");
+        boundary_vtk->write(solver.time(), solver.step_count(), boundary_vtu(loops, closed));
+      }
       entry["boundary"] = name;
       // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
       // for a free disk and an island's contacts cost more than a step where they occur).
@@ -252,7 +257,11 @@ int run_case(const Case& c, const RunOptions& options) {
       for (const auto& entry : outputs)
         keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
       writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
-      if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, keep);
+      if (c.output.vtk) {
+        vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles", keep);
+        if (coupling.detection_enabled())
+          boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary", keep);
+      }
       if (coupling.detection_enabled())
         boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
     }
@@ -272,7 +281,7 @@ int run_case(const Case& c, const RunOptions& options) {
       solver.initialise_stress();
       coupling.attach(solver);
       writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
-      if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder);
+      if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles");
       write_output(*writer_owner);
       record(solver);
     }

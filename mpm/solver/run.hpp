@@ -3,7 +3,8 @@
 // Output directory (created only once the case is valid):
 //   run.json              provenance (git revision, build type, command, case copy) + summary
 //   particles.h5/.xdmf    particle time series (ParaView: open particles.xdmf)
-//   particles.pvd, particles_<step>.vtu   with output.vtk: the same as VTK XML
+//   particles.pvd, particles_<step>.vtu, boundary.pvd, boundary_<step>.vtu   with output.vtk:
+//                         the particles and the detected boundary as VTK XML
 //   timeseries.csv        time, kinetic energy, works, momentum; with loads on the detected
 //                         boundary also their target, applied, lost and off-grid forces (kN/m)
 //   final_particles.csv   the final particle state

@@ -70,16 +70,36 @@ void data_array(std::ostringstream& out, const char* type, const char* name, int
   out << " format=\"binary\">" << encoded(values) << "</DataArray>\n";
 }
 
+// The .vtu document: points (x, y, 0), their data (DataArray elements), and cells of one type
+// given by their nodes' connectivity and end offsets.
+std::string vtu_document(const std::vector<double>& points, std::size_t n_points,
+                         const std::string& point_data,
+                         const std::vector<std::int64_t>& connectivity,
+                         const std::vector<std::int64_t>& offsets, std::uint8_t cell_type) {
+  std::ostringstream out;
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n"
+      << "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" << n_points << "\" NumberOfCells=\""
+      << offsets.size() << "\">\n<PointData>\n"
+      << point_data << "</PointData>\n<Points>\n";
+  data_array(out, "Float64", "position", 3, points);
+  out << "</Points>\n<Cells>\n";
+  data_array(out, "Int64", "connectivity", 1, connectivity);
+  data_array(out, "Int64", "offsets", 1, offsets);
+  data_array(out, "UInt8", "types", 1, std::vector<std::uint8_t>(offsets.size(), cell_type));
+  out << "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  return out.str();
+}
+
+// VTK cell types
+constexpr std::uint8_t kVtkVertex = 1, kVtkLine = 3;
+
 }  // namespace
 
 std::string particles_vtu(const Particles& particles) {
   const std::size_t n = particles.size();
   std::ostringstream out;
-  out << "<?xml version=\"1.0\"?>\n"
-      << "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-         "header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">\n"
-      << "<UnstructuredGrid>\n<Piece NumberOfPoints=\"" << n << "\" NumberOfCells=\"" << n
-      << "\">\n";
   std::vector<double> v3(3 * n, 0.0), v1(n);
   auto vec3 = [&](auto get) {
     for (std::size_t p = 0; p < n; ++p) {
@@ -88,7 +108,6 @@ std::string particles_vtu(const Particles& particles) {
       v3[3 * p + 1] = v.y();
     }
   };
-  out << "<PointData>\n";
   vec3(
       [&](std::size_t p) { return Vec2(particles.position[p] - particles.reference_position[p]); });
   data_array(out, "Float64", "displacement", 3, v3);
@@ -115,37 +134,56 @@ std::string particles_vtu(const Particles& particles) {
     for (std::size_t p = 0; p < n; ++p) v1[p] = particles.deformation_gradient[p](k / 2, k % 2);
     data_array(out, "Float64", gradient_names[k], 1, v1);
   }
-  out << "</PointData>\n<Points>\n";
-  vec3([&](std::size_t p) { return particles.position[p]; });
-  data_array(out, "Float64", "position", 3, v3);
-  out << "</Points>\n<Cells>\n";
-  // One vertex cell (VTK_VERTEX = 1) per point.
-  data_array(out, "Int64", "connectivity", 1, id);
+  // One vertex cell per point.
   std::vector<std::int64_t> offsets(n);
   for (std::size_t p = 0; p < n; ++p) offsets[p] = static_cast<std::int64_t>(p + 1);
-  data_array(out, "Int64", "offsets", 1, offsets);
-  data_array(out, "UInt8", "types", 1, std::vector<std::uint8_t>(n, 1));
-  out << "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
-  return out.str();
+  vec3([&](std::size_t p) { return particles.position[p]; });
+  return vtu_document(v3, n, out.str(), id, offsets, kVtkVertex);
 }
 
-VtkSeriesWriter::VtkSeriesWriter(OutputFolder& folder) : folder_(folder) {}
-
-VtkSeriesWriter::VtkSeriesWriter(OutputFolder& folder,
-                                 const std::vector<std::pair<double, long>>& keep)
-    : folder_(folder) {
-  for (const auto& [time, step] : keep) {
-    char name[40];
-    std::snprintf(name, sizeof name, "particles_%08ld.vtu", step);
-    files_.emplace_back(time, name);
+std::string boundary_vtu(const std::vector<std::vector<Vec2>>& loops,
+                         const std::vector<bool>& closed) {
+  std::vector<double> points;
+  std::vector<std::int32_t> loop;
+  std::vector<std::int64_t> connectivity, offsets;
+  for (std::size_t k = 0; k < loops.size(); ++k) {
+    const auto first = static_cast<std::int64_t>(loop.size());
+    const auto count = static_cast<std::int64_t>(loops[k].size());
+    for (const Vec2& x : loops[k]) {
+      points.insert(points.end(), {x.x(), x.y(), 0.0});
+      loop.push_back(static_cast<std::int32_t>(k));
+    }
+    // A 2-node line per segment; a closed loop's last one back to its first point.
+    const std::int64_t segments = closed[k] && count > 2 ? count : count - 1;
+    for (std::int64_t i = 0; i < segments; ++i) {
+      connectivity.insert(connectivity.end(), {first + i, first + (i + 1) % count});
+      offsets.push_back(static_cast<std::int64_t>(connectivity.size()));
+    }
   }
+  std::ostringstream data;
+  data_array(data, "Int32", "loop", 1, loop);
+  return vtu_document(points, loop.size(), data.str(), connectivity, offsets, kVtkLine);
+}
+
+VtkSeriesWriter::VtkSeriesWriter(OutputFolder& folder, std::string name)
+    : folder_(folder), name_(std::move(name)) {}
+
+VtkSeriesWriter::VtkSeriesWriter(OutputFolder& folder, std::string name,
+                                 const std::vector<std::pair<double, long>>& keep)
+    : folder_(folder), name_(std::move(name)) {
+  for (const auto& [time, step] : keep) files_.emplace_back(time, file_name(step));
   write_pvd();
 }
 
-void VtkSeriesWriter::write(double time, long step, const Particles& particles) {
-  char name[40];
-  std::snprintf(name, sizeof name, "particles_%08ld.vtu", step);
-  write_file_atomically(folder_.file(name), particles_vtu(particles));
+std::string VtkSeriesWriter::file_name(long step) const {
+  char digits[24];
+  std::snprintf(digits, sizeof digits, "_%08ld.vtu", step);
+  return name_ + digits;
+}
+
+void VtkSeriesWriter::write(double time, long step, const std::string& vtu) {
+  const std::string name = file_name(step);
+  write_file_atomically(folder_.file(name), vtu);
   files_.emplace_back(time, name);
   write_pvd();
 }
@@ -157,7 +195,7 @@ void VtkSeriesWriter::write_pvd() const {
   for (const auto& [time, name] : files_)
     out << "<DataSet timestep=\"" << format_exact(time) << "\" file=\"" << name << "\"/>\n";
   out << "</Collection>\n</VTKFile>\n";
-  write_file_atomically(folder_.file("particles.pvd"), out.str());
+  write_file_atomically(folder_.file(name_ + ".pvd"), out.str());
 }
 
 }  // namespace pfm

@@ -1,8 +1,10 @@
 """VTK XML output (issue "Fits the tools its users already use", item 2): with ``output.vtk`` every
-output step also writes particles_<step>.vtu (zlib-compressed binary, a vertex per point) and
-particles.pvd lists them with their times, for the MPM and the UL-FEM. meshio reads every step's
-positions and fields equal to the HDF5 series, and the last step equal to final_particles.csv,
-to the last bit; the .pvd's times are run.json's outputs."""
+output step also writes particles_<step>.vtu (zlib-compressed binary, a vertex per point) and,
+with detection, boundary_<step>.vtu (the loops as 2-node line cells); particles.pvd and
+boundary.pvd list them with their times, for the MPM and the UL-FEM. meshio reads every step's
+positions and fields equal to the HDF5 series, the boundary equal to boundary_<step>.csv, and
+the last step equal to final_particles.csv, to the last bit; the .pvd's times are run.json's
+outputs."""
 
 import json
 import xml.etree.ElementTree as ElementTree
@@ -45,6 +47,19 @@ def test_every_vtu_step_reads_back_as_the_hdf5_series(run_case, tmp_path, solver
                 assert np.array_equal(mesh.point_data[name], step[name][:]), name
             for name in ("id", "material", "body"):
                 assert np.array_equal(mesh.point_data[name], step[name][:]), name
+    if solver == "mpm":  # the detected boundary: its points and loops as in the CSV
+        boundary = ElementTree.parse(out / "boundary.pvd").getroot()
+        files = [d.get("file") for d in boundary.find("Collection").findall("DataSet")]
+        assert len(files) == len(run["outputs"])
+        for entry, name in zip(run["outputs"], files):
+            mesh = meshio.read(out / name)
+            table = pd.read_csv(out / entry["boundary"], float_precision="round_trip")
+            assert np.array_equal(mesh.points[:, :2], table[["x", "y"]].to_numpy())
+            assert np.array_equal(mesh.point_data["loop"], table["loop"].to_numpy())
+            lines = mesh.cells[0].data
+            assert mesh.cells[0].type == "line" and len(lines) >= len(table) - 1
+            loop = table["loop"].to_numpy()
+            assert np.array_equal(loop[lines[:, 0]], loop[lines[:, 1]])
     final = pd.read_csv(out / "final_particles.csv", float_precision="round_trip")
     last = meshio.read(out / sets[-1].get("file"))
     assert np.array_equal(last.points[:, 0], final["x"].to_numpy())
