@@ -84,20 +84,6 @@ void orient_elements(QuadMesh& mesh) {
   }
 }
 
-/// RAII session of the gmsh library (which keeps one global model): initialise quietly,
-/// finalise on every exit path.
-class GmshSession {
- public:
-  GmshSession() {
-    gmsh::initialize(0, nullptr, false);
-    gmsh::option::setNumber("General.Terminal", 0);
-    gmsh::model::add("ulfem");
-  }
-  ~GmshSession() { gmsh::finalize(); }
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
-};
-
 // The mesh gmsh holds now, as a QuadMesh (quads only; InputError if other elements remain).
 QuadMesh read_gmsh_quads(const std::string& file) {
   std::vector<std::size_t> tags;
@@ -387,6 +373,7 @@ QuadMesh gmsh_body_mesh(const Case& c) {
   QuadMesh mesh;
   {
     GmshSession session;
+    gmsh::model::add("ulfem");
     bool structured = false;
     if (const auto slabs = slab_decomposition(polygon, h)) structured = mesh_slabs(*slabs, h);
     if (!structured) {

@@ -90,6 +90,13 @@ void Particles::reserve(std::size_t n) {
   body.reserve(n);
 }
 
+double largest_density(const Particles& particles) {
+  double density = 0.0;
+  for (std::size_t p = 0; p < particles.size(); ++p)
+    density = std::max(density, particles.mass[p] / particles.initial_volume[p]);
+  return density;
+}
+
 void Particles::add(const Vec2& x, double particle_volume, double density, const Vec2& half_size,
                     int material_index, int body_index) {
   position.push_back(x);

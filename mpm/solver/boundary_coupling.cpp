@@ -51,11 +51,8 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
 void BoundaryCoupling::attach(MpmSolver& solver) {
   solver_ = &solver;
   // The mass of a full cell: the densest particle's density x h^2 (t per m).
-  const Particles& particles = solver.particles();
-  double density = 0.0;
-  for (std::size_t p = 0; p < particles.size(); ++p)
-    density = std::max(density, particles.mass[p] / particles.initial_volume[p]);
   const double h = case_.grid.cell_size;
+  const double density = largest_density(solver.particles());
   for (SurfaceLoad& load : loads_)
     load.spec.min_node_mass = load.spec.min_node_mass_fraction * density * h * h;
   if (!detection_enabled()) return;

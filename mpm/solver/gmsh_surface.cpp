@@ -12,20 +12,16 @@
 
 namespace pfm {
 
-namespace {
+GmshSession::GmshSession() {
+  gmsh::initialize(0, nullptr, false);
+  gmsh::option::setNumber("General.Terminal", 0);
+}
 
-// gmsh keeps one global model: a session initialises it quietly and finalises it on every
-// exit path.
-class Session {
- public:
-  Session() {
-    gmsh::initialize(0, nullptr, false);
-    gmsh::option::setNumber("General.Terminal", 0);
-  }
-  ~Session() { gmsh::finalize(); }
-  Session(const Session&) = delete;
-  Session& operator=(const Session&) = delete;
-};
+GmshSession::~GmshSession() {
+  gmsh::finalize();
+}
+
+namespace {
 
 // gmsh element types: 2 = 3-node triangle, 3 = 4-node quadrangle.
 constexpr int kTriangle = 2, kQuadrangle = 3;
@@ -37,7 +33,7 @@ SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physic
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw InputError(where + ": " + path + " is not a readable file");
-  Session session;
+  GmshSession session;
   try {
     gmsh::open(path);
   } catch (...) {  // gmsh reports its errors as exceptions of its own types

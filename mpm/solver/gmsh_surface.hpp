@@ -10,6 +10,16 @@
 
 namespace pfm {
 
+/// A session of the gmsh library, which keeps one global model: initialised quietly (no
+/// terminal output), finalised on every exit path. One at a time.
+class GmshSession {
+ public:
+  GmshSession();
+  ~GmshSession();
+  GmshSession(const GmshSession&) = delete;
+  GmshSession& operator=(const GmshSession&) = delete;
+};
+
 struct SurfaceMesh {
   std::vector<Vec2> node;                 ///< m (the file's z must be 0)
   std::vector<std::vector<int>> element;  ///< 3 or 4 node indices each, counter-clockwise

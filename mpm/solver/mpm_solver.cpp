@@ -173,11 +173,9 @@ void MpmSolver::build_top_node_loads() {
   }
   const double h = grid.cell_size;
   // Too light to carry a load: as for the loads on a detected boundary (surface_load.hpp), a
-  // node of mass <= 0.01 of a full cell's (the densest point's density x h^2).
-  double density = 0.0;
-  for (std::size_t p = 0; p < particles_.size(); ++p)
-    density = std::max(density, particles_.mass[p] / particles_.initial_volume[p]);
-  light_node_mass_ = boundary::BoundaryLoadSpec{}.min_node_mass_fraction * density * h * h;
+  // node of mass <= 0.01 of a full cell's.
+  light_node_mass_ =
+      boundary::BoundaryLoadSpec{}.min_node_mass_fraction * largest_density(particles_) * h * h;
   const int degree = shape_degree(case_.solver.shape_function);
   for (const LoadSpec& load : case_.loads) {
     TopNodeLoad entry;
@@ -209,46 +207,35 @@ void MpmSolver::build_top_node_loads() {
 
 MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const LoadSpec& load,
                                                    const std::vector<char>& occupied) const {
+  // f_I = int N_I t dx along the top of each cell column (the top edge of its highest occupied
+  // cell) over the load's range, t = (0, -1) per kPa: the traction integrator of the detected
+  // boundary with the same B-splines (exact on a straight segment), walked right to left so
+  // that the material lies below.
   const Grid& grid = case_.grid;
-  const int degree = shape_degree(case_.solver.shape_function);
   const double h = grid.cell_size;
-  // f_I = int N_i(x) dx N_j(y_c) over the loaded part of each cell column c, y_c its top. N_i
-  // is a polynomial on each half cell (the knots are at the cell edges and, for the quadratic,
-  // the midlines): 3 Gauss points per half cell integrate it exactly.
-  const double gauss_u[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
-  const double gauss_w[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
-  std::vector<double> force(static_cast<std::size_t>(grid.n_nodes()), 0.0);
-  double value_x[4], value_y[4], derivative[4];
+  boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(case_.solver.shape_function));
+  boundary::TractionLaw law;
+  law.normal_scale = Vec2(0.0, -1.0);
   for (int c = 0; c < grid.n_cells_x; ++c) {
-    int top_row = -1;  // node row of the column's top: above its highest occupied cell
+    int top_row = -1;
     for (int j = grid.n_cells_y - 1; j >= 0 && top_row < 0; --j) {
       if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) top_row = j + 1;
     }
-    if (top_row < 0) continue;
-    const int base_j = bspline_1d(degree, grid.n_cells_y, top_row, value_y, derivative);
-    for (int half = 0; half < 2; ++half) {
-      const double left = grid.origin.x() + (c + 0.5 * half) * h;
-      const double a = std::max(left, load.x0), b = std::min(left + 0.5 * h, load.x1);
-      if (b <= a) continue;
-      for (int g = 0; g < 3; ++g) {
-        const double x = 0.5 * (a + b) + 0.5 * (b - a) * gauss_u[g];
-        const double weight = 0.5 * (b - a) * gauss_w[g];
-        const int base_i =
-            bspline_1d(degree, grid.n_cells_x, (x - grid.origin.x()) / h, value_x, derivative);
-        for (int bj = 0; bj <= degree; ++bj) {
-          for (int ai = 0; ai <= degree; ++ai) {
-            force[static_cast<std::size_t>(grid.node_index(base_i + ai, base_j + bj))] +=
-                weight * value_x[ai] * value_y[bj];
-          }
-        }
-      }
-    }
+    const double left = grid.origin.x() + c * h;
+    const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
+    if (top_row < 0 || b <= a) continue;
+    const double y = grid.origin.y() + top_row * h;
+    integrator.add_segment(boundary::BezierSegment::line(Vec2(b, y), Vec2(a, y)), 0.0, 1.0, law,
+                           boundary::QuadratureOptions{});
   }
+  std::vector<Vec2> force(static_cast<std::size_t>(grid.n_nodes()));
+  integrator.take_forces(force);
   TopNodeLoad entry;
   for (int node = 0; node < grid.n_nodes(); ++node) {
-    if (force[static_cast<std::size_t>(node)] == 0.0) continue;
+    const double down = -force[static_cast<std::size_t>(node)].y();
+    if (down == 0.0) continue;
     entry.node.push_back(node);
-    entry.vertical_force_per_kpa.push_back(force[static_cast<std::size_t>(node)]);
+    entry.vertical_force_per_kpa.push_back(down);
   }
   return entry;
 }

@@ -30,4 +30,8 @@ struct Particles {
            int material_index, int body_index);
 };
 
+/// The largest initial density of the particles, mass / initial volume (t/m^3): x h^2, the mass
+/// of a full cell of the densest material, the scale of "too light to carry a load".
+double largest_density(const Particles& particles);
+
 }  // namespace pfm
