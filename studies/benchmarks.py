@@ -49,7 +49,7 @@ import numpy as np
 import pandas as pd
 
 from studies import analytic
-from studies.common.cases import DEFAULT_SHAPE_FUNCTION
+from studies.common.cases import is_bspline
 from studies.common.ledger import plot_energy_ledger, relative_energy_error
 from studies.common.measures import initial_positions, surface_settlement_extrapolated
 from studies.common.outcome import Metric, StudyOutcome
@@ -153,10 +153,9 @@ def _block(
     nodes behind it (with linear shape functions those nodes carry no mass and the extra
     fixities change nothing). B-splines have no margin: the walls are then the grid's edges,
     which their edge functions hold (mpm/core/shape_functions.hpp). shape_function None leaves
-    the key out, for pfm-mpm's default (DEFAULT_SHAPE_FUNCTION).
+    the key out, for pfm-mpm's default (studies.common.cases.DEFAULT_SHAPE_FUNCTION).
     """
-    resolved = shape_function or DEFAULT_SHAPE_FUNCTION
-    margin_cells = 0 if resolved.endswith("bspline") else 2
+    margin_cells = 0 if is_bspline(shape_function) else 2
     far = 1e3  # m, beyond any grid of these cases
     wall_top = height if headroom == 0 else far
     case = {
@@ -205,7 +204,6 @@ def column_case(
     B-splines the grid's edges are its base and sides, with two cell rows of headroom above it
     (a B-spline at the top reaches the row above)."""
     c = COLUMN
-    bspline = (shape_function or DEFAULT_SHAPE_FUNCTION).endswith("bspline")
     case = _block(
         c["width"],
         c["height"],
@@ -222,7 +220,7 @@ def column_case(
         end_time=c["end_time"],
         h=h,
         damping=c["damping"],
-        headroom=2 if bspline else 0,
+        headroom=2 if is_bspline(shape_function) else 0,
         shape_function=shape_function,
     )
     case["title"] = f"benchmark column, h = {h} m"

@@ -63,7 +63,7 @@ import pandas as pd
 from studies import analytic, benchmarks
 from studies.boundary import EDGE_BAND_CELLS, OUTPUT_INTERVAL, TIME_TOLERANCE
 from studies.common import detectors as det
-from studies.common.cases import base_case, cell_size, derive
+from studies.common.cases import base_case, cell_size, derive, is_bspline
 from studies.common.convergence import ConvergenceStudy
 from studies.common.measures import initial_positions, surface_settlement_extrapolated
 from studies.common.outcome import Metric, StudyOutcome
@@ -197,7 +197,7 @@ def manufactured_case(cells: int, shape_function: str, scheme: str) -> dict:
     points per cell, every node on or beyond the square's edges fixed, run to T / 2."""
     m = MANUFACTURED
     size, h = m["size"], m["size"] / cells
-    margin = 0 if shape_function.endswith("bspline") else 2
+    margin = 0 if is_bspline(shape_function) else 2
     far = 1e3
     walls = {
         "base": [[-far, -far], [far, 1e-9]],
@@ -701,19 +701,13 @@ def rates_figure(table: pd.DataFrame):
 
     table = table[~table["quantity"].str.startswith("manufactured")]
     panels = (
-        ("column settlement", "column settlement: error [m]"),
-        ("squeezed disk", "squeezed disk: relative L2 error"),
-        ("", "bearing settlement, slope boundary: error [m]"),
+        (("column settlement",), "column settlement: error [m]"),
+        (("squeezed disk",), "squeezed disk: relative L2 error"),
+        (("bearing", "slope"), "bearing settlement, slope boundary: error [m]"),
     )
     figure, axes = plt.subplots(1, 3, figsize=(15, 5))
-    for axis, (prefix, ylabel) in zip(axes, panels):
-        if prefix:
-            chosen = table[table["quantity"].str.startswith(prefix)]
-        else:
-            chosen = table[
-                table["quantity"].str.startswith("bearing")
-                | table["quantity"].str.startswith("slope")
-            ]
+    for axis, (prefixes, ylabel) in zip(axes, panels):
+        chosen = table[table["quantity"].map(lambda q: q.startswith(prefixes))]
         groups = list(chosen.groupby("quantity", sort=True))
         for quantity, group in groups:
             group = group.sort_values("h_m")

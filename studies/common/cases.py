@@ -27,6 +27,13 @@ def base_case(name: str) -> tuple[dict, Path]:
 DEFAULT_SHAPE_FUNCTION = "quadratic_bspline"
 
 
+def is_bspline(shape_function: str | None) -> bool:
+    """Whether the shape function (None: pfm-mpm's default) is a B-spline. Their edge functions
+    hold supports on the grid's edges, so a body held there needs no margin of cells around it
+    (linear and uGIMP take two, with walls on node sets)."""
+    return (shape_function or DEFAULT_SHAPE_FUNCTION).endswith("bspline")
+
+
 def derive(base: dict, overrides: dict) -> dict:
     merged = copy.deepcopy(base)
     for key, value in overrides.items():
