@@ -16,7 +16,7 @@ DEB_PYTHON_MODULES := numpy scipy matplotlib pandas skimage pytest jinja2 tqdm t
   meshio gmsh dolfinx distributed docutils
 DEB_PACKAGES := cmake make g++ git clang-format black \
   libeigen3-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev \
-  libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh \
+  libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh pybind11-dev $(DEB_PYTHON_PREFIX)dev \
   $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 
 .PHONY: help deps build run test format-check test-cpp test-python test-studies sanitize bench format clean study \
@@ -81,7 +81,7 @@ test-python:
 	  rc=$$?; if [ $$rc -eq 5 ]; then echo "no Python tests collected"; exit 0; fi; exit $$rc
 
 sanitize: deps
-	@cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=Sanitize -DPFM_BENCHMARKS=OFF > /dev/null
+	@cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=Sanitize -DPFM_BENCHMARKS=OFF -DPFM_PYTHON=OFF > /dev/null
 	@cmake --build $(SANITIZE_DIR) -j $(JOBS)
 	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --output-on-failure -j $(JOBS) --timeout 900

@@ -102,14 +102,18 @@ MaterialRecord parse_material(const JsonView& v, double cell_size) {
       .require(elastic.poisson_ratio >= 0.0 && elastic.poisson_ratio < 0.5, "must be in [0, 0.5)");
   record.unit_weight = v.at("unit_weight").as_number();
   v.at("unit_weight").require(record.unit_weight >= 0.0, "must be >= 0");
+  if (model != "linear_elastic") {
+    record.written_cohesion = parse_cohesion(v.at("cohesion"));
+    if (v.has("softening_length")) record.softening_length = v.at("softening_length").as_number();
+  }
   if (model == "linear_elastic") {
     record.model = LinearElastic{elastic};
   } else if (model == "tresca") {
-    record.model = Tresca{elastic, regularised(parse_cohesion(v.at("cohesion")), v, cell_size)};
+    record.model = Tresca{elastic, regularised(record.written_cohesion, v, cell_size)};
   } else {
     MohrCoulomb mc;
     mc.elastic = elastic;
-    mc.cohesion = regularised(parse_cohesion(v.at("cohesion")), v, cell_size);
+    mc.cohesion = regularised(record.written_cohesion, v, cell_size);
     mc.friction_angle_deg = v.at("friction_angle").as_number();
     v.at("friction_angle")
         .require(mc.friction_angle_deg >= 0.0 && mc.friction_angle_deg < 90.0,

@@ -22,6 +22,10 @@ struct MaterialRecord {
   std::string name;
   Material model;
   double unit_weight = 0.0;  ///< kN/m^3
+  /// materials[].softening_length, m, when given: `model`'s cohesion law is then
+  /// written_cohesion with its plastic strains scaled by softening_length / cell size.
+  std::optional<double> softening_length;
+  PiecewiseLinear written_cohesion;  ///< the cohesion law as written (Tresca, Mohr-Coulomb)
 };
 
 enum class Placement { kEqual, kGauss, kConforming };
@@ -185,6 +189,23 @@ double estimated_memory_bytes(const Case& c);
 Case read_case(const std::string& path);
 /// Validate an already-parsed document (file is used in messages only).
 Case parse_case(const nlohmann::json& document, const std::string& file);
+
+/// The case as the solvers take it, as JSON: every value resolved (defaults applied, rectangles
+/// and meshes as counter-clockwise polygons, angles in degrees, units as in the case file), for
+/// readers in other languages that must not parse the schema again (the Python module,
+/// python/README.md; the dolfinx model). Keys: title, file, grid {origin, cell_size, n_cells,
+/// max_nodes}, materials [{name, model, youngs_modulus, poisson_ratio, unit_weight, and for the
+/// plastic models cohesion {plastic_strain, cohesion} (as written), softening_length (null: none),
+/// friction_angle, dilation_angle, tension_cutoff (null: none besides the apex)}], bodies [{name,
+/// material (index), source (polygon, mesh, particles), polygon, points_per_cell, placement,
+/// mesh, physical_group, n_points}], gravity {g, ramp_time}, initial_stress {method, k0 (null:
+/// nu / (1 - nu)), kinetic_energy_ratio, damping, max_time}, node_sets [{name, box}],
+/// boundary_conditions [{where, fix}], loads [{apply_on, type, pressure, traction, x_range (null:
+/// the whole boundary), faces, interval, time_function {type, ramp_time}}], solver {scheme,
+/// shape_function, damping, damping_form, pic_fraction, anti_locking}, time {end_time, cfl, dt
+/// (null: from cfl), max_steps}, output {interval, timeseries_interval, nodal_loads, compression,
+/// vtk}, detection (null or {every_steps, method}), manufactured_solution (bool).
+nlohmann::json resolved_case(const Case& c);
 
 /// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its
 /// time step `dt` (s, from the case's dt or its CFL number): a step that is not a positive finite

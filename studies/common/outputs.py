@@ -1,5 +1,6 @@
-"""Readers of the solver's output folders. Every reader names the file it needs; a missing file
-raises PrerequisiteMissing, so a study whose inputs are not produced yet is recorded as
+"""Readers of the solver's output folders, on those of the module pfm_mpm (python/README.md)
+where it has one. Every reader names the file it needs; a missing file raises
+PrerequisiteMissing, so a study whose inputs are not produced yet is recorded as
 "not run: needs <file> in <tool> output" rather than failing.
 
 Layout of ``pfm-mpm run CASE --out DIR [--solver mpm|ulfem]`` (and of ``pfm-ulfem CASE DIR``):
@@ -12,14 +13,14 @@ Layout of ``pfm-mpm run CASE --out DIR [--solver mpm|ulfem]`` (and of ``pfm-ulfe
                           particles_to_grid, external_forces, update_grid, grid_to_particles,
                           remap, stress`` and, with a detection block, ``detect, bezier,
                           traction``; ``outputs`` may be missing (older runs): the output steps
-                          are then read from the file names and ``particles.xdmf``;
+                          are then read from the file names and ``particles.h5``;
 * ``timeseries.csv``    ``time,kinetic_energy,external_work,...``; with loads on the detected
                           boundary also ``load_target_fx, load_target_fy, load_applied_fx,
                           load_applied_fy, load_lost_fx, load_lost_fy`` (kN/m);
 * ``particles.xdmf`` + ``particles.h5``  one group ``/step_NNNNNNNN`` per output time with
                           ``position`` (n, 3), ``displacement`` (n, 3), ``velocity`` (n, 3),
-                          ``sxx, syy, sxy, szz, eps_p, volume, id, material, body`` (n,); the
-                          times are the XDMF ``<Time Value>`` of each grid;
+                          ``sxx, syy, sxy, szz, eps_p, volume, id, material, body`` (n,); each
+                          group's attributes ``step`` and ``time`` (s);
 * ``final_particles.csv`` ``id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body``;
 * ``boundary_<step:08d>.csv``  ``loop,x,y`` at each output step: the detected boundary (MPM
                           with a ``detection`` block) or the exact mesh boundary (UL-FEM).
@@ -36,10 +37,9 @@ import re
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import pandas as pd
 
-from studies.common.paths import PrerequisiteMissing
+from studies.common.paths import PrerequisiteMissing, core
 
 BOUNDARY_FILE = re.compile(r"boundary_(\d{8})\.csv$")
 
@@ -67,24 +67,15 @@ def read_timeseries(out: Path) -> pd.DataFrame:
 
 
 def particle_frames(out: Path) -> pd.DataFrame:
-    """step, time, file ("<out>/particles.h5:/step_NNNNNNNN") of every particle output,
-    read from particles.xdmf."""
-    text = need(Path(out) / "particles.xdmf").read_text()
-    rows = []
-    for match in re.finditer(
-        r'<Grid Name="(step_(\d+))" GridType="Uniform">\s*' r'<Time Value="([^"]+)"',
-        text,
-    ):
-        rows.append(
-            {
-                "step": int(match.group(2)),
-                "time": float(match.group(3)),
-                "file": f"{Path(out) / 'particles.h5'}:/{match.group(1)}",
-            }
-        )
-    if not rows:
-        raise ValueError(f"{out}/particles.xdmf: no particle grids with times")
-    return pd.DataFrame(rows)
+    """step, time, file ("<out>/particles.h5:/step_NNNNNNNN") of every particle output, from
+    the step groups of particles.h5 (pfm_mpm.OutputFolder)."""
+    need(Path(out) / "particles.h5")
+    frames = core().OutputFolder(out).particle_steps()
+    if frames.empty:
+        raise ValueError(f"{out}/particles.h5: no particle outputs")
+    h5 = Path(out) / "particles.h5"
+    frames["file"] = [f"{h5}:/step_{step:08d}" for step in frames["step"]]
+    return frames
 
 
 def boundary_frames(out: Path) -> pd.DataFrame:
@@ -136,34 +127,11 @@ def read_index(out: Path, kind: str) -> pd.DataFrame:
 
 def read_particles(location: str) -> pd.DataFrame:
     """A particle table (columns x, y, ux, uy, vx, vy, sxx, ...) from an HDF5 step
-    ("<file>.h5:/step_N") or from a CSV file. A deformation gradient stored as ``F`` (n, 4)
-    or (n, 2, 2) becomes columns F11, F12, F21, F22."""
+    ("<file>.h5:/step_N", pfm_mpm.outputs.particle_table) or from a CSV file."""
     if ".h5:/" not in str(location):
         return pd.read_csv(need(Path(location)))
-    import h5py
-
     path, group = str(location).split(":/", 1)
-    with h5py.File(need(Path(path)), "r") as h5:
-        data = h5[group]
-        frame = {
-            "x": data["position"][:, 0],
-            "y": data["position"][:, 1],
-            "ux": data["displacement"][:, 0],
-            "uy": data["displacement"][:, 1],
-        }
-        if "velocity" in data:
-            frame.update(vx=data["velocity"][:, 0], vy=data["velocity"][:, 1])
-        for name, values in data.items():
-            if name in ("position", "displacement", "velocity"):
-                continue
-            if values.ndim == 1:
-                frame[name] = values[:]
-            elif name in ("F", "deformation_gradient") and values.size == 4 * len(
-                values
-            ):
-                f = np.asarray(values[:]).reshape(len(values), 4)
-                frame.update(F11=f[:, 0], F12=f[:, 1], F21=f[:, 2], F22=f[:, 3])
-    return pd.DataFrame(frame)
+    return core().outputs.particle_table(need(Path(path)), group)
 
 
 DETECT_COLUMNS = ("x", "y", "volume", "F11", "F12", "F21", "F22")
@@ -217,21 +185,12 @@ def loop_closed_flags(boundary_csv: Path) -> Optional[list]:
     if match and series.is_file():
         import h5py
 
+        group = f"step_{match.group(1)}"
         with h5py.File(series, "r") as h5:
-            group = h5.get(f"step_{match.group(1)}")
-            if group is not None and "loop" in group and "segments" in group:
-                loop = np.asarray(group["loop"][:]).astype(int)
-                segments = np.asarray(group["segments"][:]).reshape(-1, 2)
-                if len(loop) == 0:
-                    return []
-                ids = np.unique(loop)  # loops numbered 0.. in file order
-                points = np.bincount(loop, minlength=ids.max() + 1)
-                counted = (
-                    np.bincount(loop[segments[:, 0]], minlength=ids.max() + 1)
-                    if len(segments)
-                    else np.zeros_like(points)
-                )
-                return [bool(counted[i] == points[i]) for i in ids]
+            if group not in h5 or "segments" not in h5[group]:
+                return None
+        loops = core().outputs.boundary_loops(series, group)
+        return [closed for _, closed in loops]
     return None
 
 

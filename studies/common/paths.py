@@ -16,6 +16,7 @@ Environment overrides (all optional):
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 _REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -64,6 +65,24 @@ def build_dir() -> Path:
     if mpm:
         return Path(mpm).resolve().parent
     return _REPO_ROOT / "build" / "bin"
+
+
+def core():
+    """The module pfm_mpm on the C++ core (python/README.md): importable as is, or from the
+    build beside the binaries (``<build dir>/../python``) or the repository's ``build/python``;
+    PrerequisiteMissing when it is not built."""
+    try:
+        import pfm_mpm
+    except ImportError:
+        for build in (build_dir().parent, _REPO_ROOT / "build"):
+            if (build / "python" / "pfm_mpm").is_dir():
+                sys.path.append(str(build / "python"))
+                break
+        try:
+            import pfm_mpm
+        except ImportError as err:
+            raise PrerequisiteMissing(f"the module pfm_mpm (make build): {err}")
+    return pfm_mpm
 
 
 def mpm_executable() -> Path:

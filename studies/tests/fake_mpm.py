@@ -62,6 +62,7 @@ def run(args, out):
             write_loop(out / name, outline, shift)
             outputs.append({"step": step, "time": time, "boundary": name})
             group = h5.create_group(f"step_{step:08d}")
+            group.attrs["step"], group.attrs["time"] = float(step), time
             xy = np.array(outline, dtype=float)
             group["position"] = np.c_[xy, np.zeros(len(xy))]
             group["displacement"] = np.zeros((len(xy), 3))

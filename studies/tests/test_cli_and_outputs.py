@@ -90,20 +90,18 @@ def test_rejected_case_keys_count_as_missing_prerequisites():
     )
 
 
-def test_particle_outputs_are_read_from_xdmf_and_hdf5(tmp_path):
+def test_particle_outputs_are_read_from_hdf5(tmp_path):
+    """The step groups of particles.h5 give the steps and times (their attributes) and the
+    particle tables."""
     n = 4
     with h5py.File(tmp_path / "particles.h5", "w") as h5:
-        for step, shift in ((0, 0.0), (14, 0.5)):
+        for step, shift, time in ((0, 0.0, 0.0), (14, 0.5, 0.12983)):
             group = h5.create_group(f"step_{step:08d}")
+            group.attrs["step"], group.attrs["time"] = float(step), time
             position = np.c_[np.arange(n), np.ones(n) + shift, np.zeros(n)]
             group["position"] = position
             group["displacement"] = np.c_[np.zeros(n), np.full(n, shift), np.zeros(n)]
             group["syy"] = -np.arange(n, dtype=float)
-    grids = "".join(
-        f'<Grid Name="step_{s:08d}" GridType="Uniform">\n<Time Value="{t}"/>\n</Grid>\n'
-        for s, t in ((0, 0.0), (14, 0.12983))
-    )
-    (tmp_path / "particles.xdmf").write_text(f"<Xdmf><Domain>{grids}</Domain></Xdmf>")
     index = read_index(tmp_path, "particles")
     assert list(index["step"]) == [0, 14] and list(index["time"]) == [0.0, 0.12983]
     location = file_at_time(index, 0.125, tolerance=0.01)

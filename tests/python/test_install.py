@@ -1,7 +1,10 @@
 """`cmake --install` gives a working installation (issue "Fits the tools its users already use",
 must-show 4): into a scratch prefix, the installed pfm-mpm prints its version and runs a shipped
-case, and a project outside the tree finds the package (find_package(pfm_mpm)), builds against
-pfm::core with the installed headers and runs."""
+case, the installed Python module imports from the prefix alone and reads a case, and a project
+outside the tree finds the package (find_package(pfm_mpm)), builds against pfm::core with the
+installed headers and runs."""
+import os
+import sys
 
 import json
 import subprocess
@@ -64,6 +67,26 @@ def test_an_installed_prefix_runs_a_case_and_serves_a_cmake_project(
     assert run["status"] == "completed"
     for name in ("LICENSE", "CHANGELOG.md"):
         assert list(prefix.glob(f"share/doc/*/{name}")), name
+
+    # The Python module from the prefix alone: the repository and the build are not on the
+    # path (a scratch working directory, PYTHONPATH only the prefix's package folder).
+    (packages,) = prefix.glob("lib/python3*/dist-packages")
+    script = (
+        "import pfm_mpm, sys; "
+        "case = pfm_mpm.read_case(sys.argv[1]); "
+        "print(pfm_mpm.__file__); print(case['grid']['n_cells'])"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(packages)
+    printed = subprocess.run(
+        [sys.executable, "-c", script, str(ROOT / "cases" / "column.json")],
+        cwd=tmp_path,
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.splitlines()
+    assert printed[0].startswith(str(packages)) and printed[1] == "[2, 12]"
 
     source, consumer = tmp_path / "consumer", tmp_path / "consumer-build"
     source.mkdir()
