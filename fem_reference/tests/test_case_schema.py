@@ -332,7 +332,9 @@ def test_every_mpm_shape_function_is_read_and_ignored(shape):
     raw = shipped("thesis62_bearing_dynamic_zero_start.json")
     raw["solver"]["shape_function"] = shape
     if shape == "quartic_bspline":
-        with pytest.raises(CaseError, match="/solver/shape_function: \"quartic_bspline\" is not one of"):
+        with pytest.raises(
+            CaseError, match='/solver/shape_function: "quartic_bspline" is not one of'
+        ):
             case_from_dict(raw, "bearing.json")
         return
     case = case_from_dict(raw, "bearing.json")

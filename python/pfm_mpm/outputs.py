@@ -41,15 +41,21 @@ def _steps(path: Path) -> pd.DataFrame:
         for name, group in h5.items():
             if name.startswith("step_") and isinstance(group, h5py.Group):
                 rows.append(
-                    {"step": int(group.attrs["step"]), "time": float(group.attrs["time"])}
+                    {
+                        "step": int(group.attrs["step"]),
+                        "time": float(group.attrs["time"]),
+                    }
                 )
-    return pd.DataFrame(rows, columns=["step", "time"]).sort_values("step", ignore_index=True)
+    return pd.DataFrame(rows, columns=["step", "time"]).sort_values(
+        "step", ignore_index=True
+    )
 
 
 def particle_table(path, group: str) -> pd.DataFrame:
     """The particles of one step group of an HDF5 particle file: columns x, y, ux, uy, vx, vy
     and one per scalar field (sxx, syy, sxy, szz, eps_p, volume, id, material, body, F11 ...);
-    a deformation gradient stored as ``F`` (n, 4) or (n, 2, 2) becomes F11, F12, F21, F22."""
+    a deformation gradient stored as ``F`` (n, 4) or (n, 2, 2) becomes F11, F12, F21, F22.
+    """
     import h5py
 
     with h5py.File(_need(Path(path)), "r") as h5:
