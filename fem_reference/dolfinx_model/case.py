@@ -155,7 +155,7 @@ class Case:
     gravity_ramp_time: float
     initial_stress: str
     k0: Optional[float]
-    node_sets: dict
+    node_sets: dict  # name -> box ((x0, y0), (x1, y1)) or {"segments": (k, 2, 2)}
     boundary_conditions: list  # [(where, fix)]
     loads: list
     damping: float
@@ -262,6 +262,16 @@ def _material(m: dict) -> Material:
     return out
 
 
+def _node_set(s: dict):
+    """((x0, y0), (x1, y1)), a closed box; or {"segments": array (k, 2, 2)}, the line
+    elements and points of a gmsh physical group."""
+    if s["box"] is not None:
+        return tuple(map(tuple, s["box"]))
+    import numpy as np
+
+    return {"segments": np.array(s["segments"], dtype=float).reshape(-1, 2, 2)}
+
+
 def _load(ld: dict) -> Load:
     x_range, traction = ld["x_range"], ld["traction"]
     return Load(
@@ -312,7 +322,7 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         c["gravity"]["ramp_time"],
         stress["method"],
         stress["k0"],
-        {s["name"]: tuple(map(tuple, s["box"])) for s in c["node_sets"]},
+        {s["name"]: _node_set(s) for s in c["node_sets"]},
         [(bc["where"], bc["fix"]) for bc in c["boundary_conditions"]],
         [_load(ld) for ld in c["loads"]],
         c["solver"]["damping"],

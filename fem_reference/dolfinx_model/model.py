@@ -162,13 +162,7 @@ class Model:
                     )
                     self.fixed_dofs.append(dofs)
             else:
-                (bx0, by0), (bx1, by1) = case.node_sets[where]
-                inside = lambda x: (
-                    (x[0] >= bx0 - tol)
-                    & (x[0] <= bx1 + tol)
-                    & (x[1] >= by0 - tol)
-                    & (x[1] <= by1 + tol)
-                )
+                inside = _node_set_test(case.node_sets[where], tol)
                 for comp in comps:
                     sub = self.V.sub(comp)
                     collapsed, _ = sub.collapse()
@@ -522,3 +516,27 @@ class Model:
         """Quadrature-weighted mean over each cell's points, rows in cell order."""
         w = self.qweights / self.qweights.sum()
         return np.einsum("cqk,q->ck", values.reshape(self.n_cells, self.nq, -1), w)
+
+
+def _node_set_test(node_set, tol):
+    """x (3, n) -> whether each point is in the node set: in its closed box, or within tol of
+    one of its segments (a gmsh physical group, case.py)."""
+    if not isinstance(node_set, dict):
+        (bx0, by0), (bx1, by1) = node_set
+        return lambda x: (
+            (x[0] >= bx0 - tol)
+            & (x[0] <= bx1 + tol)
+            & (x[1] >= by0 - tol)
+            & (x[1] <= by1 + tol)
+        )
+    a, b = node_set["segments"][:, 0], node_set["segments"][:, 1]
+
+    def inside(x):
+        p = x[:2].T[:, None, :]  # (n, 1, 2) against (k, 2)
+        ab = b - a
+        length2 = np.maximum((ab * ab).sum(axis=1), np.finfo(float).tiny)
+        t = np.clip(((p - a) * ab).sum(axis=2) / length2, 0.0, 1.0)
+        distance = np.linalg.norm(a + t[:, :, None] * ab - p, axis=2)
+        return distance.min(axis=1) <= tol
+
+    return inside

@@ -367,22 +367,34 @@ def test_a_softening_length_scales_the_law_by_itself_over_the_element_size():
         case_from_dict(raw, "bearing.json")
 
 
-def test_a_mesh_body_is_its_outline(tmp_path):
-    """bodies[].mesh, as the C++ reader: the outline of the gmsh file's 2D elements (of the
-    physical group) is the body polygon: the same area and corners as the polygon meshed;
-    an unknown group and a missing file are refused with the pointer."""
+def write_quadrilateral_mesh(path, outline, dimension):
+    """The four-sided outline meshed by gmsh up to `dimension` (1: its edges, 2: the surface,
+    in triangles of about 0.7 m) into `path`, with the physical groups "soil" (the surface),
+    "base" (the first edge) and "sides" (the second and fourth)."""
     gmsh = pytest.importorskip("gmsh")
-    outline = [(0.0, 0.0), (15.0, 0.0), (12.0, 5.0), (0.0, 5.0)]
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     points = [gmsh.model.geo.addPoint(x, y, 0.0, 0.7) for x, y in outline]
     lines = [gmsh.model.geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4)]
     surface = gmsh.model.geo.addPlaneSurface([gmsh.model.geo.addCurveLoop(lines)])
     gmsh.model.geo.synchronize()
-    gmsh.model.setPhysicalName(2, gmsh.model.addPhysicalGroup(2, [surface]), "soil")
-    gmsh.model.mesh.generate(2)
-    gmsh.write(str(tmp_path / "block.msh"))
+    for dim, tags, name in (
+        (2, [surface], "soil"),
+        (1, [lines[0]], "base"),
+        (1, [lines[1], lines[3]], "sides"),
+    ):
+        gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
+    gmsh.model.mesh.generate(dimension)
+    gmsh.write(str(path))
     gmsh.finalize()
+
+
+def test_a_mesh_body_is_its_outline(tmp_path):
+    """bodies[].mesh, as the C++ reader: the outline of the gmsh file's 2D elements (of the
+    physical group) is the body polygon: the same area and corners as the polygon meshed;
+    an unknown group and a missing file are refused with the pointer."""
+    outline = [(0.0, 0.0), (15.0, 0.0), (12.0, 5.0), (0.0, 5.0)]
+    write_quadrilateral_mesh(tmp_path / "block.msh", outline, 2)
     raw = shipped("thesis62_bearing_dynamic_zero_start.json")
     body = raw["bodies"][0]
     for key in ("rectangle", "polygon"):
@@ -403,3 +415,37 @@ def test_a_mesh_body_is_its_outline(tmp_path):
     body.update(mesh="missing.msh", physical_group="soil")
     with pytest.raises(CaseError, match="/bodies/0/mesh: .* is not a readable file"):
         case_from_dict(raw, str(tmp_path / "case.json"))
+
+
+def test_node_sets_from_a_mesh_fix_the_dofs_of_their_boxes(tmp_path):
+    """node_sets[].mesh, as the C++ reader: a physical group of curves gives the nodes on its
+    line elements. The elastic block with the bottom fixed through a mesh's "base" curve and
+    rollers through its "sides" has the same constrained dofs (every one) as with the same
+    sets given as boxes."""
+    outline = [(0.0, 0.0), (15.0, 0.0), (15.0, 5.0), (0.0, 5.0)]
+    write_quadrilateral_mesh(tmp_path / "edges.msh", outline, 1)
+    raw = elastic_bearing_block()
+    raw["boundary_conditions"] = [
+        {"where": "base", "fix": "xy"},
+        {"where": "sides", "fix": "x"},
+    ]
+    boxes = copy.deepcopy(raw)
+    boxes["node_sets"] = [
+        {"name": "base", "box": [[0, 0], [15, 0]]},
+        {"name": "west", "box": [[0, 0], [0, 5]]},
+        {"name": "east", "box": [[15, 0], [15, 5]]},
+    ]
+    boxes["boundary_conditions"][1:] = [
+        {"where": "west", "fix": "x"},
+        {"where": "east", "fix": "x"},
+    ]
+    raw["node_sets"] = [
+        {"name": "base", "mesh": "edges.msh", "physical_group": "base"},
+        {"name": "sides", "mesh": "edges.msh", "physical_group": "sides"},
+    ]
+    meshed = case_from_dict(raw, str(tmp_path / "case.json"))
+    assert meshed.node_sets["sides"]["segments"].shape[1:] == (2, 2)
+    by_box = Model(case_from_dict(boxes, "boxes.json"), element_size=1.0)
+    by_mesh = Model(meshed, element_size=1.0)
+    assert len(by_box.constrained) > 0
+    assert np.array_equal(by_box.constrained, by_mesh.constrained)

@@ -183,9 +183,7 @@ void UlFemSolver::build_constraints() {
         selected = std::abs(x.y() - hi.y()) <= tol;
       } else {
         for (const NodeSet& set : case_.node_sets) {
-          if (set.name != bc.where) continue;
-          selected = x.x() >= set.box_min.x() - tol && x.x() <= set.box_max.x() + tol &&
-                     x.y() >= set.box_min.y() - tol && x.y() <= set.box_max.y() + tol;
+          if (set.name == bc.where) selected = set.contains(x, tol);
         }
       }
       if (selected) nodes_.fixed[n] |= bc.fix;

@@ -72,6 +72,13 @@ ParticleTable read_particle_csv(const std::string& path) {
     throw InputError(path + ":" + std::to_string(line_number) +
                      ": deformation gradient columns must be all of F11, F12, F21, F22 or none");
   }
+  const int cs[4] = {column("sxx"), column("syy"), column("sxy"), column("szz")};
+  const int n_s = static_cast<int>(std::count_if(cs, cs + 4, [](int c) { return c >= 0; }));
+  if (n_s != 0 && n_s != 4) {
+    throw InputError(path + ":" + std::to_string(line_number) +
+                     ": stress columns must be all of sxx, syy, sxy, szz or none");
+  }
+  const int cm = column("material");
   ParticleTable table;
   while (std::getline(in, line)) {
     ++line_number;
@@ -110,6 +117,18 @@ ParticleTable read_particle_csv(const std::string& path) {
         throw InputError(where + ": columns F11..F22: det F must be > 0");
       }
       table.deformation_gradient.push_back(f);
+    }
+    if (n_s == 4) {
+      table.stress.emplace_back(number(cs[0]), number(cs[1]), number(cs[2]), number(cs[3]));
+    }
+    if (cm >= 0) {
+      const double m = number(cm);
+      if (!(m >= 0.0 && m == std::floor(m) && m < 1e9)) {
+        throw InputError(where +
+                         ": column material: must be a whole number >= 0 (an index "
+                         "into the case's materials)");
+      }
+      table.material.push_back(static_cast<int>(m));
     }
   }
   if (table.position.empty()) throw InputError(path + ": no particle rows after the header");

@@ -3,7 +3,10 @@
 //
 // PARTICLES.csv: a header line naming the columns, then one particle per line. Required columns
 // x, y (m) and volume (m^2); optional F11, F12, F21, F22 (all four or none: the total deformation
-// gradient). Other columns are ignored; blank lines and lines starting with '#' are skipped.
+// gradient), sxx, syy, sxy, szz (all four or none: the stress, kPa, tension positive) and
+// material (an index into a case's materials, from 0); the detector uses x, y, volume and F, a
+// body from a file (bodies[].particles) x, y, volume, the stress and the material. Other columns
+// are ignored; blank lines and lines starting with '#' are skipped.
 //
 // CONFIG.json: the detector configuration of parse_detector_config() plus optional
 //   "initial_spacing": m (default: sqrt of the median volume),
@@ -28,6 +31,8 @@ struct ParticleTable {
   std::vector<Vec2> position;
   std::vector<double> volume;
   std::vector<Mat2> deformation_gradient;  ///< empty when the file has no F columns
+  std::vector<Stress> stress;  ///< kPa (xx, yy, xy, zz); empty without the sxx..szz columns
+  std::vector<int> material;   ///< index into a case's materials; empty without the column
 };
 ParticleTable read_particle_csv(const std::string& path);
 

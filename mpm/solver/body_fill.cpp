@@ -182,7 +182,10 @@ Particles fill_bodies(const Case& c) {
           taken = point_in_polygon(c.bodies[other].polygon, x);
         if (taken) continue;
         const double half = 0.5 * std::sqrt(v);
-        particles.add(x, v, density, Vec2(half, half), body.material, static_cast<int>(b));
+        const int material = body.point_material.empty() ? body.material : body.point_material[k];
+        particles.add(x, v, c.materials[static_cast<std::size_t>(material)].unit_weight / g,
+                      Vec2(half, half), material, static_cast<int>(b));
+        if (!body.point_stress.empty()) particles.stress.back() = body.point_stress[k];
       }
       continue;
     }

@@ -14,6 +14,7 @@
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/solver/gmsh_surface.hpp"
+#include "mpm/solver/particle_input.hpp"
 
 namespace pfm {
 
@@ -134,8 +135,9 @@ MaterialRecord parse_material(const JsonView& v, double cell_size) {
   return record;
 }
 
-// bodies[k].particles: a CSV file (relative to the case file's folder) with columns x, y and
-// volume (read_particle_csv; other columns are not read). Every point inside the grid.
+// bodies[k].particles: a CSV or HDF5 file (relative to the case file's folder) with x, y and
+// volume, optionally the stress and the material (read_particle_file). Every point inside the
+// grid, every material an index of materials[].
 void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
   for (const char* key :
        {"rectangle", "polygon", "mesh", "physical_group", "points_per_cell", "placement"}) {
@@ -152,9 +154,16 @@ void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
       path.string() + " is not a regular file");
   ParticleTable table;
   try {
-    table = read_particle_csv(path.string());
+    table = read_particle_file(path.string());
   } catch (const InputError& e) {
     entry.fail(e.what());
+  }
+  for (std::size_t k = 0; k < table.material.size(); ++k) {
+    if (table.material[k] >= static_cast<int>(c.materials.size())) {
+      entry.fail(path.string() + ": point " + std::to_string(k + 1) + ": material " +
+                 std::to_string(table.material[k]) + " is not an index of materials[] (0.." +
+                 std::to_string(c.materials.size() - 1) + ")");
+    }
   }
   const Grid& grid = c.grid;
   const Vec2 lo = grid.node_position(0, 0);
@@ -168,6 +177,8 @@ void read_body_particles(const JsonView& body, const Case& c, BodySpec& out) {
   }
   out.point_position = std::move(table.position);
   out.point_volume = std::move(table.volume);
+  out.point_stress = std::move(table.stress);
+  out.point_material = std::move(table.material);
 }
 
 void require_inside_grid(const std::vector<Vec2>& polygon, const JsonView& at, const Grid& grid) {
@@ -226,6 +237,19 @@ void read_body_mesh(const JsonView& body, const Case& c, BodySpec& out) {
   require_inside_grid(out.polygon, entry, c.grid);
 }
 
+// node_sets[k].mesh: a gmsh .msh file (relative to the case file's folder) whose physical group
+// node_sets[k].physical_group, of curves or points, gives the set.
+void read_node_set_mesh(const JsonView& v, const Case& c, NodeSet& out) {
+  const JsonView entry = v.at("mesh");
+  std::filesystem::path path = entry.as_string();
+  if (path.is_relative()) path = std::filesystem::path(c.file).parent_path() / path;
+  out.mesh_file = path.string();
+  out.physical_group = v.at("physical_group").as_string();
+  v.at("physical_group").require(!out.physical_group.empty(), "must not be empty");
+  out.segments =
+      read_gmsh_lines(out.mesh_file, out.physical_group, c.file + ": " + entry.pointer());
+}
+
 unsigned parse_fix(const JsonView& v) {
   const std::string s = v.as_choice({"x", "y", "xy"});
   return s == "x" ? kFixX : (s == "y" ? kFixY : kFixXY);
@@ -246,6 +270,20 @@ TimeFunction parse_time_function(const JsonView& v) {
 }
 
 }  // namespace
+
+bool NodeSet::contains(const Vec2& x, double tolerance) const {
+  if (segments.empty()) {
+    return x.x() >= box_min.x() - tolerance && x.x() <= box_max.x() + tolerance &&
+           x.y() >= box_min.y() - tolerance && x.y() <= box_max.y() + tolerance;
+  }
+  for (const auto& [a, b] : segments) {
+    const Vec2 ab = b - a;
+    const double length2 = ab.squaredNorm();
+    const double t = length2 > 0.0 ? std::clamp((x - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    if ((a + t * ab - x).norm() <= tolerance) return true;
+  }
+  return false;
+}
 
 double largest_wave_speed(const Case& c) {
   const double g = c.gravity.g > 0.0 ? c.gravity.g : 9.81;
@@ -591,6 +629,17 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     if (s->has("max_time"))
       s->at("max_time").require(c.initial_stress.max_time > 0.0, "must be > 0");
   }
+  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+    if (!c.bodies[b].point_stress.empty() &&
+        c.initial_stress.method != InitialStressMethod::kZero) {
+      root.at("bodies")
+          .at(b)
+          .at("particles")
+          .fail(
+              "the file gives the points' stresses, which are the initial state: use "
+              "initial_stress.method \"zero\" (or a file without sxx, syy, sxy, szz)");
+    }
+  }
   if (c.initial_stress.method == InitialStressMethod::kK0) {
     for (const BodySpec& body : c.bodies) {
       if (body.from_file()) {
@@ -607,7 +656,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   if (const auto ns = root.find("node_sets")) {
     for (std::size_t k = 0; k < ns->array_size(); ++k) {
       const JsonView v = ns->at(k);
-      v.expect_object({"name", "box"});
+      v.expect_object({"name", "box", "mesh", "physical_group"});
       NodeSet set;
       set.name = v.at("name").as_string();
       for (const char* reserved : {"left", "right", "bottom", "top"}) {
@@ -616,12 +665,19 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       for (const auto& other : c.node_sets) {
         v.at("name").require(other.name != set.name, "duplicate node-set name");
       }
-      const JsonView box = v.at("box");
-      box.require(box.array_size() == 2, "expected [[x0, y0], [x1, y1]]");
-      set.box_min = box.at(std::size_t{0}).as_vec2();
-      set.box_max = box.at(std::size_t{1}).as_vec2();
-      box.require(set.box_max.x() >= set.box_min.x() && set.box_max.y() >= set.box_min.y(),
-                  "expected x1 >= x0 and y1 >= y0");
+      v.require(v.has("box") != v.has("mesh"), "give exactly one of \"box\" or \"mesh\"");
+      if (v.has("mesh")) {
+        read_node_set_mesh(v, c, set);
+      } else {
+        if (v.has("physical_group"))
+          v.at("physical_group").fail("used only with \"mesh\" (a gmsh file)");
+        const JsonView box = v.at("box");
+        box.require(box.array_size() == 2, "expected [[x0, y0], [x1, y1]]");
+        set.box_min = box.at(std::size_t{0}).as_vec2();
+        set.box_max = box.at(std::size_t{1}).as_vec2();
+        box.require(set.box_max.x() >= set.box_min.x() && set.box_max.y() >= set.box_min.y(),
+                    "expected x1 >= x0 and y1 >= y0");
+      }
       c.node_sets.push_back(set);
     }
   }

@@ -2,6 +2,7 @@
 // Units: kN, m, s, t, kPa; angles converted to degrees-in-struct as documented per field.
 #pragma once
 
+#include <array>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -36,11 +37,14 @@ struct BodySpec {
   std::vector<Vec2> polygon;  ///< counter-clockwise, not closed (first point not repeated), m
   int points_per_cell = 2;    ///< n: n x n points per cell
   Placement placement = Placement::kEqual;
-  /// A body read from a particle file (bodies[].particles, columns x, y, volume): its points
-  /// as they are, each a square of its volume (polygon empty, points_per_cell and placement
-  /// unused). Empty for a rectangle or polygon body.
+  /// A body read from a particle file (bodies[].particles: x, y, volume, optionally the stress
+  /// and the material; mpm/solver/particle_input.hpp): its points as they are, each a square of
+  /// its volume (polygon empty, points_per_cell and placement unused). Empty for a rectangle or
+  /// polygon body.
   std::vector<Vec2> point_position;  ///< m
   std::vector<double> point_volume;  ///< m^2 per m
+  std::vector<Stress> point_stress;  ///< kPa, the initial stress; empty: none given (zero)
+  std::vector<int> point_material;   ///< index into Case::materials; empty: `material`
   bool from_file() const { return !point_position.empty(); }
   /// A body given as a gmsh mesh (bodies[].mesh): the file and its physical group (empty: all
   /// 2D elements); polygon is the mesh's outline (mpm/solver/gmsh_surface.hpp). The UL-FEM
@@ -64,9 +68,18 @@ struct InitialStressSpec {
   double max_time = 20.0;  ///< s
 };
 
+/// A named set of nodes for boundary conditions: the grid nodes (MPM) or mesh nodes (UL-FEM)
+/// in a closed box ("box"), or on the curves and points of a gmsh physical group ("mesh",
+/// "physical_group").
 struct NodeSet {
   std::string name;
-  Vec2 box_min, box_max;  ///< m, closed box
+  Vec2 box_min, box_max;  ///< m, closed box (when `segments` is empty)
+  /// The group's line elements, its points as segments of zero length, m.
+  std::vector<std::array<Vec2, 2>> segments;
+  std::string mesh_file, physical_group;
+  /// Whether a node at x belongs to the set: in the box, or within `tolerance` (m) of a
+  /// segment.
+  bool contains(const Vec2& x, double tolerance) const;
 };
 
 struct BoundaryCondition {
@@ -199,12 +212,13 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// friction_angle, dilation_angle, tension_cutoff (null: none besides the apex)}], bodies [{name,
 /// material (index), source (polygon, mesh, particles), polygon, points_per_cell, placement,
 /// mesh, physical_group, n_points}], gravity {g, ramp_time}, initial_stress {method, k0 (null:
-/// nu / (1 - nu)), kinetic_energy_ratio, damping, max_time}, node_sets [{name, box}],
-/// boundary_conditions [{where, fix}], loads [{apply_on, type, pressure, traction, x_range (null:
-/// the whole boundary), faces, interval, time_function {type, ramp_time}}], solver {scheme,
-/// shape_function, damping, damping_form, pic_fraction, anti_locking}, time {end_time, cfl, dt
-/// (null: from cfl), max_steps}, output {interval, timeseries_interval, nodal_loads, compression,
-/// vtk}, detection (null or {every_steps, method}), manufactured_solution (bool).
+/// nu / (1 - nu)), kinetic_energy_ratio, damping, max_time}, node_sets [{name, box (null: from a
+/// mesh), mesh, physical_group, segments}], boundary_conditions [{where, fix}], loads [{apply_on,
+/// type, pressure, traction, x_range (null: the whole boundary), faces, interval, time_function
+/// {type, ramp_time}}], solver {scheme, shape_function, damping, damping_form, pic_fraction,
+/// anti_locking}, time {end_time, cfl, dt (null: from cfl), max_steps}, output {interval,
+/// timeseries_interval, nodal_loads, compression, vtk}, detection (null or {every_steps, method}),
+/// manufactured_solution (bool).
 nlohmann::json resolved_case(const Case& c);
 
 /// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its

@@ -131,8 +131,14 @@ json resolved_case(const Case& c) {
                            {"max_time", s.max_time}};
   out["node_sets"] = json::array();
   for (const NodeSet& set : c.node_sets) {
+    json segments = json::array();
+    for (const auto& [a, b] : set.segments) segments.push_back({point(a), point(b)});
     out["node_sets"].push_back(
-        {{"name", set.name}, {"box", {point(set.box_min), point(set.box_max)}}});
+        {{"name", set.name},
+         {"box", set.segments.empty() ? json{point(set.box_min), point(set.box_max)} : json()},
+         {"mesh", set.mesh_file},
+         {"physical_group", set.physical_group},
+         {"segments", segments}});
   }
   out["boundary_conditions"] = json::array();
   for (const BoundaryCondition& bc : c.boundary_conditions) {

@@ -23,61 +23,87 @@ GmshSession::~GmshSession() {
 
 namespace {
 
-// gmsh element types: 2 = 3-node triangle, 3 = 4-node quadrangle.
-constexpr int kTriangle = 2, kQuadrangle = 3;
+// gmsh element types: 2 = 3-node triangle, 3 = 4-node quadrangle, 1 = 2-node line, 15 = point.
+constexpr int kTriangle = 2, kQuadrangle = 3, kLine = 1, kPoint = 15;
 
-}  // namespace
-
-SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physical_group,
-                              const std::string& where) {
+void open_file(const std::string& path, const std::string& where) {
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw InputError(where + ": " + path + " is not a readable file");
-  GmshSession session;
   try {
     gmsh::open(path);
   } catch (...) {  // gmsh reports its errors as exceptions of its own types
     throw InputError(where + ": gmsh cannot read " + path);
   }
-  std::vector<int> entities;
-  if (physical_group.empty()) {
-    gmsh::vectorpair all;
-    gmsh::model::getEntities(all, 2);
-    for (const auto& [dim, tag] : all) entities.push_back(tag);
-  } else {
+}
+
+// The entities (dimension, tag) of the physical groups named `name` of the dimensions `dims`
+// of the open model; InputError listing the groups there are when there is none.
+gmsh::vectorpair group_entities(const std::string& name, std::initializer_list<int> dims,
+                                const std::string& what, const std::string& path,
+                                const std::string& where) {
+  gmsh::vectorpair entities;
+  std::string names;
+  for (const int d : dims) {
     gmsh::vectorpair groups;
-    gmsh::model::getPhysicalGroups(groups, 2);
-    std::string names;
-    bool found = false;
+    gmsh::model::getPhysicalGroups(groups, d);
     for (const auto& [dim, tag] : groups) {
-      std::string name;
-      gmsh::model::getPhysicalName(dim, tag, name);
-      names += (names.empty() ? "" : ", ") + ("\"" + name + "\"");
-      if (name != physical_group) continue;
-      found = true;
+      std::string group;
+      gmsh::model::getPhysicalName(dim, tag, group);
+      names += (names.empty() ? "" : ", ") + ("\"" + group + "\"");
+      if (group != name) continue;
       std::vector<int> tags;
       gmsh::model::getEntitiesForPhysicalGroup(dim, tag, tags);
-      entities.insert(entities.end(), tags.begin(), tags.end());
+      for (const int t : tags) entities.emplace_back(dim, t);
     }
-    if (!found) {
-      throw InputError(where + ": " + path + " has no 2D physical group \"" + physical_group +
-                       "\" (it has " + (names.empty() ? std::string("none") : names) + ")");
-    }
+  }
+  if (entities.empty()) {
+    throw InputError(where + ": " + path + " has no " + what + " physical group \"" + name +
+                     "\" (it has " + (names.empty() ? std::string("none") : names) + ")");
+  }
+  return entities;
+}
+
+std::string element_name(int type) {
+  std::string name;
+  int dim = 0, order = 0, n_nodes = 0, n_primary = 0;
+  std::vector<double> local;
+  gmsh::model::mesh::getElementProperties(type, name, dim, order, n_nodes, local, n_primary);
+  return name;
+}
+
+// The node `tag`'s position; InputError when it lies off the plane z = 0.
+Vec2 node_position(std::size_t tag, const std::string& path, const std::string& where) {
+  std::vector<double> coord, parametric;
+  gmsh::model::mesh::getNode(tag, coord, parametric);
+  if (coord[2] != 0.0) {
+    throw InputError(where + ": " + path + ": node " + std::to_string(tag) +
+                     " lies off the plane z = 0 (z = " + std::to_string(coord[2]) + ")");
+  }
+  return {coord[0], coord[1]};
+}
+
+}  // namespace
+
+SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physical_group,
+                              const std::string& where) {
+  GmshSession session;
+  open_file(path, where);
+  gmsh::vectorpair entities;
+  if (physical_group.empty()) {
+    gmsh::model::getEntities(entities, 2);
+  } else {
+    entities = group_entities(physical_group, {2}, "2D", path, where);
   }
   SurfaceMesh mesh;
   std::map<std::size_t, int> index;  // gmsh node tag -> our node
-  for (const int entity : entities) {
+  for (const auto& [dim, entity] : entities) {
     std::vector<int> types;
     std::vector<std::vector<std::size_t>> element_tags, node_tags;
-    gmsh::model::mesh::getElements(types, element_tags, node_tags, 2, entity);
+    gmsh::model::mesh::getElements(types, element_tags, node_tags, dim, entity);
     for (std::size_t t = 0; t < types.size(); ++t) {
       if (types[t] != kTriangle && types[t] != kQuadrangle) {
-        std::string name;
-        int dim = 0, order = 0, n_nodes = 0, n_primary = 0;
-        std::vector<double> local;
-        gmsh::model::mesh::getElementProperties(types[t], name, dim, order, n_nodes, local,
-                                                n_primary);
-        throw InputError(where + ": " + path + " holds " + name +
+        throw InputError(where + ": " + path + " holds " + element_name(types[t]) +
                          " elements; bodies take 3-node triangles and 4-node quadrangles");
       }
       const std::size_t corners = types[t] == kTriangle ? 3 : 4;
@@ -86,15 +112,7 @@ SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physic
         for (std::size_t k = 0; k < corners; ++k) {
           const std::size_t tag = node_tags[t][corners * e + k];
           auto [it, added] = index.emplace(tag, static_cast<int>(mesh.node.size()));
-          if (added) {
-            std::vector<double> coord, parametric;
-            gmsh::model::mesh::getNode(tag, coord, parametric);
-            if (coord[2] != 0.0) {
-              throw InputError(where + ": " + path + ": node " + std::to_string(tag) +
-                               " lies off the plane z = 0 (z = " + std::to_string(coord[2]) + ")");
-            }
-            mesh.node.emplace_back(coord[0], coord[1]);
-          }
+          if (added) mesh.node.push_back(node_position(tag, path, where));
           element.push_back(it->second);
         }
         double area = 0.0;  // twice the signed area
@@ -143,6 +161,36 @@ std::vector<Vec2> surface_outline(const SurfaceMesh& mesh, const std::string& wh
                      " in the first loop): a body is one piece without holes");
   }
   return outline;
+}
+
+std::vector<std::array<Vec2, 2>> read_gmsh_lines(const std::string& path,
+                                                 const std::string& physical_group,
+                                                 const std::string& where) {
+  GmshSession session;
+  open_file(path, where);
+  std::vector<std::array<Vec2, 2>> segments;
+  for (const auto& [dim, entity] :
+       group_entities(physical_group, {1, 0}, "curve or point", path, where)) {
+    std::vector<int> types;
+    std::vector<std::vector<std::size_t>> element_tags, node_tags;
+    gmsh::model::mesh::getElements(types, element_tags, node_tags, dim, entity);
+    for (std::size_t t = 0; t < types.size(); ++t) {
+      if (types[t] != kLine && types[t] != kPoint) {
+        throw InputError(where + ": " + path + " holds " + element_name(types[t]) +
+                         " elements; node sets take 2-node lines and points");
+      }
+      const std::size_t corners = types[t] == kLine ? 2 : 1;
+      for (std::size_t e = 0; e < element_tags[t].size(); ++e) {
+        const Vec2 a = node_position(node_tags[t][corners * e], path, where);
+        segments.push_back(
+            {a, node_position(node_tags[t][corners * e + corners - 1], path, where)});
+      }
+    }
+  }
+  if (segments.empty()) {
+    throw InputError(where + ": " + path + " has no line or point in \"" + physical_group + "\"");
+  }
+  return segments;
 }
 
 }  // namespace pfm

@@ -1,8 +1,10 @@
-// Surface meshes from gmsh .msh files: bodies given as meshes (bodies[].mesh; their outline is
-// the body polygon, so the MPM fills them as it fills a polygon) and the UL-FEM's elements of
-// such a body (fem_reference/ulfem/quad_mesh.hpp, mesh_case).
+// gmsh .msh files: bodies given as meshes (bodies[].mesh; their outline is the body polygon, so
+// the MPM fills them as it fills a polygon), the UL-FEM's elements of such a body
+// (fem_reference/ulfem/quad_mesh.hpp, mesh_case), and node sets given as physical groups of
+// curves or points (node_sets[].mesh).
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -38,5 +40,13 @@ SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physic
 /// element only, chained (points on straight stretches kept). InputError (with `where`) when
 /// they do not form one closed loop (a hole, or pieces apart).
 std::vector<Vec2> surface_outline(const SurfaceMesh& mesh, const std::string& where);
+
+/// The 2-node line elements of the physical group of curves named `physical_group` of the gmsh
+/// file `path`, and its points (type 15 elements) as segments of zero length, m. InputError,
+/// prefixed with `where`, when the file cannot be read, has no physical group of dimension 0
+/// or 1 of that name, or the group holds other elements (second-order lines, say) or none.
+std::vector<std::array<Vec2, 2>> read_gmsh_lines(const std::string& path,
+                                                 const std::string& physical_group,
+                                                 const std::string& where);
 
 }  // namespace pfm

@@ -140,11 +140,8 @@ void MpmSolver::build_constraints() {
           selected = j == grid.n_nodes_y() - 1;
         } else {
           for (const NodeSet& set : case_.node_sets) {
-            if (set.name != bc.where) continue;
-            const Vec2 x = grid.node_position(i, j);
-            const double tol = 1e-9 * grid.cell_size;
-            selected = x.x() >= set.box_min.x() - tol && x.x() <= set.box_max.x() + tol &&
-                       x.y() >= set.box_min.y() - tol && x.y() <= set.box_max.y() + tol;
+            if (set.name == bc.where)
+              selected = set.contains(grid.node_position(i, j), 1e-9 * grid.cell_size);
           }
         }
         if (selected) grid_.fixed[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;

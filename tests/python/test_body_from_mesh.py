@@ -1,9 +1,11 @@
-"""Bodies from a gmsh mesh (issue "Fits the tools its users already use", item 3, must-show 3):
-``bodies[].mesh`` names a .msh file whose 2D elements (of ``bodies[].physical_group``, or all)
-make the body. The MPM fills the mesh's outline as it fills a polygon, so the same body given
-as a polygon gives the same run, every output file byte for byte (run.json aside); the UL-FEM
-takes the file's quadrangles, so a mesh equal to the one it generates gives the same run too.
-Bad meshes are exit-2 errors that name the JSON path."""
+"""Bodies and node sets from a gmsh mesh (issue "Fits the tools its users already use", item 3,
+must-show 3): ``bodies[].mesh`` names a .msh file whose 2D elements (of
+``bodies[].physical_group``, or all) make the body. The MPM fills the mesh's outline as it
+fills a polygon, so the same body given as a polygon gives the same run, every output file
+byte for byte (run.json aside); the UL-FEM takes the file's quadrangles, so a mesh equal to the
+one it generates gives the same run too. ``node_sets[].mesh`` with a physical group of curves
+or points gives the nodes on them, as the same set given by boxes. Bad meshes are exit-2
+errors that name the JSON path."""
 
 import json
 from pathlib import Path
@@ -147,3 +149,104 @@ def test_the_ulfem_refuses_triangles(run_case, tmp_path):
     )
     assert result.returncode == 2, result.stderr
     assert "/bodies/0/mesh" in result.stderr and "quadrangles" in result.stderr
+
+
+def write_mesh_with_node_sets(path: Path) -> Path:
+    """The 15 m x 5 m block meshed by gmsh with physical groups: the surface "soil", the
+    curves "base" (the bottom edge) and "sides" (the left and right edges), the point
+    "origin" (0, 0)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add("block")
+    outline = [(0.0, 0.0), (15.0, 0.0), (15.0, 5.0), (0.0, 5.0)]
+    points = [gmsh.model.geo.addPoint(x, y, 0.0, 0.7) for x, y in outline]
+    lines = [gmsh.model.geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4)]
+    surface = gmsh.model.geo.addPlaneSurface([gmsh.model.geo.addCurveLoop(lines)])
+    gmsh.model.geo.synchronize()
+    for dim, tags, name in (
+        (2, [surface], "soil"),
+        (1, [lines[0]], "base"),
+        (1, [lines[1], lines[3]], "sides"),
+        (0, [points[0]], "origin"),
+    ):
+        gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
+    gmsh.model.mesh.generate(2)
+    gmsh.write(str(path))
+    gmsh.finalize()
+    return path
+
+
+@pytest.mark.parametrize("solver", ["mpm", "ulfem"])
+def test_node_sets_from_physical_groups_equal_their_boxes(run_case, tmp_path, solver):
+    """Node sets given as gmsh physical groups of curves and points fix the nodes on them:
+    the run equals, byte for byte, the one with the same sets given as boxes (rollers on the
+    sides, the base fixed, the corner fixed twice), for the MPM's grid nodes and the
+    UL-FEM's mesh nodes."""
+    rectangle = [(0.0, 0.0), (15.0, 0.0), (15.0, 5.0), (0.0, 5.0)]
+    case = short_case(rectangle)
+    case["boundary_conditions"] = [
+        {"where": "base", "fix": "xy"},
+        {"where": "west", "fix": "x"},
+        {"where": "east", "fix": "x"},
+        {"where": "origin", "fix": "xy"},
+    ]
+    boxes = dict(
+        case,
+        node_sets=[
+            {"name": "base", "box": [[0, 0], [15, 0]]},
+            {"name": "west", "box": [[0, 0], [0, 5]]},
+            {"name": "east", "box": [[15, 0], [15, 5]]},
+            {"name": "origin", "box": [[0, 0], [0, 0]]},
+        ],
+    )
+    write_mesh_with_node_sets(tmp_path / "mesh" / "block.msh")
+    group = lambda name, physical: {  # noqa: E731
+        "name": name,
+        "mesh": "block.msh",
+        "physical_group": physical,
+    }
+    meshed = dict(
+        case,
+        node_sets=[
+            group("base", "base"),
+            group("west", "sides"),
+            group("east", "sides"),
+            group("origin", "origin"),
+        ],
+    )
+    box_run = run_case(boxes, tmp_path / "box", "--solver", solver)
+    assert box_run.returncode == 0, box_run.stderr
+    mesh_run = run_case(meshed, tmp_path / "mesh", "--solver", solver)
+    assert mesh_run.returncode == 0, mesh_run.stderr
+    same_outputs(tmp_path / "box" / "out", tmp_path / "mesh" / "out")
+
+
+@pytest.mark.parametrize(
+    "change, pointer, words",
+    [
+        (
+            {"physical_group": "rock"},
+            "/node_sets/0/mesh",
+            'point physical group "rock"',
+        ),
+        (
+            {"physical_group": "soil"},
+            "/node_sets/0/mesh",
+            'point physical group "soil"',
+        ),
+        ({"box": [[0, 0], [1, 1]]}, "/node_sets/0", 'exactly one of "box" or "mesh"'),
+        ({"mesh": "missing.msh"}, "/node_sets/0/mesh", "is not a readable file"),
+    ],
+)
+def test_bad_mesh_node_sets_exit_2_with_the_json_path(
+    run_case, tmp_path, change, pointer, words
+):
+    case = short_case([(0.0, 0.0), (15.0, 0.0), (15.0, 5.0), (0.0, 5.0)])
+    write_mesh_with_node_sets(tmp_path / "bad" / "block.msh")
+    node_set = {"name": "base", "mesh": "block.msh", "physical_group": "base"}
+    node_set.update(change)
+    case["node_sets"] = [node_set]
+    result = run_case(case, tmp_path / "bad")
+    assert result.returncode == 2, result.stderr
+    assert pointer in result.stderr and words in result.stderr
