@@ -21,13 +21,19 @@ from typing import Optional
 
 
 def _core():
-    """The module pfm_mpm: importable as is, or from the build folder ($PFM_BUILD_DIR, default
-    <repository>/build) after `make build`."""
+    """The module pfm_mpm: importable as is, or from the build after `make build`: the folder
+    python/ of $PFM_BUILD_DIR (the build root or its bin/) or of <repository>/build."""
     try:
         import pfm_mpm
     except ImportError:
-        build = os.environ.get("PFM_BUILD_DIR", Path(__file__).parents[2] / "build")
-        sys.path.append(str(Path(build) / "python"))
+        roots = [Path(__file__).parents[2] / "build"]
+        if "PFM_BUILD_DIR" in os.environ:
+            build = Path(os.environ["PFM_BUILD_DIR"])
+            roots[:0] = [build, build.parent]
+        for root in roots:
+            if (root / "python" / "pfm_mpm").is_dir():
+                sys.path.append(str(root / "python"))
+                break
         try:
             import pfm_mpm
         except ImportError as err:
