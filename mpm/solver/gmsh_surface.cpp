@@ -32,8 +32,10 @@ void open_file(const std::string& path, const std::string& where) {
     throw InputError(where + ": " + path + " is not a readable file");
   try {
     gmsh::open(path);
+    // A geometry file (.geo) is meshed here, in 2D, with the sizes it gives.
+    if (std::filesystem::path(path).extension() == ".geo") gmsh::model::mesh::generate(2);
   } catch (...) {  // gmsh reports its errors as exceptions of its own types
-    throw InputError(where + ": gmsh cannot read " + path);
+    throw InputError(where + ": gmsh cannot read or mesh " + path);
   }
 }
 

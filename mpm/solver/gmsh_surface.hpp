@@ -1,4 +1,5 @@
-// gmsh .msh files: bodies given as meshes (bodies[].mesh; their outline is the body polygon, so
+// gmsh files (a mesh, .msh, or a geometry, .geo, which gmsh meshes in 2D with the sizes it
+// gives): bodies given as meshes (bodies[].mesh; their outline is the body polygon, so
 // the MPM fills them as it fills a polygon), the UL-FEM's elements of such a body
 // (fem_reference/ulfem/quad_mesh.hpp, mesh_case), and node sets given as physical groups of
 // curves or points (node_sets[].mesh).

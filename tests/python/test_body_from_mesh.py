@@ -250,3 +250,35 @@ def test_bad_mesh_node_sets_exit_2_with_the_json_path(
     result = run_case(case, tmp_path / "bad")
     assert result.returncode == 2, result.stderr
     assert pointer in result.stderr and words in result.stderr
+
+
+GEO = """// The 15 m x 5 m block with a slope on its right (OUTLINE), mesh size 0.6 m.
+Point(1) = {0, 0, 0, 0.6}; Point(2) = {15, 0, 0, 0.6};
+Point(3) = {12.2, 5, 0, 0.6}; Point(4) = {0, 5, 0, 0.6};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};
+Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};
+Physical Surface("soil") = {1}; Physical Curve("base") = {1};
+"""
+
+
+def test_a_geo_file_is_meshed_as_gmsh_meshes_it(run_case, tmp_path):
+    """A body and a node set from a gmsh geometry (.geo): the run equals, byte for byte, the
+    one on the .msh that gmsh writes from the same file meshed in 2D."""
+    (tmp_path / "geo").mkdir()
+    (tmp_path / "geo" / "block.geo").write_text(GEO)
+    (tmp_path / "msh").mkdir()
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.open(str(tmp_path / "geo" / "block.geo"))
+    gmsh.model.mesh.generate(2)
+    gmsh.write(str(tmp_path / "msh" / "block.msh"))
+    gmsh.finalize()
+    case = short_case(OUTLINE)
+    case["boundary_conditions"] = [{"where": "base", "fix": "xy"}]
+    for kind in ("geo", "msh"):
+        name = f"block.{kind}"
+        run = mesh_body(case, name, physical_group="soil")
+        run["node_sets"] = [{"name": "base", "mesh": name, "physical_group": "base"}]
+        result = run_case(run, tmp_path / kind)
+        assert result.returncode == 0, result.stderr
+    same_outputs(tmp_path / "geo" / "out", tmp_path / "msh" / "out")
