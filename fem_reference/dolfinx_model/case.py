@@ -305,6 +305,12 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             f"{file}: /manufactured_solution: the dolfinx model has no manufactured body "
             "force (run it on pfm-mpm, MPM or UL-FEM)"
         )
+    for k, bc in enumerate(c["boundary_conditions"]):
+        if bc["velocity"] is not None:
+            raise CaseError(
+                f"{file}: /boundary_conditions/{k}/velocity: the dolfinx model takes "
+                "supports only (a prescribed velocity is the MPM's and the UL-FEM's)"
+            )
     materials = {m["name"]: _material(m) for m in c["materials"]}
     bodies = []
     for k, b in enumerate(c["bodies"]):

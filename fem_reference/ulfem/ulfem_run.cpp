@@ -157,7 +157,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
 
   // The MPM's columns (mpm/solver/run.cpp); with loads also its load diagnostics, summed over
   // every load of the case (the UL-FEM applies them all on the mesh edges, nothing is lost).
-  TimeSeriesTable series(!c.loads.empty(), c.loads.size());
+  TimeSeriesTable series(!c.loads.empty(), c.loads.size(), reaction_names(c.boundary_conditions));
   auto record = [&](const UlFemSolver& s) {
     series.record(s.time(), s.energy(), s.load_diagnostics());
   };

@@ -93,6 +93,7 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::mo
   nodes_.velocity.assign(n_nodes, Vec2::Zero());
   nodes_.acceleration.assign(n_nodes, Vec2::Zero());
   nodes_.fixed.assign(n_nodes, kFixNone);
+  nodes_.reaction.assign(n_nodes, Vec2::Zero());
   remapped_velocity_.assign(n_nodes, Vec2::Zero());
   const std::array<Vec2, 4> slots = point_slots();
   for (std::size_t k = 0; k < 4; ++k) {
@@ -169,7 +170,9 @@ void UlFemSolver::build_constraints() {
   const Grid& grid = case_.grid;
   const double tol = 1e-9 * grid.cell_size;
   const Vec2 lo = grid.origin, hi = grid.upper_corner();
-  for (const BoundaryCondition& bc : case_.boundary_conditions) {
+  prescribed_ = PrescribedVelocity(case_.boundary_conditions, mesh_.n_nodes());
+  for (std::size_t k = 0; k < case_.boundary_conditions.size(); ++k) {
+    const BoundaryCondition& bc = case_.boundary_conditions[k];
     for (std::size_t n = 0; n < mesh_.n_nodes(); ++n) {
       const Vec2& x = node_reference_[n];
       bool selected = false;
@@ -186,7 +189,9 @@ void UlFemSolver::build_constraints() {
           if (set.name == bc.where) selected = set.contains(x, tol);
         }
       }
-      if (selected) nodes_.fixed[n] |= bc.fix;
+      if (!selected) continue;
+      nodes_.fixed[n] |= bc.fix;
+      prescribed_.add(k, n);
     }
   }
 }
@@ -285,9 +290,10 @@ void UlFemSolver::step() {
   times_.external_forces += seconds_since(t0);
 
   t0 = Clock::now();
+  prescribed_.update(counters_.time, counters_.dt);
   update_nodes();
   load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), nodes_.mass,
-                           nodes_.momentum, nodes_.velocity, nodes_.fixed,
+                           nodes_.momentum, nodes_.velocity, nodes_.fixed, prescribed_.start(),
                            counters_.energy.load_work_by_load);
   times_.update_grid += seconds_since(t0);
 
@@ -303,8 +309,8 @@ void UlFemSolver::step() {
     for (std::size_t n = 0; n < n_nodes; ++n) {
       Vec2 v = Vec2::Zero();
       if (nodes_.mass[n] > tiny) v = nodes_.momentum[n] / nodes_.mass[n];
-      if (nodes_.fixed[n] & kFixX) v.x() = 0.0;
-      if (nodes_.fixed[n] & kFixY) v.y() = 0.0;
+      if (nodes_.fixed[n] & kFixX) v.x() = prescribed_.end()[n].x();
+      if (nodes_.fixed[n] & kFixY) v.y() = prescribed_.end()[n].y();
       remapped_velocity_[n] = v;
     }
     times_.remap += seconds_since(t0);
@@ -524,12 +530,14 @@ void UlFemSolver::update_nodes() {
     if (m <= tiny) {
       nodes_.velocity[n] = Vec2::Zero();
       nodes_.acceleration[n] = Vec2::Zero();
+      nodes_.reaction[n] = Vec2::Zero();
       continue;
     }
     update_node(m, nodes_.momentum[n], nodes_.internal_force[n], nodes_.external_force[n],
                 nodes_.body_force[n], nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY,
-                counters_.damping, case_.solver.damping_form, counters_.dt, nodes_.velocity[n],
-                nodes_.acceleration[n], step);
+                counters_.damping, case_.solver.damping_form, counters_.dt, prescribed_.start()[n],
+                prescribed_.end()[n], nodes_.velocity[n], nodes_.acceleration[n],
+                nodes_.reaction[n], step);
   }
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
@@ -703,6 +711,7 @@ EnergyBalance UlFemSolver::energy() const {
                         elastic_energy_density(material_constants_[mi], particles_.stress[p]);
   }
   e.ledger = counters_.energy;
+  e.reactions = prescribed_.reactions(nodes_.reaction);
   return e;
 }
 

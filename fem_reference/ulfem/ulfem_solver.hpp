@@ -197,7 +197,8 @@ class UlFemSolver {
   double min_element_length_ = 0.0;  ///< current smallest area / longest edge, m
   StageTimes times_;  ///< locate = geometry, particles_to_grid = particles_to_nodes, ...
   ExternalForceHook hook_;
-  LoadWorkRecorder load_work_recorder_;                ///< each load's nodal forces of the step
+  LoadWorkRecorder load_work_recorder_;  ///< each load's nodal forces of the step
+  PrescribedVelocity prescribed_;        ///< moving supports (boundary_conditions[].velocity)
   std::vector<MaterialConstants> material_constants_;  ///< per case material
   std::vector<PointEnergy> point_energy_;              ///< per point, scratch of update_stress
   double grid_kinetic_after_ = 0.0;                    ///< nodal kinetic energy after update_nodes

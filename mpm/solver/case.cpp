@@ -685,7 +685,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   if (const auto bcs = root.find("boundary_conditions")) {
     for (std::size_t k = 0; k < bcs->array_size(); ++k) {
       const JsonView v = bcs->at(k);
-      v.expect_object({"where", "fix"});
+      v.expect_object({"where", "fix", "velocity", "time_function"});
       BoundaryCondition bc;
       bc.where = v.at("where").as_string();
       bool known =
@@ -694,6 +694,18 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       v.at("where").require(
           known, "\"" + bc.where + "\" is neither left, right, bottom, top nor a node set");
       bc.fix = parse_fix(v.at("fix"));
+      if (const auto velocity = v.find("velocity")) {
+        bc.velocity = velocity->as_vec2();
+        bc.moving = true;
+        velocity->require((bc.fix & kFixX) || bc.velocity.x() == 0.0,
+                          "x is not fixed (\"fix\"): its velocity must be 0");
+        velocity->require((bc.fix & kFixY) || bc.velocity.y() == 0.0,
+                          "y is not fixed (\"fix\"): its velocity must be 0");
+      }
+      if (v.has("time_function")) {
+        v.at("time_function").require(bc.moving, "used only with \"velocity\"");
+        bc.time_function = parse_time_function(v.at("time_function"));
+      }
       c.boundary_conditions.push_back(bc);
     }
   }

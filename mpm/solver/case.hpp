@@ -82,11 +82,6 @@ struct NodeSet {
   bool contains(const Vec2& x, double tolerance) const;
 };
 
-struct BoundaryCondition {
-  std::string where;  ///< left, right, bottom, top or a node-set name
-  unsigned fix = kFixNone;
-};
-
 enum class TimeFunctionKind { kConstant, kRamp, kSmoothRamp };
 
 struct TimeFunction {
@@ -100,6 +95,19 @@ struct TimeFunction {
     if (kind == TimeFunctionKind::kSmoothRamp) return smooth_ramp_factor(t, ramp_time).value;
     return t >= ramp_time ? 1.0 : t / ramp_time;
   }
+};
+
+/// Nodes whose velocity components `fix` are prescribed: zero (a support), or `velocity` times
+/// the time function (a moving support: a rigid footing pushed, a platen; the displacement
+/// control of a test). The force it takes to hold them is the reaction (prescribed_velocity.hpp).
+struct BoundaryCondition {
+  std::string where;  ///< left, right, bottom, top or a node-set name
+  unsigned fix = kFixNone;
+  Vec2 velocity = Vec2::Zero();  ///< m/s, of the fixed components (zero for the others)
+  bool moving = false;           ///< "velocity" given: the reaction goes to the time series
+  TimeFunction time_function;
+  /// The prescribed velocity at time t, m/s.
+  Vec2 velocity_at(double t) const { return time_function.factor(t) * velocity; }
 };
 
 enum class LoadTarget { kGridTopNodes, kDetectedBoundary };

@@ -143,7 +143,10 @@ json resolved_case(const Case& c) {
   out["boundary_conditions"] = json::array();
   for (const BoundaryCondition& bc : c.boundary_conditions) {
     const char* fix = bc.fix == kFixXY ? "xy" : bc.fix == kFixX ? "x" : "y";
-    out["boundary_conditions"].push_back({{"where", bc.where}, {"fix", fix}});
+    out["boundary_conditions"].push_back({{"where", bc.where},
+                                          {"fix", fix},
+                                          {"velocity", bc.moving ? point(bc.velocity) : json()},
+                                          {"time_function", time_function_json(bc.time_function)}});
   }
   out["loads"] = json::array();
   for (const LoadSpec& load : c.loads) out["loads"].push_back(load_json(load));

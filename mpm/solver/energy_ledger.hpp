@@ -8,8 +8,12 @@
 //                        the particles before the step is `transfer_to_grid` (<= 0: the
 //                        projection loses the kinetic energy of the velocity field it cannot
 //                        represent; momentum on nodes without mass is lost too);
-//   constraints          the fixed velocity components are set to zero: `constraint_work` =
-//                        -sum m_I v_I,fixed^2 / 2 (<= 0); the reaction force then does no work;
+//   constraints          the fixed velocity components are set to their prescribed values at
+//                        the step's start, zero for a support (prescribed_velocity.hpp):
+//                        `constraint_work` = sum m_I (v_I,prescribed^2 - v_I,fixed^2) / 2,
+//                        and the reaction R_I = m_I a_I - f_I on them (a_I from the prescribed
+//                        velocities at the start and end) adds its work R_I . v_mid dt (none at
+//                        a support, where v_mid = 0);
 //   grid update          v_I' = v_I + dt a_I; exactly 1/2 m (|v'|^2 - |v|^2) = m a . v_mid dt
 //                        with v_mid = (v + v') / 2, split by force: `internal_force_work` =
 //                        sum f_int,I . v_mid dt, `gravity_work` = sum m_I g . v_mid dt (and
@@ -84,18 +88,20 @@ enum class DampingForm { kPerAxis, kAlongVelocity };
 
 /// The explicit update of one node with mass m > 0 (thesis eq. 3.24): velocity v = p / m, local
 /// damping, a force opposing the velocity proportional to the unbalanced force f; a = (f +
-/// f_damping) / m; fixed components of v and a set to zero; v' = v + a dt. `external` holds
-/// the body force and the loads; `body_force` is its body-force part (m g, vertical, and a
-/// manufactured solution's sum_p N m_p b), whose work is `gravity_work`. Adds the node's
-/// ledger terms to `e`. The damping force is Cundall's, per direction, -alpha |f_d| sign(v_d)
-/// (DampingForm::kPerAxis), or -alpha |f| v / |v| over the free directions
+/// f_damping) / m; v' = v + a dt. On the fixed components v is the prescribed velocity at the
+/// step's start (`start`, zero for a support) and a = (end - start) / dt with `end` the one at
+/// its end; `reaction` = m a - f there (the force holding the node; zero on free components).
+/// `external` holds the body force and the loads; `body_force` is its body-force part (m g,
+/// vertical, and a manufactured solution's sum_p N m_p b), whose work is `gravity_work`. Adds the
+/// node's ledger terms to `e`. The damping force is Cundall's, per direction, -alpha |f_d|
+/// sign(v_d) (DampingForm::kPerAxis), or -alpha |f| v / |v| over the free directions
 /// (kAlongVelocity). Only the second is frame-invariant: per axis, a body turned to the grid
 /// feels a moment (a free square turned 20 degrees, damped to rest at alpha = 0.1, turned
 /// 9e-5 rad, against 1.4e-6 undamped; test_boundary_coupling).
 inline void update_node(double m, const Vec2& momentum, const Vec2& internal, const Vec2& external,
                         const Vec2& body_force, unsigned fixed_x, unsigned fixed_y, double alpha,
-                        DampingForm form, double dt, Vec2& velocity, Vec2& acceleration,
-                        NodeEnergy& e) {
+                        DampingForm form, double dt, const Vec2& start, const Vec2& end,
+                        Vec2& velocity, Vec2& acceleration, Vec2& reaction, NodeEnergy& e) {
   Vec2 v = momentum / m;
   e.kinetic_before += 0.5 * m * v.squaredNorm();
   const Vec2 f = internal + external;
@@ -111,13 +117,22 @@ inline void update_node(double m, const Vec2& momentum, const Vec2& internal, co
     damping_force = speed > 0.0 ? Vec2(-alpha * f_free.norm() / speed * v_free) : Vec2::Zero();
   }
   Vec2 a = (f + damping_force) / m;
+  // A support (start = end = 0) takes the same operations as before moving supports existed:
+  // its terms below add zeros, so runs without them keep their bits.
+  reaction = Vec2::Zero();
   if (fixed_x) {
     e.constraint -= 0.5 * m * v.x() * v.x();
-    a.x() = v.x() = 0.0;
+    v.x() = start.x();
+    e.constraint += 0.5 * m * v.x() * v.x();
+    a.x() = (end.x() - start.x()) / dt;
+    reaction.x() = m * a.x() - f.x();
   }
   if (fixed_y) {
     e.constraint -= 0.5 * m * v.y() * v.y();
-    a.y() = v.y() = 0.0;
+    v.y() = start.y();
+    e.constraint += 0.5 * m * v.y() * v.y();
+    a.y() = (end.y() - start.y()) / dt;
+    reaction.y() = m * a.y() - f.y();
   }
   acceleration = a;
   const Vec2 v_new = v + a * dt;
@@ -127,7 +142,8 @@ inline void update_node(double m, const Vec2& momentum, const Vec2& internal, co
   e.gravity += body_force.dot(mid) * dt;
   e.load += (external - body_force).dot(mid) * dt;
   e.internal += internal.dot(mid) * dt;
-  e.damping += (a * m - f).dot(mid) * dt;  // the damping force (zero where fixed)
+  e.damping += (a * m - f - reaction).dot(mid) * dt;  // the damping force (zero where fixed)
+  e.constraint += reaction.dot(mid) * dt;             // zero at a support (mid = 0 there)
 }
 
 /// The energy terms of one point's stress update (kJ/m), summed over points by the solvers.
@@ -228,8 +244,8 @@ inline void EnergyLedger::add_stress_update(const PointEnergy& step) {
 
 /// The work of each load on its own: the nodal forces of each load in a step, recorded before
 /// the grid update (add), times the velocities v_mid = (v + v') / 2 of the nodes in that update
-/// (book, after it), with v = p / m and the fixed components zero, as update_node: the works of
-/// all loads add up to the ledger's load_work (to rounding: they are summed in another order).
+/// (book, after it), with v = p / m and the fixed components prescribed, as update_node: the works
+/// of all loads add up to the ledger's load_work (to rounding: they are summed in another order).
 class LoadWorkRecorder {
  public:
   explicit LoadWorkRecorder(std::size_t n_loads = 0) : forces_(n_loads) {}
@@ -241,10 +257,11 @@ class LoadWorkRecorder {
     forces_[load].push_back({node, force});
   }
   /// Adds each load's work over the grid update just made to work[load] (resized to the
-  /// number of loads); nodes of mass <= tiny are not updated and take no work.
+  /// number of loads); nodes of mass <= tiny are not updated and take no work. `start`: the
+  /// prescribed velocities at the step's start (PrescribedVelocity::start()).
   void book(double dt, double tiny, std::span<const double> mass, std::span<const Vec2> momentum,
             std::span<const Vec2> velocity, std::span<const unsigned> fixed,
-            std::vector<double>& work) const {
+            std::span<const Vec2> start, std::vector<double>& work) const {
     work.resize(forces_.size(), 0.0);
     for (std::size_t k = 0; k < forces_.size(); ++k) {
       double w = 0.0;
@@ -252,8 +269,8 @@ class LoadWorkRecorder {
         const double m = mass[node];
         if (m <= tiny) continue;
         Vec2 v = momentum[node] / m;
-        if (fixed[node] & kFixX) v.x() = 0.0;
-        if (fixed[node] & kFixY) v.y() = 0.0;
+        if (fixed[node] & kFixX) v.x() = start[node].x();
+        if (fixed[node] & kFixY) v.y() = start[node].y();
         w += force.dot(0.5 * (v + velocity[node])) * dt;
       }
       work[k] += w;
@@ -274,6 +291,9 @@ struct EnergyBalance {
   double elastic_energy = 0.0;   ///< kJ/m, sum V_p psi(sigma_p)
   Vec2 momentum = Vec2::Zero();  ///< t m/s per m
   EnergyLedger ledger;
+  /// kN/m: the reaction of each moving boundary condition in the last step
+  /// (PrescribedVelocity::reactions).
+  std::vector<Vec2> reactions;
   double external_work() const { return ledger.external_work(); }
   double internal_work() const { return ledger.stress_power; }
   double damping_work() const { return ledger.damping_work; }

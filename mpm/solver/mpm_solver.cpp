@@ -58,6 +58,7 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   grid_.velocity.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.acceleration.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   grid_.fixed.assign(static_cast<std::size_t>(n_nodes), kFixNone);
+  grid_.reaction.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   node_energy_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, {});
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
@@ -126,7 +127,9 @@ void MpmSolver::set_dt(double dt) {
 
 void MpmSolver::build_constraints() {
   const Grid& grid = case_.grid;
-  for (const BoundaryCondition& bc : case_.boundary_conditions) {
+  prescribed_ = PrescribedVelocity(case_.boundary_conditions, grid_.fixed.size());
+  for (std::size_t k = 0; k < case_.boundary_conditions.size(); ++k) {
+    const BoundaryCondition& bc = case_.boundary_conditions[k];
     for (int j = 0; j < grid.n_nodes_y(); ++j) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
         bool selected = false;
@@ -144,7 +147,9 @@ void MpmSolver::build_constraints() {
               selected = set.contains(grid.node_position(i, j), 1e-9 * grid.cell_size);
           }
         }
-        if (selected) grid_.fixed[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
+        if (!selected) continue;
+        grid_.fixed[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
+        prescribed_.add(k, static_cast<std::size_t>(grid.node_index(i, j)));
       }
     }
   }
@@ -270,9 +275,10 @@ void MpmSolver::run_step() {
   times_.external_forces += seconds_since(t0);
 
   t0 = Clock::now();
+  prescribed_.update(counters_.time, counters_.dt);
   update_grid();
   load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), grid_.mass,
-                           grid_.momentum, grid_.velocity, grid_.fixed,
+                           grid_.momentum, grid_.velocity, grid_.fixed, prescribed_.start(),
                            counters_.energy.load_work_by_load);
   times_.update_grid += seconds_since(t0);
   if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
@@ -610,8 +616,11 @@ void MpmSolver::update_grid() {
   const Vec2* internal = grid_.internal_force.data();
   const Vec2* external = grid_.external_force.data();
   const unsigned* fixed = grid_.fixed.data();
+  const Vec2* start = prescribed_.start().data();
+  const Vec2* end = prescribed_.end().data();
   Vec2* velocity = grid_.velocity.data();
   Vec2* acceleration = grid_.acceleration.data();
+  Vec2* reaction = grid_.reaction.data();
   NodeEnergy* node_energy = node_energy_.data();
   const std::size_t n_blocks = node_energy_.size();
 #pragma omp parallel for schedule(dynamic, 1) if (parallel_)
@@ -623,11 +632,12 @@ void MpmSolver::update_grid() {
       if (m <= tiny) {
         velocity[n].setZero();
         acceleration[n].setZero();
+        reaction[n].setZero();
         continue;
       }
       update_node(m, momentum[n], internal[n], external[n], body_force[n], fixed[n] & kFixX,
-                  fixed[n] & kFixY, alpha, case_.solver.damping_form, dt, velocity[n],
-                  acceleration[n], block);
+                  fixed[n] & kFixY, alpha, case_.solver.damping_form, dt, start[n], end[n],
+                  velocity[n], acceleration[n], reaction[n], block);
     }
     node_energy[k] = block;
   }
@@ -729,6 +739,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
   const Vec2* remapped_momentum = remapped_momentum_.data();
   Vec2* momentum = grid_.momentum.data();
   const unsigned* fixed = grid_.fixed.data();
+  const Vec2* end = prescribed_.end().data();
   Vec2* remapped = remapped_velocity_.data();
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
@@ -785,8 +796,8 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
         momentum[node] = p;  // the grid state shows the remapped momentum
         Vec2 v = Vec2::Zero();
         if (mass[node] > tiny) v = p / mass[node];
-        if (fixed[node] & kFixX) v.x() = 0.0;
-        if (fixed[node] & kFixY) v.y() = 0.0;
+        if (fixed[node] & kFixX) v.x() = end[node].x();
+        if (fixed[node] & kFixY) v.y() = end[node].y();
         remapped[node] = v;
       }
 #pragma omp master
@@ -917,6 +928,7 @@ EnergyBalance MpmSolver::energy() const {
                         elastic_energy_density(material_constants_[mi], particles_.stress[p]);
   }
   e.ledger = counters_.energy;
+  e.reactions = prescribed_.reactions(grid_.reaction);
   return e;
 }
 

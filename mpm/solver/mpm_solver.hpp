@@ -42,6 +42,7 @@
 #include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/initial_stress.hpp"
 #include "mpm/solver/particles.hpp"
+#include "mpm/solver/prescribed_velocity.hpp"
 
 namespace pfm {
 
@@ -63,6 +64,9 @@ struct GridState {
   std::vector<Vec2> velocity;      ///< m/s, after the grid update
   std::vector<Vec2> acceleration;  ///< m/s^2
   std::vector<unsigned> fixed;     ///< FixMask per node
+  /// kN, the force holding the fixed components of each node in the last grid update
+  /// (update_node; zero on free components).
+  std::vector<Vec2> reaction;
 };
 
 /// Wall-clock seconds spent per stage, accumulated over the run. With MUSL, grid_to_particles
@@ -196,6 +200,7 @@ class MpmSolver {
   std::vector<TopNodeLoad> top_loads_;
   double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
   LoadWorkRecorder load_work_recorder_;
+  PrescribedVelocity prescribed_;  ///< moving supports (boundary_conditions[].velocity)
 
   // Per-step work arrays (sized once).
   /// Linear stencil of a particle: its cell (i, j) and local coordinates in [0, 1).

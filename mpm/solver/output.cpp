@@ -22,8 +22,9 @@ std::string format_exact(double v) {
   return buffer;
 }
 
-TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads)
-    : with_loads_(with_loads), n_loads_(n_loads) {
+TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads,
+                                 const std::vector<std::string>& reactions)
+    : with_loads_(with_loads), n_loads_(n_loads), n_reactions_(reactions.size()) {
   text_ << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
   if (with_loads_) {
     text_ << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
@@ -34,6 +35,8 @@ TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads)
            "transfer_to_grid,transfer_to_particles,internal_force_work,rotation_work,volume_work,"
            "energy_error";
   for (std::size_t k = 0; k < n_loads_; ++k) text_ << ",load_work_" << k;
+  for (const std::string& name : reactions)
+    text_ << ",reaction_" << name << "_fx,reaction_" << name << "_fy";
   text_ << '\n';
 }
 

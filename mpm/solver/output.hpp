@@ -29,8 +29,12 @@ std::string format_exact(double v);
 /// MPM and the UL-FEM runs.
 class TimeSeriesTable {
  public:
-  /// with_loads: the resultant columns; n_loads: the number of the case's loads.
-  TimeSeriesTable(bool with_loads, std::size_t n_loads);
+  /// with_loads: the resultant columns; n_loads: the number of the case's loads; reactions:
+  /// the names of the moving boundary conditions (reaction_names, prescribed_velocity.hpp),
+  /// whose reactions (EnergyBalance::reactions) are the columns reaction_<name>_fx,
+  /// reaction_<name>_fy (kN/m).
+  TimeSeriesTable(bool with_loads, std::size_t n_loads,
+                  const std::vector<std::string>& reactions = {});
   /// One line. `loads` (read only with the load columns): target, applied, lost, off_grid,
   /// loaded_nodes and lost_nodes.
   template <class Loads>
@@ -52,6 +56,10 @@ class TimeSeriesTable {
       text_ << ',' << format_exact(v);
     for (std::size_t k = 0; k < n_loads_; ++k)
       text_ << ',' << format_exact(k < l.load_work_by_load.size() ? l.load_work_by_load[k] : 0.0);
+    for (std::size_t k = 0; k < n_reactions_; ++k) {
+      const Vec2 r = k < e.reactions.size() ? e.reactions[k] : Vec2::Zero();
+      text_ << ',' << format_exact(r.x()) << ',' << format_exact(r.y());
+    }
     text_ << '\n';
   }
   std::string text() const { return text_.str(); }
@@ -61,6 +69,7 @@ class TimeSeriesTable {
  private:
   bool with_loads_;
   std::size_t n_loads_;
+  std::size_t n_reactions_;
   std::ostringstream text_;
 };
 

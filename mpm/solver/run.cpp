@@ -125,7 +125,8 @@ int run_case(const Case& c, const RunOptions& options) {
   run["checkpoint"] = {{"steps", options.checkpoint_steps},
                        {"seconds", options.checkpoint_seconds}};
 
-  TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size());
+  TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size(),
+                         reaction_names(c.boundary_conditions));
   auto record = [&](const MpmSolver& s) {
     series.record(s.time(), s.energy(), coupling.diagnostics());
   };

@@ -20,24 +20,46 @@ namespace pfm {
 namespace {
 
 // One node: the change of its kinetic energy over the update equals the work of its forces,
-// gravity, loads, internal and damping, after the constraint has taken its share.
+// gravity, loads, internal and damping, and the constraint's share (the velocity it replaces and
+// the reaction's work). A support (prescribed zero) only takes energy; a moving one ends at its
+// prescribed velocity, with the reaction m a - f that its acceleration needs.
 TEST(EnergyLedger, NodeUpdateSplitsItsKineticEnergyChangeByForce) {
   std::mt19937 random(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double dt = 0.01;
   for (int trial = 0; trial < 1000; ++trial) {
     const double m = 0.1 + std::abs(u(random));
     const Vec2 p(u(random), u(random)), f_int(u(random), u(random)), f_ext(u(random), u(random));
     const double gravity_y = -std::abs(u(random));
-    const unsigned fx = trial % 4 == 1, fy = trial % 4 == 2;
+    const unsigned fx = trial % 4 == 1 || trial % 4 == 3, fy = trial % 4 == 2 || trial % 4 == 3;
+    const bool moving = trial % 8 >= 4;
+    const Vec2 start = moving ? Vec2(u(random), u(random)) : Vec2::Zero();
+    const Vec2 end = moving ? Vec2(u(random), u(random)) : Vec2::Zero();
     NodeEnergy e;
-    Vec2 v, a;
+    Vec2 v, a, reaction;
     const DampingForm form = trial % 2 ? DampingForm::kAlongVelocity : DampingForm::kPerAxis;
-    update_node(m, p, f_int, Vec2(f_ext.x(), f_ext.y() + gravity_y), Vec2(0.0, gravity_y), fx, fy,
-                0.05 * (trial % 3), form, 0.01, v, a, e);
-    const double change = e.kinetic_after - (e.kinetic_before + e.constraint);
-    const double work = e.gravity + e.load + e.internal + e.damping;
-    EXPECT_NEAR(change, work, 1e-15 * (1.0 + e.kinetic_after + e.kinetic_before));
-    EXPECT_LE(e.constraint, 0.0);
+    const Vec2 f_all(f_ext.x(), f_ext.y() + gravity_y);
+    update_node(m, p, f_int, f_all, Vec2(0.0, gravity_y), fx, fy, 0.05 * (trial % 3), form, dt,
+                start, end, v, a, reaction, e);
+    const double change = e.kinetic_after - e.kinetic_before;
+    const double work = e.gravity + e.load + e.internal + e.damping + e.constraint;
+    EXPECT_NEAR(change, work, 1e-14 * (1.0 + e.kinetic_after + e.kinetic_before));
+    if (!moving) {
+      EXPECT_LE(e.constraint, 0.0);
+    }
+    const Vec2 f = f_int + f_all;
+    if (fx) {
+      EXPECT_NEAR(v.x(), end.x(), 1e-15);
+      EXPECT_NEAR(reaction.x(), m * (end.x() - start.x()) / dt - f.x(), 1e-12);
+    } else {
+      EXPECT_EQ(reaction.x(), 0.0);
+    }
+    if (fy) {
+      EXPECT_NEAR(v.y(), end.y(), 1e-15);
+      EXPECT_NEAR(reaction.y(), m * (end.y() - start.y()) / dt - f.y(), 1e-12);
+    } else {
+      EXPECT_EQ(reaction.y(), 0.0);
+    }
   }
 }
 
