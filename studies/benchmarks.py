@@ -17,13 +17,16 @@ What it measures:
   (2 + pi) c, for c = 10 and 20 kPa and b = 1 and 2 m, on the MPM (uGIMP, and quadratic
   B-splines on a grid whose edges are the symmetry plane, base and far side) and the UL-FEM,
   all with anti-locking (``solver.anti_locking: "bbar"``), and once on the MPM without it;
-* ``softening``: the same footing (b = 1 m, quadratic B-splines, B-bar) on Tresca soil whose
-  cohesion softens from 20 to 10 kPa over a plastic strain of 0.05, on 2, 4 and 8 cells under b:
-  with one law on every grid the band that localises thins with h and softens faster per metre
-  of displacement (mesh dependence); with ``materials[].softening_length`` = 0.25 m the law's
-  plastic strains are scaled by 0.25 m / h (the fracture-energy regularisation): the collapse
-  pressures and load-settlement curves of both, and each law's spread of the collapse pressure
-  over the grids;
+* ``softening``: a plane-strain compression test of a softening specimen (1 m x 2 m, Tresca,
+  c 20 -> 10 kPa over a plastic strain of 0.2, a weaker square of c 18 kPa at a base corner to
+  start the shear band; smooth platens, the top one moving down 0.08 m over 2 s: displacement
+  control, moving supports) on grids of h = 1/16, 1/32, 1/64 m (quadratic B-splines, the
+  platens on the grid's edges): with one law on every grid the band that localises thins with h
+  and the specimen softens faster per metre of shortening (mesh dependence); with
+  ``materials[].softening_length`` = 1/32 m the law's plastic strains are scaled by L / h (the
+  fracture-energy regularisation). The force-shortening curves of both, the peak (2 c W), and
+  each law's spread over the grids of the shortening at which the force has fallen halfway
+  from the peak to the residual 2 c_r W;
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -93,15 +96,27 @@ PRANDTL = {
     "outputs": 260,
     "stiffness_fraction": 0.05,
 }
-# The footing of PRANDTL (b = 1 m) on Tresca soil whose cohesion softens from 20 to 10 kPa over
-# a plastic strain of 0.05 (given for a band of softening_length), on three grids, with the law
-# as given at every h (plain) and scaled by softening_length / h (regularised; equal at h = L).
+# The plane-strain compression test of a softening specimen (width x height) under smooth
+# platens, the top one driven down `shortening` over `duration` (after a smooth ramp of
+# ramp_fraction x duration), on grids of `cells_across` cells over the width; the law as given
+# at every h (plain) and scaled by softening_length / h (regularised; equal at h = L, the middle
+# grid). A weaker square (`flaw` m, `flaw_cohesion`) at the base's left corner starts the band.
 SOFTENING = {
-    "cohesion": {"table": [[0.0, 20.0], [0.05, 10.0]]},
-    "softening_length": 0.25,  # m: the middle grid's h
-    "half_width": 1.0,
-    "cells_under_half_width": (2, 4, 8),
-    "outputs": 260,
+    "width": 1.0,  # m
+    "height": 2.0,  # m
+    "youngs_modulus": 1.0e4,  # kPa
+    "poisson_ratio": 0.3,
+    "cohesion": 20.0,  # kPa, softening to residual_fraction x cohesion
+    "flaw_cohesion": 18.0,  # kPa
+    "residual_fraction": 0.5,
+    "residual_plastic_strain": 0.2,
+    "flaw": 0.125,  # m
+    "softening_length": 1.0 / 32.0,  # m: the middle grid's h
+    "cells_across": (16, 32, 64),
+    "shortening": 0.08,  # m
+    "duration": 2.0,  # s
+    "ramp_fraction": 0.05,
+    "samples": 400,  # time-series rows
 }
 DISK = {"radius": 2.0, "pressure": 10.0}
 QUICK_BENCHMARKS = ("column", "disk")
@@ -114,8 +129,9 @@ EXPECTED_METRICS = [
     "benchmarks.prandtl.collapse_pressure_rel_error",
     "benchmarks.prandtl.bspline_collapse_pressure_rel_error",
     "benchmarks.prandtl.ulfem_collapse_pressure_rel_error",
-    "benchmarks.softening.plain_collapse_spread",
-    "benchmarks.softening.regularised_collapse_spread",
+    "benchmarks.softening.plain_half_softening_spread",
+    "benchmarks.softening.regularised_half_softening_spread",
+    "benchmarks.softening.peak_rel_error",
     "benchmarks.disk.radial_displacement_rel_error",
 ]
 
@@ -402,22 +418,114 @@ def _run(job):
 
 
 def softening_case(cells: int, regularised: bool) -> dict:
-    """The footing of SOFTENING on `cells` cells under its half-width (the default shape
-    function, B-bar, load on the detected boundary), plain or regularised."""
+    """The compression test of SOFTENING on `cells` cells across the width (quadratic
+    B-splines; the platens are the grid's top and bottom edges, two cells of free grid on
+    either side), plain or regularised. The top platen's condition is the third
+    (reaction_2_fy)."""
     s = SOFTENING
-    case = prandtl_case(
-        s["cohesion"]["table"][0][1],
-        s["half_width"],
-        cells_under_half_width=cells,
-        shape_function=None,
-        outputs=s["outputs"],
-    )
-    material = case["materials"][0]
-    material["cohesion"] = copy.deepcopy(s["cohesion"])
-    if regularised:
-        material["softening_length"] = s["softening_length"]
-    case["title"] += ", softening " + ("regularised" if regularised else "plain")
-    return case
+    width, height = s["width"], s["height"]
+    h = width / cells
+    margin = max(2, int(round(0.25 / h)))
+
+    def material(name, cohesion):
+        law = [
+            [0.0, cohesion],
+            [s["residual_plastic_strain"], cohesion * s["residual_fraction"]],
+        ]
+        m = {
+            "name": name,
+            "model": "tresca",
+            "youngs_modulus": s["youngs_modulus"],
+            "poisson_ratio": s["poisson_ratio"],
+            "unit_weight": 20.0,
+            "cohesion": {"table": law},
+        }
+        if regularised:
+            m["softening_length"] = s["softening_length"]
+        return m
+
+    duration, ramp = s["duration"], s["ramp_fraction"] * s["duration"]
+    return {
+        "title": f"benchmark softening: compression test, h = 1/{cells} m, "
+        + ("regularised" if regularised else "plain"),
+        "grid": {
+            "origin": [-margin * h, 0.0],
+            "cell_size": h,
+            "n_cells": [cells + 2 * margin, int(round(height / h))],
+        },
+        "materials": [
+            material("soil", s["cohesion"]),
+            material("weak", s["flaw_cohesion"]),
+        ],
+        "bodies": [
+            {
+                "name": "flaw",
+                "material": "weak",
+                "rectangle": [[0, 0], [s["flaw"]] * 2],
+            },
+            {
+                "name": "specimen",
+                "material": "soil",
+                "rectangle": [[0, 0], [width, height]],
+            },
+        ],
+        "gravity": {"g": 0.0},
+        "node_sets": [
+            {"name": "centre", "box": [[width / 2, 0.0], [width / 2, 0.0]]},
+        ],
+        "boundary_conditions": [
+            {"where": "bottom", "fix": "y"},
+            {"where": "centre", "fix": "x"},
+            {
+                "where": "top",
+                "fix": "y",
+                "velocity": [0.0, -softening_speed()],
+                "time_function": {"type": "smooth_ramp", "ramp_time": ramp},
+            },
+        ],
+        "solver": {"shape_function": "quadratic_bspline", "damping": 0.0},
+        "time": {"end_time": duration, "cfl": 0.5},
+        "output": {
+            "interval": duration / 4,
+            "timeseries_interval": duration / s["samples"],
+        },
+    }
+
+
+def softening_speed() -> float:
+    """m/s: the top platen's speed after its smooth ramp, for the shortening of SOFTENING."""
+    s = SOFTENING
+    return s["shortening"] / (s["duration"] * (1.0 - s["ramp_fraction"] / 2.0))
+
+
+def softening_curve(out: Path) -> pd.DataFrame:
+    """shortening (m, the platen's displacement: v (t - t_r / 2) after the ramp t_r) and force
+    (kN/m, the top platen's reaction) of a softening_case run, from the end of the ramp.
+    """
+    s = SOFTENING
+    series = read_timeseries(out)
+    ramp = s["ramp_fraction"] * s["duration"]
+    series = series[series["time"] >= ramp]
+    return pd.DataFrame(
+        {
+            "shortening": softening_speed() * (series["time"] - ramp / 2.0),
+            "force": -series["reaction_2_fy"],
+        }
+    ).reset_index(drop=True)
+
+
+def half_softening_shortening(curve: pd.DataFrame, residual: float) -> float:
+    """The shortening past the peak at which the force first falls halfway from the peak to
+    `residual` (linear between the samples); NaN if it never does."""
+    peak = int(curve["force"].idxmax())
+    level = 0.5 * (curve["force"].iloc[peak] + residual)
+    after = curve.iloc[peak:]
+    below = np.flatnonzero(after["force"].to_numpy() <= level)
+    if len(below) == 0:
+        return float("nan")
+    k = peak + int(below[0])
+    (d0, f0), (d1, f1) = curve.iloc[k - 1], curve.iloc[k]
+    return float(d0 + (level - f0) * (d1 - d0) / (f1 - f0))
 
 
 def softening_jobs() -> dict:
@@ -426,7 +534,7 @@ def softening_jobs() -> dict:
             softening_case(n, r),
             "mpm",
         )
-        for n in SOFTENING["cells_under_half_width"]
+        for n in SOFTENING["cells_across"]
         for r in (False, True)
     }
 
@@ -544,28 +652,29 @@ def run(context) -> StudyOutcome:
 
 
 def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
-    """The softening footing's collapse pressure on every grid, plain and regularised: the
-    table softening.md, the curves softening.png, and per law the spread of the collapse
-    pressure over the grids, (largest - smallest) / smallest
-    (benchmarks.softening.<law>_collapse_spread)."""
+    """The softening compression test on every grid, plain and regularised: the table
+    softening.md (peak force, shortening at half softening), the curves softening.png, and per
+    law the spread over the grids of the shortening at half softening, (largest - smallest) /
+    smallest (benchmarks.softening.<law>_half_softening_spread)."""
     import matplotlib.pyplot as plt
 
     s = SOFTENING
+    peak_force = 2.0 * s["cohesion"] * s["width"]  # Tresca, unconfined: s1 - s3 = 2 c
+    residual = peak_force * s["residual_fraction"]
     rows, curves = [], {}
     for law in ("plain", "regularised"):
-        for cells in s["cells_under_half_width"]:
-            result = outs[f"softening/{law}/cells{cells}"]
-            if "missing" in result:
-                raise PrerequisiteMissing(result["missing"])
-            curve = result["curve"]
+        for cells in s["cells_across"]:
+            curve = softening_curve(_out(outs[f"softening/{law}/cells{cells}"]))
             curves[(law, cells)] = curve
             rows.append(
                 {
                     "law": law,
-                    "cells_under_half_width": cells,
-                    "h_m": s["half_width"] / cells,
-                    "collapse_pressure_kpa": collapse_pressure(
-                        curve, PRANDTL["stiffness_fraction"]
+                    "cells_across": cells,
+                    "h_m": s["width"] / cells,
+                    "peak_force_kN_per_m": float(curve["force"].max()),
+                    "peak_rel_error": float(curve["force"].max()) / peak_force - 1.0,
+                    "half_softening_shortening_m": half_softening_shortening(
+                        curve, residual
                     ),
                 }
             )
@@ -575,41 +684,52 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
             folder,
             table,
             "softening",
-            f"Softening footing (b = {s['half_width']:g} m, c 20 -> 10 kPa over a plastic "
-            f"strain of 0.05, softening_length {s['softening_length']:g} m): collapse "
-            f"pressure on three grids, the law as given (plain) and regularised",
+            f"Softening compression test ({s['width']:g} m x {s['height']:g} m, c "
+            f"{s['cohesion']:g} -> {s['cohesion'] * s['residual_fraction']:g} kPa over a "
+            f"plastic strain of {s['residual_plastic_strain']:g}, softening_length "
+            f"{s['softening_length']:g} m): peak force (2 c W = {peak_force:g} kN/m) and the "
+            f"shortening at which the force has fallen halfway to {residual:g} kN/m, on three "
+            f"grids, the law as given (plain) and regularised",
         )
     )
     for law, group in table.groupby("law"):
-        q = group["collapse_pressure_kpa"].dropna()
-        if len(q) == len(group):
+        d = group["half_softening_shortening_m"]
+        if d.notna().all():
             outcome.metrics.append(
                 Metric(
-                    f"benchmarks.softening.{law}_collapse_spread",
-                    float(q.max() / q.min() - 1.0),
+                    f"benchmarks.softening.{law}_half_softening_spread",
+                    float(d.max() / d.min() - 1.0),
                     "1",
                 )
             )
+    outcome.metrics.append(
+        Metric(
+            "benchmarks.softening.peak_rel_error",
+            float(table["peak_rel_error"].abs().max()),
+            "1",
+        )
+    )
     figure, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for axis, law in zip(axes, ("plain", "regularised")):
-        for cells in s["cells_under_half_width"]:
+        for cells in s["cells_across"]:
             curve = curves[(law, cells)]
-            axis.plot(
-                curve["settlement"],
-                curve["pressure"],
-                label=f"h = b / {cells}",
+            axis.plot(curve["shortening"], curve["force"], label=f"h = 1/{cells} m")
+        for level, text in ((peak_force, "2 c W"), (residual, "2 c_r W")):
+            axis.axhline(level, color="0.6", lw=0.8, ls="--")
+            axis.annotate(
+                text, (s["shortening"], level), ha="right", va="bottom", fontsize=8
             )
-        axis.set_xlabel("settlement of the footing's centre [m]")
+        axis.set_xlabel("shortening (top platen's displacement) [m]")
         axis.set_title(law)
         axis.legend(fontsize=8)
-    axes[0].set_ylabel("pressure [kPa]")
+    axes[0].set_ylabel("force on the top platen [kN/m]")
     figure.tight_layout()
     outcome.figures.append(
         save_figure(
             folder,
             figure,
             "softening",
-            "Softening footing: load-settlement on three grids, plain and regularised",
+            "Softening compression test: force-shortening on three grids, plain and regularised",
         )
     )
 

@@ -1,0 +1,40 @@
+"""The softening benchmark's case and measure (studies/benchmarks.py): the case is valid for the
+C++ reader (through pfm_mpm), its top platen is the third condition (the reaction column the
+study reads) and moves the shortening in the duration; the half-softening shortening is exact
+on a piecewise-linear curve."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from studies import benchmarks
+from studies.common.paths import core
+
+
+@pytest.mark.parametrize("regularised", [False, True])
+def test_the_compression_case_is_valid_and_its_platen_moves_the_shortening(regularised):
+    pfm_mpm = core()
+    raw = benchmarks.softening_case(32, regularised)
+    case = pfm_mpm.parse_case(raw, "softening.json")
+    platen = case["boundary_conditions"][2]
+    assert platen["where"] == "top" and platen["fix"] == "y"
+    s = benchmarks.SOFTENING
+    ramp = platen["time_function"]["ramp_time"]
+    # The smooth ramp's factor integrates to ramp / 2: the platen moves v (T - t_r / 2).
+    moved = -platen["velocity"][1] * (case["time"]["end_time"] - ramp / 2)
+    assert moved == pytest.approx(s["shortening"], rel=1e-14)
+    lengths = {m["softening_length"] for m in case["materials"]}
+    assert lengths == ({s["softening_length"]} if regularised else {None})
+    assert case["grid"]["cell_size"] == pytest.approx(1.0 / 32, rel=1e-15)
+
+
+def test_half_softening_is_where_the_force_crosses_the_middle():
+    """Peak 40 at 0.01 m, then linear to 20 at 0.03 m: halfway to a residual of 20 (30 kN/m)
+    at 0.02 m, to rounding; a curve that never gets there gives NaN."""
+    d = np.linspace(0.0, 0.04, 81)
+    force = np.interp(d, [0.0, 0.01, 0.03, 0.04], [0.0, 40.0, 20.0, 20.0])
+    curve = pd.DataFrame({"shortening": d, "force": force})
+    assert benchmarks.half_softening_shortening(curve, 20.0) == pytest.approx(
+        0.02, abs=1e-15
+    )
+    assert np.isnan(benchmarks.half_softening_shortening(curve, -10.0))
