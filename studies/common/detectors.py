@@ -3,8 +3,9 @@
 Every detector but the library baseline runs inside ``pfm-mpm`` (a ``detection`` block in the
 case, or ``pfm-mpm detect`` on a particle file) with the configuration below: the defaults of
 mpm/detect/detector.hpp for the plain thesis PFM (``pfm_thesis``: fixed kernels, no filter,
-contour level 0) and the improved detector (``pfm_improved``), and the thesis PFM as the thesis
-finally ran it (``pfm_thesis_final``, THESIS_FINAL_PFM). The library baseline (scikit-image,
+contour level 0) and the improved detector (``pfm_improved``), the thesis PFM as the thesis
+finally ran it (``pfm_thesis_final``, THESIS_FINAL_PFM) and with the median filter it tried
+instead (``pfm_thesis_median``, THESIS_MEDIAN_PFM). The library baseline (scikit-image,
 ``studies/detectors/skimage_detector.py``) only post-processes particle files: its "total"
 boundary is computed on the particles of the MPM run that used the improved detector.
 """
@@ -31,9 +32,22 @@ THESIS_FINAL_PFM = {
     "gaussian_sigma": 1.0,
     "contour_level": -30.0,
 }
+# The thesis's other filter (5.3.2, eq. 5.10), which it tried and dropped: the median of each
+# node's proximity and its eight neighbours' (weights a = b = c = 1) in place of the Gaussian,
+# with the same kernels and edge location, at the unlowered level z = 0 (a median keeps the
+# field's level).
+THESIS_MEDIAN_PFM = {
+    **{
+        k: v
+        for k, v in THESIS_FINAL_PFM.items()
+        if k not in ("gaussian_sigma", "contour_level")
+    },
+    "median_weights": [1, 1, 1],
+}
 METHODS = {
     "pfm_thesis": {"method": "pfm"},
     "pfm_thesis_final": {"method": "pfm", "pfm": THESIS_FINAL_PFM},
+    "pfm_thesis_median": {"method": "pfm", "pfm": THESIS_MEDIAN_PFM},
     "pfm_improved": {"method": "improved"},
     "smm": {"method": "smm"},
     "vof": {"method": "vof"},

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 DETECTORS = (
     ("pfm_thesis", "thesis PFM, plain"),
     ("pfm_thesis_final", "thesis PFM as the thesis ran it"),
+    ("pfm_thesis_median", "thesis PFM, median filter"),
     ("pfm_improved", "improved PFM"),
     ("smm", "SMM"),
     ("vof", "VOF"),
