@@ -24,7 +24,9 @@ What it measures:
   the load's edge, positive towards the face: -6 to 0, 5 and 10 m; figs. 6.26, 6.28-6.30):
   hole depth and the height of its bottom, and the crest and toe displacement added by the load
   (loaded minus unloaded run) at the last output time every run reached (up to 2.5 s; at
-  100 kPa every loaded slope collapsed and stopped by 1.6 s).
+  100 kPa every loaded slope collapsed and stopped by 1.6 s); from the gravity-loading state
+  and (full study only) from the thesis's zero-stress start (``slope_load_position_zero_start``,
+  ``slope_surfaces_zero_start``).
 
 Starts: every other run starts from the gravity-loading state (kinetic-energy ratio 1e-2, see
 studies.boundary), not from K0: with K0 = nu / (1 - nu) the Tresca block violates the yield
@@ -244,10 +246,13 @@ def dolfinx_case(case: dict) -> dict:
     return fem
 
 
-def slope_variant(base: dict, offset, end_time: float = END_TIME) -> dict:
+def slope_variant(
+    base: dict, offset, end_time: float = END_TIME, start: dict = GRAVITY_START
+) -> dict:
     """offset None: the unloaded slope; otherwise a load starting ``offset`` m behind the
-    crest, on the detected boundary."""
-    case = derive(base, _common(base, end_time))
+    crest, on the detected boundary; from `start` (the gravity-loading state by default).
+    """
+    case = derive(base, _common(base, end_time, start))
     if offset is None:
         case.update(loads=[], title="parametric slope unloaded")
         return case
@@ -335,6 +340,18 @@ def run(context) -> StudyOutcome:
                 lambda: _dolfinx_part(context, outcome),
             ),
             ("slope load position", lambda: _slope_part(context, outcome)),
+            *(
+                []
+                if context.quick
+                else [
+                    (
+                        "slope load position, zero start",
+                        lambda: _slope_part(
+                            context, outcome, ZERO_START, "_zero_start"
+                        ),
+                    )
+                ]
+            ),
         ],
         context.folder,
     )
@@ -532,12 +549,19 @@ def mpm_curve(out: Path, case: dict, ramp_time: float) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _slope_part(context, outcome: StudyOutcome) -> None:
+def _slope_part(
+    context, outcome: StudyOutcome, start: dict = GRAVITY_START, suffix: str = ""
+) -> None:
+    """The load-position sweep on the slope from `start`; its tables and figures are named
+    with `suffix` ("" for the gravity start, "_zero_start" for the thesis's)."""
     slope, slope_path = base_case("thesis55_slope_dynamic_zero_start")
     context.case_files.append(slope_path)
     offsets = QUICK_SLOPE_OFFSETS if context.quick else SLOPE_LOAD_OFFSETS
     end_time = QUICK_END_TIME if context.quick else END_TIME
-    slope_cases = [(o, slope_variant(slope, o, end_time)) for o in (None, *offsets)]
+    slope_cases = [
+        (o, slope_variant(slope, o, end_time, start)) for o in (None, *offsets)
+    ]
+    starting = "zero-stress start" if start == ZERO_START else "gravity start"
     for _, case in slope_cases:
         case["output"]["interval"] = SLOPE_OUTPUT_INTERVAL
     outs = [
@@ -610,26 +634,27 @@ def _slope_part(context, outcome: StudyOutcome) -> None:
         write_table(
             context.folder,
             position,
-            "slope_load_position",
-            f"Slope, {SLOPE_PRESSURE:g} kPa over 5 m, at t = {time:.3g} s (the last output "
-            f"every run reached): effect of the load position (figs. 6.28-6.30); "
-            f"displacements added by the load (loaded minus unloaded)",
+            f"slope_load_position{suffix}",
+            f"Slope, {starting}, {SLOPE_PRESSURE:g} kPa over 5 m, at t = {time:.3g} s (the "
+            f"last output every run reached): effect of the load position (figs. "
+            f"6.28-6.30); displacements added by the load (loaded minus unloaded)",
         )
     )
     outcome.figures.append(
         save_figure(
             context.folder,
             surfaces_figure(surfaces, propelled, time),
-            "slope_surfaces",
-            f"Slope: the detected surface for every load position, t = {time:.3g} s",
+            f"slope_surfaces{suffix}",
+            f"Slope, {starting}: the detected surface for every load position, "
+            f"t = {time:.3g} s",
         )
     )
     outcome.figures.append(
         save_figure(
             context.folder,
             position_figure(position),
-            "slope_load_position",
-            f"Slope: load position, t = {time:.3g} s",
+            f"slope_load_position{suffix}",
+            f"Slope, {starting}: load position, t = {time:.3g} s",
         )
     )
 
