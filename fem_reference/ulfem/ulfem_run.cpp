@@ -222,36 +222,15 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const StageTimes& st = solver.stage_times();
-  const double n_particles = static_cast<double>(solver.particles().size());
-  const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
-  run["status"] = status == kExitOk ? "completed" : "failed";
-  if (!message.empty()) run["error"] = message;
-  run["provenance"]["finished_utc"] = utc_now();
-  run["summary"] = {{"solver", "ulfem"},
-                    {"mesh",
-                     {{"generator", solver.mesh().generator},
-                      {"n_elements", solver.mesh().n_elements()},
-                      {"n_nodes", solver.mesh().n_nodes()}}},
-                    {"n_particles", solver.particles().size()},
-                    {"n_steps", solver.step_count()},
-                    {"n_initial_stress_steps", initial_steps},
-                    {"final_time_s", solver.time()},
-                    {"dt_s", solver.dt()},
-                    {"critical_dt_s", solver.critical_dt()},
-                    {"wall_time_s", wall},
-                    {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
-                    {"stage_seconds",
-                     {{"geometry", st.locate},
-                      {"particles_to_nodes", st.particles_to_grid},
-                      {"external_forces", st.external_forces},
-                      {"update_nodes", st.update_grid},
-                      {"nodes_to_particles", st.grid_to_particles},
-                      {"remap", st.remap},
-                      {"stress", st.stress}}}};
+  record_run_end(run, solver, initial_steps, wall, status, message,
+                 {"geometry", "particles_to_nodes", "external_forces", "update_nodes",
+                  "nodes_to_particles", "remap", "stress"},
+                 governor.summary());
+  run["summary"]["solver"] = "ulfem";
+  run["summary"]["mesh"] = {{"generator", solver.mesh().generator},
+                            {"n_elements", solver.mesh().n_elements()},
+                            {"n_nodes", solver.mesh().n_nodes()}};
   run["outputs"] = outputs;
-  run["summary"]["energy"] = energy_summary(solver.energy());
-  run["summary"]["threads"] = governor.summary();
   return finish_run(folder, run, series.text(), options, status);
 }
 

@@ -310,4 +310,32 @@ struct EnergyBalance {
   }
 };
 
+/// The energies of a solver's material points (Particles: mass, velocity, volume, stress,
+/// material) now, with `kinetic` their kinetic energy (as the solver sums it), the ledger and
+/// the reactions of its moving supports: what both solvers' energy() return.
+template <class Points>
+EnergyBalance energy_balance(const Points& particles, std::span<const MaterialConstants> constants,
+                             double kinetic, const EnergyLedger& ledger,
+                             std::vector<Vec2> reactions) {
+  EnergyBalance e;
+  e.kinetic_energy = kinetic;
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    e.momentum += particles.mass[p] * particles.velocity[p];
+    const auto mi = static_cast<std::size_t>(particles.material[p]);
+    e.elastic_energy +=
+        particles.volume[p] * elastic_energy_density(constants[mi], particles.stress[p]);
+  }
+  e.ledger = ledger;
+  e.reactions = std::move(reactions);
+  return e;
+}
+
+/// Starts the ledger from the state `e` reached by the initial stress procedure: its kinetic
+/// and elastic energy, no work yet by any of `n_loads` loads.
+inline void start_ledger(EnergyLedger& ledger, const EnergyBalance& e, std::size_t n_loads) {
+  ledger.initial_energy = e.kinetic_energy + e.elastic_energy;
+  ledger.load_work_by_load.assign(n_loads, 0.0);
+  ledger.particle_kinetic = e.kinetic_energy;
+}
+
 }  // namespace pfm

@@ -919,28 +919,16 @@ double MpmSolver::particle_kinetic_energy() const {
 }
 
 EnergyBalance MpmSolver::energy() const {
-  EnergyBalance e;
-  e.kinetic_energy = particle_kinetic_energy();
-  for (std::size_t p = 0; p < particles_.size(); ++p) {
-    e.momentum += particles_.mass[p] * particles_.velocity[p];
-    const auto mi = static_cast<std::size_t>(particles_.material[p]);
-    e.elastic_energy += particles_.volume[p] *
-                        elastic_energy_density(material_constants_[mi], particles_.stress[p]);
-  }
-  e.ledger = counters_.energy;
-  e.reactions = prescribed_.reactions(grid_.reaction);
-  return e;
+  return energy_balance(particles_, material_constants_, particle_kinetic_energy(),
+                        counters_.energy, prescribed_.reactions(grid_.reaction));
 }
 
 void MpmSolver::initialise_stress() {
   pfm::initialise_stress(
       case_, particles_, counters_, [this] { step(); },
       [this] { return particle_kinetic_energy(); });
-  // The ledger starts from the state reached: its kinetic and elastic energy.
-  const EnergyBalance e = energy();
-  counters_.energy.initial_energy = e.kinetic_energy + e.elastic_energy;
-  counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
-  counters_.energy.particle_kinetic = e.kinetic_energy;
+  // The ledger starts from the state reached.
+  start_ledger(counters_.energy, energy(), case_.loads.size());
 }
 
 void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_velocity) {

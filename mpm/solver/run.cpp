@@ -336,28 +336,10 @@ int run_case(const Case& c, const RunOptions& options) {
 
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const StageTimes& st = solver.stage_times();
-  const double n_particles = static_cast<double>(solver.particles().size());
-  const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
-  run["status"] = status == kExitOk ? "completed" : "failed";
-  if (!message.empty()) run["error"] = message;
-  run["provenance"]["finished_utc"] = utc_now();
-  run["summary"] = {{"n_particles", solver.particles().size()},
-                    {"n_steps", solver.step_count()},
-                    {"n_initial_stress_steps", initial_steps},
-                    {"final_time_s", solver.time()},
-                    {"dt_s", solver.dt()},
-                    {"critical_dt_s", solver.critical_dt()},
-                    {"wall_time_s", wall},
-                    {"particle_steps_per_s", wall > 0 ? n_particles * n_steps_done / wall : 0.0},
-                    {"stage_seconds",
-                     {{"locate", st.locate},
-                      {"particles_to_grid", st.particles_to_grid},
-                      {"external_forces", st.external_forces},
-                      {"update_grid", st.update_grid},
-                      {"grid_to_particles", st.grid_to_particles},
-                      {"remap", st.remap},
-                      {"stress", st.stress}}}};
+  record_run_end(run, solver, initial_steps, wall, status, message,
+                 {"locate", "particles_to_grid", "external_forces", "update_grid",
+                  "grid_to_particles", "remap", "stress"},
+                 governor.summary());
   if (coupling.detection_enabled()) {
     // The in-step parts of these run inside external_forces (the hook); detections for output
     // steps run outside the step.
@@ -388,8 +370,6 @@ int run_case(const Case& c, const RunOptions& options) {
     if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
   }
   run["outputs"] = outputs;
-  run["summary"]["energy"] = energy_summary(solver.energy());
-  run["summary"]["threads"] = governor.summary();
   return finish_run(folder, run, series.text(), options, status);
 }
 

@@ -16,12 +16,15 @@
 //   .pfm-mpm.lock         held while a run or restart uses the folder (mpm/core/output_folder.hpp)
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "mpm/core/output_folder.hpp"
+#include "mpm/core/provenance.hpp"
 #include "mpm/solver/case.hpp"
+#include "mpm/solver/output.hpp"
 
 namespace pfm {
 
@@ -80,6 +83,16 @@ void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& r
 /// Ends a run that a write fault stopped: prints the reason, mark_failed(). Returns kExitIoError.
 int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error);
 
+/// The status, error and summary of a finished run in run.json, as both solvers write them:
+/// status ("completed" for kExitOk, else "failed"), error (`message`, when given), the finish
+/// time, and the summary's particles, steps, times, speed, the stage seconds under the
+/// solver's names for locate, particles-to-grid, external forces, grid update, grid-to-particles,
+/// remap and stress, the energy ledger and the threads. `Solver` is MpmSolver or UlFemSolver.
+template <class Solver>
+void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps, double wall,
+                    int status, const std::string& message,
+                    const std::array<const char*, 7>& stage_names, const nlohmann::json& threads);
+
 /// Ends a run: writes its timeseries.csv and final run.json (the reserve given back first; a
 /// write fault ends in fail_on_write_fault) and, unless quiet, prints the summary line. Returns
 /// `status`, or kExitIoError.
@@ -91,5 +104,33 @@ int finish_run(OutputFolder& folder, nlohmann::json& run, const std::string& tim
 /// (fail_on_write_fault). InputError propagates (nothing is created when the case or options
 /// are invalid).
 int run_case(const Case& c, const RunOptions& options);
+
+template <class Solver>
+void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps, double wall,
+                    int status, const std::string& message,
+                    const std::array<const char*, 7>& stage_names, const nlohmann::json& threads) {
+  const auto& st = solver.stage_times();
+  const double n_particles = static_cast<double>(solver.particles().size());
+  const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
+  run["status"] = status == kExitOk ? "completed" : "failed";
+  if (!message.empty()) run["error"] = message;
+  run["provenance"]["finished_utc"] = utc_now();
+  nlohmann::json& summary = run["summary"] = nlohmann::json::object();
+  summary["n_particles"] = solver.particles().size();
+  summary["n_steps"] = solver.step_count();
+  summary["n_initial_stress_steps"] = initial_steps;
+  summary["final_time_s"] = solver.time();
+  summary["dt_s"] = solver.dt();
+  summary["critical_dt_s"] = solver.critical_dt();
+  summary["wall_time_s"] = wall;
+  summary["particle_steps_per_s"] = wall > 0 ? n_particles * n_steps_done / wall : 0.0;
+  const double seconds[7] = {st.locate,      st.particles_to_grid, st.external_forces,
+                             st.update_grid, st.grid_to_particles, st.remap,
+                             st.stress};
+  for (std::size_t k = 0; k < stage_names.size(); ++k)
+    summary["stage_seconds"][stage_names[k]] = seconds[k];
+  summary["energy"] = energy_summary(solver.energy());
+  summary["threads"] = threads;
+}
 
 }  // namespace pfm
