@@ -69,7 +69,13 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
       [this](double time, GridState& grid_state, std::vector<Vec2>& force) {
         const long step = solver_->step_count();
         const bool due = detected_at_step_ < 0 || step % case_.detection->every_steps == 0;
-        if (due && detected_at_step_ != step) detect_now();
+        if (due && detected_at_step_ != step) {
+          if (moved_since_detection()) {
+            detect_now();
+          } else {
+            ++times_.kept;
+          }
+        }
         if (!loads_.empty()) apply_loads(time, grid_state, force);
       });
 }
@@ -106,6 +112,18 @@ std::vector<std::array<long, 2>> BoundaryCoupling::interval_particles() const {
   return ids;
 }
 
+bool BoundaryCoupling::moved_since_detection() const {
+  const std::vector<Vec2>& x = solver_->particles().position;
+  if (detected_at_step_ < 0 || detected_positions_.size() != x.size()) return true;
+  const double limit = case_.detection->max_motion * case_.grid.cell_size;
+  if (!(limit > 0.0)) return true;
+  const double limit2 = limit * limit;
+  for (std::size_t p = 0; p < x.size(); ++p) {
+    if ((x[p] - detected_positions_[p]).squaredNorm() > limit2) return true;
+  }
+  return false;
+}
+
 void BoundaryCoupling::detect_now() {
   const auto start = Clock::now();
   const Particles& particles = solver_->particles();
@@ -117,6 +135,7 @@ void BoundaryCoupling::detect_now() {
   boundary_ =
       detect(cloud, case_.grid, case_.detection->detector, detector_state_, &detection_timings_);
   detected_at_step_ = solver_->step_count();
+  detected_positions_ = particles.position;
   times_.detect += seconds_since(start);
   ++times_.detections;
   const DetectionTimings& t = detection_timings_;
@@ -222,6 +241,7 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/boundary/counts", counts);
   file.put("coupling/boundary/closed", closed);
   file.put("coupling/detected_at_step", static_cast<double>(detected_at_step_));
+  file.put("coupling/detected_positions", flatten(detected_positions_));
   std::vector<double> ends;
   for (const SurfaceLoad& load : loads_) {
     ends.insert(ends.end(),
@@ -289,6 +309,12 @@ void BoundaryCoupling::restore(const CheckpointFile& file) {
     boundary_.contours.push_back(std::move(contour));
   }
   detected_at_step_ = file.integer("coupling/detected_at_step", -1, step);
+  {
+    const std::size_t size = file.get("coupling/detected_positions").size();
+    if (size != 0 && size != 2 * n)
+      file.fail("coupling/detected_positions", "is not one position per particle");
+    detected_positions_ = unflatten<Vec2>(file.get("coupling/detected_positions"));
+  }
   const std::vector<double>& ends = file.get("coupling/load_ends", 4 * loads_.size());
   for (std::size_t k = 0; k < loads_.size(); ++k) {
     for (int e = 0; e < 2; ++e) {

@@ -1,9 +1,11 @@
 // The MPM step coupled with boundary detection and loads on the detected boundary (thesis 6.2).
 //
 // In the external-force stage of step n (particles at time t_n, nodal masses known):
-//   1. detect    every `detection.every_steps` steps (and whenever an output needs a fresh
-//                boundary) the detector of the case runs on the particles (positions, current
-//                volumes, deformation gradients); between detections the last boundary is used;
+//   1. detect    every `detection.every_steps` steps, when some point has moved more than
+//                `detection.max_motion` x h since the last detection (and whenever an output
+//                needs a fresh boundary), the detector of the case runs on the particles
+//                (positions, current volumes, deformation gradients); between detections the
+//                last boundary is used;
 //   2. bezier    each surface load builds its composite curves from the contours (its "curve");
 //   3. traction  the load at the time function's factor is integrated into nodal forces,
 //                f_I = int N_I t dGamma (mpm/boundary/surface_load.hpp), and added to the grid.
@@ -61,6 +63,8 @@ struct CouplingTimes {
   double bezier = 0.0;
   double traction = 0.0;
   long detections = 0;
+  /// Due detections skipped because no point had moved more than max_motion x h.
+  long kept = 0;
   /// Improved detector, over the run (DetectionTimings): detections whose second pass bridged
   /// particles left outside or islands in contact, the bridges, the spurious loops removed, the
   /// passes at the guards' refinement, and the most loops of one boundary.
@@ -119,6 +123,9 @@ class BoundaryCoupling {
   };
 
   void detect_now();
+  /// Whether a point has moved more than detection.max_motion x h since the last detection
+  /// (true before the first one, and always with max_motion 0).
+  bool moved_since_detection() const;
   void apply_loads(double time, GridState& grid_state, std::vector<Vec2>& force);
   void tie_material_intervals();
 
@@ -130,6 +137,7 @@ class BoundaryCoupling {
   DetectionTimings detection_timings_;
   DetectedBoundary boundary_;
   long detected_at_step_ = -1;
+  std::vector<Vec2> detected_positions_;  ///< the points at the last detection, m
   std::vector<boundary::CompositeBezier> curves_;
   boundary::BoundaryLoadIntegrator integrator_;
   SurfaceLoadDiagnostics diagnostics_;

@@ -850,9 +850,16 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     detection.every_steps = d->int_or("every_steps", 1);
     if (d->has("every_steps"))
       d->at("every_steps").require(detection.every_steps >= 1, "must be a whole number >= 1");
+    detection.max_motion = d->number_or("max_motion", detection.max_motion);
+    if (d->has("max_motion")) {
+      d->at("max_motion")
+          .require(detection.max_motion >= 0.0 && detection.max_motion <= 1.0,
+                   "must be in [0, 1] (a fraction of the cell size)");
+    }
     // The rest of the block is the detector configuration; errors keep their JSON pointers.
     nlohmann::json config = d->raw();
     config.erase("every_steps");
+    config.erase("max_motion");
     detection.detector = parse_detector_config(JsonView(config, d->file(), d->pointer()));
     c.detection = std::move(detection);
   } else {

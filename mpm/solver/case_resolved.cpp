@@ -170,6 +170,7 @@ json resolved_case(const Case& c) {
   out["detection"] = nullptr;
   if (c.detection) {
     out["detection"] = {{"every_steps", c.detection->every_steps},
+                        {"max_motion", c.detection->max_motion},
                         {"method", detector_method_name(c.detection->detector.method)}};
   }
   out["manufactured_solution"] = c.manufactured.has_value();

@@ -351,6 +351,8 @@ int run_case(const Case& c, const RunOptions& options) {
         {"calls", ct.detections},
         {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
         {"every_steps", c.detection->every_steps},
+        {"max_motion", c.detection->max_motion},
+        {"kept_calls", ct.kept},
         {"most_loops", ct.most_loops},
         {"bridged_calls", ct.bridged_detections},
         {"bridges", ct.bridges},

@@ -1,9 +1,11 @@
 """Checkpoint and restart (issue "Reliability", check 1).
 
 A run of the bearing block with detection and traction on the detected boundary (load interval
-carried by the material, so the coupling's state matters) is killed with SIGKILL at a random
-step after its first checkpoint and continued with ``pfm-mpm run --restart``. The final state
-and every output must be bitwise identical to the uninterrupted run's.
+carried by the material, so the coupling's state matters), and the quasi-static default case
+(whose boundary is kept between detections while it hardly moves, detection.max_motion), are
+killed with SIGKILL at a random step after their first checkpoint and continued with
+``pfm-mpm run --restart``. The final state and every output must be bitwise identical to the
+uninterrupted run's.
 """
 
 import json
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 # Not imported from conftest: with several test directories on one pytest command line, the
 # module named "conftest" may be another directory's.
@@ -36,6 +39,15 @@ def short_bearing_block(tmp_path):
     case["loads"][0]["redistribute_lost_load"] = True
     case["detection"] = {"method": "improved", "every_steps": 3}
     path = tmp_path / "bearing_block_short.json"
+    path.write_text(json.dumps(case))
+    return path
+
+
+def short_default_case(tmp_path):
+    case = json.loads((ROOT / "cases" / "bearing_quasi_static.json").read_text())
+    case["time"]["end_time"] = 1.5
+    case["output"] = {"interval": 0.05, "timeseries_interval": 0.01, "vtk": True}
+    path = tmp_path / "default_short.json"
     path.write_text(json.dumps(case))
     return path
 
@@ -82,8 +94,9 @@ def assert_same_outputs(reference, restarted):
     assert run_a["summary"]["n_steps"] == run_b["summary"]["n_steps"]
 
 
-def test_killed_run_restarts_bitwise(pfm_binary, tmp_path):
-    case = short_bearing_block(tmp_path)
+@pytest.mark.parametrize("build", [short_bearing_block, short_default_case])
+def test_killed_run_restarts_bitwise(pfm_binary, tmp_path, build):
+    case = build(tmp_path)
     reference, killed = tmp_path / "reference", tmp_path / "killed"
     common = ["--quiet", "--checkpoint-steps", "4"]
     subprocess.run(
@@ -125,8 +138,11 @@ def test_killed_run_restarts_bitwise(pfm_binary, tmp_path):
     assert_same_outputs(reference, killed)
     # The restart kept the original run's checkpoint settings (every 4 steps): it went on
     # writing checkpoints past the one it started from.
-    settings = json.loads((killed / "run.json").read_text())["checkpoint"]
+    run = json.loads((killed / "run.json").read_text())
+    settings = run["checkpoint"]
     assert settings["steps"] == 4
+    if build is short_default_case:  # the boundary was kept through most steps
+        assert run["summary"]["detection"]["kept_calls"] > run["summary"]["n_steps"] / 2
     assert checkpoint_step(killed / "checkpoint.h5") > step
 
 
