@@ -402,7 +402,10 @@ void UlFemSolver::external_forces() {
   load_work_recorder_.clear();
   if (!counters_.loads_active) return;  // gravity loading of the initial stress: no loads, no hook
   apply_loads();
-  if (hook_) hook_(counters_.time, nodes_, nodes_.external_force);
+  if (hook_) {
+    hook_({counters_.time, counters_.dt, counters_.step, particles_, load_work_recorder_}, nodes_,
+          nodes_.external_force);
+  }
 }
 
 bool UlFemSolver::shadowed(double x, double y) const {

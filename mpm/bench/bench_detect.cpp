@@ -119,8 +119,8 @@ Fixture& fixture(int scale) {
     // The particles at the hook of the next step (of a copy: the solver's own stay as its last
     // step left them).
     pfm::MpmSolver next = *f.solver;
-    next.set_external_force_hook(
-        [&](double, pfm::GridState&, std::vector<pfm::Vec2>&) { f.particles = next.particles(); });
+    next.set_external_force_hook([&](const pfm::StepView& step, pfm::GridState&,
+                                     std::vector<pfm::Vec2>&) { f.particles = step.particles; });
     next.step();
   }
   return cache.emplace(scale, std::move(f)).first->second;

@@ -49,39 +49,37 @@ BoundaryCoupling::BoundaryCoupling(const Case& c)
 }
 
 void BoundaryCoupling::attach(MpmSolver& solver) {
-  solver_ = &solver;
   // The mass of a full cell: the densest particle's density x h^2 (t per m).
   const double h = case_.grid.cell_size;
   const double density = largest_density(solver.particles());
   for (SurfaceLoad& load : loads_)
     load.spec.min_node_mass = load.spec.min_node_mass_fraction * density * h * h;
   if (!detection_enabled()) return;
-  tie_material_intervals();
+  tie_material_intervals(solver.particles());
   if (case_.detection->detector.method == DetectorMethod::kSmm) {
     // Surface markers ride on the updated grid velocities (thesis eq. 4.6-4.7), every step.
-    solver.set_grid_velocity_hook([this](double, double dt, const GridState& grid_state) {
+    solver.set_grid_velocity_hook([this](const StepView& step, const GridState& grid_state) {
       const auto start = Clock::now();
-      advect_surface_markers(detector_state_, case_.grid, grid_state.velocity, grid_state.mass, dt);
+      advect_surface_markers(detector_state_, case_.grid, grid_state.velocity, grid_state.mass,
+                             step.dt);
       times_.detect += seconds_since(start);
     });
   }
   solver.set_external_force_hook(
-      [this](double time, GridState& grid_state, std::vector<Vec2>& force) {
-        const long step = solver_->step_count();
-        const bool due = detected_at_step_ < 0 || step % case_.detection->every_steps == 0;
-        if (due && detected_at_step_ != step) {
-          if (moved_since_detection()) {
-            detect_now();
+      [this](const StepView& step, GridState& grid_state, std::vector<Vec2>& force) {
+        const bool due = detected_at_step_ < 0 || step.step % case_.detection->every_steps == 0;
+        if (due && detected_at_step_ != step.step) {
+          if (moved_since_detection(step.particles)) {
+            detect_now(step);
           } else {
             ++times_.kept;
           }
         }
-        if (!loads_.empty()) apply_loads(time, grid_state, force);
+        if (!loads_.empty()) apply_loads(step, grid_state, force);
       });
 }
 
-void BoundaryCoupling::tie_material_intervals() {
-  const Particles& particles = solver_->particles();
+void BoundaryCoupling::tie_material_intervals(const Particles& particles) {
   for (SurfaceLoad& load : loads_) {
     if (load.spec.interval != boundary::LoadInterval::kMaterial || !load.spec.x_range) continue;
     const double ends[2] = {load.spec.x_range->x(), load.spec.x_range->y()};
@@ -112,8 +110,8 @@ std::vector<std::array<long, 2>> BoundaryCoupling::interval_particles() const {
   return ids;
 }
 
-bool BoundaryCoupling::moved_since_detection() const {
-  const std::vector<Vec2>& x = solver_->particles().position;
+bool BoundaryCoupling::moved_since_detection(const Particles& particles) const {
+  const std::vector<Vec2>& x = particles.position;
   if (detected_at_step_ < 0 || detected_positions_.size() != x.size()) return true;
   const double limit = case_.detection->max_motion * case_.grid.cell_size;
   if (!(limit > 0.0)) return true;
@@ -124,9 +122,9 @@ bool BoundaryCoupling::moved_since_detection() const {
   return false;
 }
 
-void BoundaryCoupling::detect_now() {
+void BoundaryCoupling::detect_now(const StepView& step) {
   const auto start = Clock::now();
-  const Particles& particles = solver_->particles();
+  const Particles& particles = step.particles;
   ParticleCloud cloud;
   cloud.position = particles.position;
   cloud.volume = particles.volume;
@@ -134,7 +132,7 @@ void BoundaryCoupling::detect_now() {
   cloud.initial_spacing = initial_spacing_;
   boundary_ =
       detect(cloud, case_.grid, case_.detection->detector, detector_state_, &detection_timings_);
-  detected_at_step_ = solver_->step_count();
+  detected_at_step_ = step.step;
   detected_positions_ = particles.position;
   times_.detect += seconds_since(start);
   ++times_.detections;
@@ -146,14 +144,15 @@ void BoundaryCoupling::detect_now() {
   times_.most_loops = std::max(times_.most_loops, static_cast<long>(boundary_.contours.size()));
 }
 
-const DetectedBoundary& BoundaryCoupling::current_boundary() {
-  if (detected_at_step_ != solver_->step_count()) detect_now();
+const DetectedBoundary& BoundaryCoupling::current_boundary(const StepView& step) {
+  if (detected_at_step_ != step.step) detect_now(step);
   return boundary_;
 }
 
-void BoundaryCoupling::apply_loads(double time, GridState& grid_state, std::vector<Vec2>& force) {
+void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
+                                   std::vector<Vec2>& force) {
   diagnostics_ = SurfaceLoadDiagnostics{};
-  const Particles& particles = solver_->particles();
+  const Particles& particles = step.particles;
   const bool keep = case_.output.nodal_loads;
   if (keep) nodal_forces_.clear();
   boundary::CurveKind built = boundary::CurveKind::kLinear;
@@ -178,8 +177,8 @@ void BoundaryCoupling::apply_loads(double time, GridState& grid_state, std::vect
     }
     current_range_[k] = spec.x_range;
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves_, spec, load.time_function.factor(time), grid_state.mass, force, true);
-    LoadWorkRecorder& recorder = solver_->load_work_recorder();
+        curves_, spec, load.time_function.factor(step.time), grid_state.mass, force, true);
+    LoadWorkRecorder& recorder = step.load_work;
     for (const boundary::NodalForce& f : result.nodal_forces)
       recorder.add(load.case_index, static_cast<std::size_t>(f.node), f.force);
     // The lost nodes' internal forces go where their loads went (header comment).
@@ -283,9 +282,9 @@ void read_polylines(const CheckpointFile& file, const std::string& prefix,
 
 }  // namespace
 
-void BoundaryCoupling::restore(const CheckpointFile& file) {
-  const std::size_t n = solver_->particles().size();
-  const long step = solver_->step_count();
+void BoundaryCoupling::restore(const CheckpointFile& file, const StepView& now) {
+  const std::size_t n = now.particles.size();
+  const long step = now.step;
   for (const char* name : {"coupling/detector/shape", "coupling/detector/previous_deformation"}) {
     const std::size_t size = file.get(name).size();
     if (size != 0 && size != 4 * n) file.fail(name, "is not one 2 x 2 matrix per particle");

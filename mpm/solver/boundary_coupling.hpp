@@ -85,14 +85,14 @@ class BoundaryCoupling {
   bool detection_enabled() const { return case_.detection.has_value(); }
   bool has_surface_loads() const { return !loads_.empty(); }
 
-  /// Installs the solver hooks; `solver` must outlive this object's use. Ties material-carried
-  /// load intervals to their particles (call after initialise_stress: the particles' reference
-  /// positions are then final).
+  /// Installs the solver hooks, which see the step through a StepView only (no pointer to the
+  /// solver is kept). Ties material-carried load intervals to their particles (call after
+  /// initialise_stress: the particles' reference positions are then final).
   void attach(MpmSolver& solver);
 
-  /// The boundary of the particles as they are now (detects unless the last detection was at
-  /// this step).
-  const DetectedBoundary& current_boundary();
+  /// The boundary of the particles as `now` has them (detects unless the last detection was
+  /// at its step).
+  const DetectedBoundary& current_boundary(const StepView& now);
   const DetectedBoundary& last_boundary() const { return boundary_; }
   const SurfaceLoadDiagnostics& diagnostics() const { return diagnostics_; }
   /// The particles' spacing in the initial state, m (the loops' classes take it).
@@ -108,8 +108,9 @@ class BoundaryCoupling {
   /// Checkpoints: the detector's state (kernel shapes, markers), the last boundary and when it
   /// was found, and the particles that carry material intervals.
   void save(CheckpointFile& file) const;
-  /// Restores what save() wrote; call after attach().
-  void restore(const CheckpointFile& file);
+  /// Restores what save() wrote for the state `now` (its particles and step); call after
+  /// attach().
+  void restore(const CheckpointFile& file, const StepView& now);
   /// Ids of the particles that carry the ends of material load intervals (-1: fixed interval).
   std::vector<std::array<long, 2>> interval_particles() const;
 
@@ -122,15 +123,14 @@ class BoundaryCoupling {
     std::array<double, 2> end_x0 = {0.0, 0.0};  ///< the ends' particles' initial x, m
   };
 
-  void detect_now();
+  void detect_now(const StepView& step);
   /// Whether a point has moved more than detection.max_motion x h since the last detection
   /// (true before the first one, and always with max_motion 0).
-  bool moved_since_detection() const;
-  void apply_loads(double time, GridState& grid_state, std::vector<Vec2>& force);
-  void tie_material_intervals();
+  bool moved_since_detection(const Particles& particles) const;
+  void apply_loads(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
+  void tie_material_intervals(const Particles& particles);
 
   const Case& case_;
-  MpmSolver* solver_ = nullptr;
   double initial_spacing_ = 0.0;
   std::vector<SurfaceLoad> loads_;
   DetectorState detector_state_;

@@ -281,7 +281,7 @@ void MpmSolver::run_step() {
                            grid_.momentum, grid_.velocity, grid_.fixed, prescribed_.start(),
                            counters_.energy.load_work_by_load);
   times_.update_grid += seconds_since(t0);
-  if (velocity_hook_) velocity_hook_(counters_.time, counters_.dt, grid_);
+  if (velocity_hook_) velocity_hook_(step_view(), grid_);
 
   if (case_.solver.scheme == Scheme::kMUSL) {
     t0 = Clock::now();
@@ -602,7 +602,7 @@ void MpmSolver::external_forces() {
       load_work_recorder_.add(k, node, force);
     }
   }
-  if (hook_) hook_(counters_.time, grid_, grid_.external_force);
+  if (hook_) hook_(step_view(), grid_, grid_.external_force);
 }
 
 void MpmSolver::update_grid() {

@@ -81,16 +81,28 @@ struct StageTimes {
   }
 };
 
+/// What a hook sees of the step it is called in: the time at the step's start, its size and
+/// count, the material points as the step found them, and where the external-force hook records
+/// each load's nodal forces (for the work of each load, EnergyLedger::load_work_by_load). The
+/// hooks see nothing else of the solver.
+struct StepView {
+  double time = 0.0;  ///< s
+  double dt = 0.0;    ///< s
+  long step = 0;
+  const Particles& particles;
+  LoadWorkRecorder& load_work;
+};
+
 /// Extra external forces added to the grid each step (the boundary-traction stage hooks in
 /// here). Called after particles_to_grid with the nodal masses and internal forces known; adds
 /// into `force` (grid_state.external_force). It may move internal forces between nodes,
 /// conserving their sum and moment (the lost-load rule of boundary_coupling.hpp).
 using ExternalForceHook =
-    std::function<void(double time, GridState& grid_state, std::vector<Vec2>& force)>;
+    std::function<void(const StepView& step, GridState& grid_state, std::vector<Vec2>& force)>;
 
 /// Observer of the updated grid velocities (after the grid update, before grid-to-particles):
-/// surface markers ride on them (thesis eq. 4.6-4.7). `dt` is the step being taken.
-using GridVelocityHook = std::function<void(double time, double dt, const GridState& grid_state)>;
+/// surface markers ride on them (thesis eq. 4.6-4.7).
+using GridVelocityHook = std::function<void(const StepView& step, const GridState& grid_state)>;
 
 class MpmSolver {
  public:
@@ -132,10 +144,11 @@ class MpmSolver {
   EnergyBalance energy() const;
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
-  /// Where the external-force hook records each load's nodal forces of the step (by the
-  /// case's load index), for the work of each load (EnergyLedger::load_work_by_load).
-  LoadWorkRecorder& load_work_recorder() { return load_work_recorder_; }
   void set_grid_velocity_hook(GridVelocityHook hook) { velocity_hook_ = std::move(hook); }
+  /// The step as the hooks see it, now (outside a step: the next one's start).
+  StepView step_view() {
+    return {counters_.time, counters_.dt, counters_.step, particles_, load_work_recorder_};
+  }
   /// Replace the time step (must not exceed critical_dt(); checked).
   void set_dt(double dt);
 

@@ -173,7 +173,7 @@ int run_case(const Case& c, const RunOptions& options) {
     n.energy = get_energy_ledger(file, c.loads.size());
     solver.restore(n);
     coupling.attach(solver);
-    coupling.restore(file);
+    coupling.restore(file, solver.step_view());
     const double past = n.time - n.dt;
     next_output = file.scalar("run/next_output", past, n.time + c.output.interval + n.dt);
     next_series =
@@ -198,7 +198,7 @@ int run_case(const Case& c, const RunOptions& options) {
       vtk_writer->write(solver.time(), solver.step_count(), particles_vtu(solver.particles()));
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
     if (coupling.detection_enabled()) {
-      const DetectedBoundary& boundary = coupling.current_boundary();
+      const DetectedBoundary& boundary = coupling.current_boundary(solver.step_view());
       char name[40];
       std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
       write_file_atomically(folder.file(name), boundary_csv(boundary));

@@ -375,10 +375,10 @@ TEST(BoundaryCoupling, SurfaceMarkersMoveWithTheGridVelocitiesInARun) {
   coupling.attach(solver);
   const Vec2 v(0.4, -0.1);
   for (Vec2& velocity : solver.mutable_particles().velocity) velocity = v;
-  const DetectedBoundary initial = coupling.current_boundary();
+  const DetectedBoundary initial = coupling.current_boundary(solver.step_view());
   ASSERT_EQ(initial.contours.size(), 1u);
   for (int step = 0; step < 40; ++step) solver.step();
-  const DetectedBoundary moved = coupling.current_boundary();
+  const DetectedBoundary moved = coupling.current_boundary(solver.step_view());
   ASSERT_EQ(moved.contours.size(), 1u);
   ASSERT_EQ(moved.contours[0].points.size(), initial.contours[0].points.size());
   double worst = 0.0;

@@ -203,10 +203,11 @@ TEST(SolverPhysics, GridTopLoadWithBsplinesIsTheIntegralAlongTheTop) {
       for (std::size_t k = 0; k < load.node.size(); ++k)
         stored[static_cast<std::size_t>(load.node[k])] = -q * load.vertical_force_per_kpa[k];
       std::vector<double> applied, mass;
-      solver.set_external_force_hook([&](double, GridState& state, std::vector<Vec2>& force) {
-        for (const Vec2& f : force) applied.push_back(f.y());
-        mass = state.mass;
-      });
+      solver.set_external_force_hook(
+          [&](const StepView&, GridState& state, std::vector<Vec2>& force) {
+            for (const Vec2& f : force) applied.push_back(f.y());
+            mass = state.mass;
+          });
       solver.step();
       int light = 0;
       for (const auto* forces : {&stored, &applied}) {
