@@ -11,20 +11,15 @@
 #include "mpm/core/kinematics.hpp"
 #include "mpm/core/shape_functions.hpp"
 #include "mpm/solver/body_fill.hpp"
+#include "mpm/solver/stage_timer.hpp"
 
 namespace pfm::ulfem {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 // Below this many elements a parallel region costs more than it saves (and a busy machine can
 // deschedule a team member for milliseconds).
 constexpr std::size_t kParallelElements = 2048;
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
 std::string fmt(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.6g", v);
@@ -281,28 +276,24 @@ void UlFemSolver::step() {
   // is smaller (explicit FE practice; the MPM keeps its cells and needs no such reduction).
   counters_.dt = std::min(
       base_dt_, case_.time.cfl * min_element_length_ / (max_wave_speed_ + max_particle_speed_));
-  auto t0 = Clock::now();
-  particles_to_nodes(false);
-  times_.particles_to_grid += seconds_since(t0);
-
-  t0 = Clock::now();
-  external_forces();
-  times_.external_forces += seconds_since(t0);
-
-  t0 = Clock::now();
-  prescribed_.update(counters_.time, counters_.dt);
-  update_nodes();
-  load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), nodes_.mass,
-                           nodes_.momentum, nodes_.velocity, nodes_.fixed, prescribed_.start(),
-                           counters_.energy.load_work_by_load);
-  times_.update_grid += seconds_since(t0);
-
-  t0 = Clock::now();
-  nodes_to_particles();
-  times_.grid_to_particles += seconds_since(t0);
-
+  {
+    StageTimer timer(times_.particles_to_grid);
+    particles_to_nodes(false);
+  }
+  {
+    StageTimer timer(times_.external_forces);
+    external_forces();
+  }
+  {
+    StageTimer timer(times_.update_grid);
+    update_nodes();
+  }
+  {
+    StageTimer timer(times_.grid_to_particles);
+    nodes_to_particles();
+  }
   if (case_.solver.scheme == Scheme::kMUSL) {
-    t0 = Clock::now();
+    StageTimer timer(times_.remap);
     particles_to_nodes(true);
     const std::size_t n_nodes = nodes_.mass.size();
     const double tiny = 1e-12 * particles_.mass.front();
@@ -313,20 +304,18 @@ void UlFemSolver::step() {
       if (nodes_.fixed[n] & kFixY) v.y() = prescribed_.end()[n].y();
       remapped_velocity_[n] = v;
     }
-    times_.remap += seconds_since(t0);
-    t0 = Clock::now();
-    update_stress(remapped_velocity_);
-  } else {
-    t0 = Clock::now();
-    update_stress(nodes_.velocity);
   }
-  times_.stress += seconds_since(t0);
+  {
+    StageTimer timer(times_.stress);
+    update_stress(case_.solver.scheme == Scheme::kMUSL ? remapped_velocity_ : nodes_.velocity);
+  }
 
   counters_.time += counters_.dt;
   ++counters_.step;
-  t0 = Clock::now();
-  move_mesh();
-  times_.locate += seconds_since(t0);
+  {
+    StageTimer timer(times_.locate);
+    move_mesh();
+  }
   check_particles();
 }
 
@@ -525,6 +514,7 @@ void UlFemSolver::apply_loads() {
 
 void UlFemSolver::update_nodes() {
   // The node update of the MPM's grid (energy_ledger.hpp), in node order.
+  prescribed_.update(counters_.time, counters_.dt);
   const std::size_t n_nodes = nodes_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
   NodeEnergy step;
@@ -544,6 +534,8 @@ void UlFemSolver::update_nodes() {
   }
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
+  load_work_recorder_.book(counters_.dt, tiny, nodes_.mass, nodes_.momentum, nodes_.velocity,
+                           nodes_.fixed, prescribed_.start(), counters_.energy.load_work_by_load);
 }
 
 void UlFemSolver::nodes_to_particles() {

@@ -6,15 +6,11 @@
 #include <cstdio>
 #include <limits>
 
+#include "mpm/solver/stage_timer.hpp"
+
 namespace pfm {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 /// The particle spacing of the initial state: the smallest cell size / points per cell over
 /// the bodies, and the side of the smallest point of a body from a particle file (m).

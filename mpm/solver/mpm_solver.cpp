@@ -9,12 +9,11 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/solver/body_fill.hpp"
+#include "mpm/solver/stage_timer.hpp"
 
 namespace pfm {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 // Sums over particles or nodes (energies) are taken per fixed block of this many items, then
 // over the blocks, both in index order: deterministic, and parallel over the blocks.
@@ -29,10 +28,6 @@ constexpr int kNodeChunk = 4096;
 // would spend meeting each other (and far more when they compete for the cores with other
 // jobs), so the stages run on one thread; results do not depend on it.
 constexpr std::size_t kMinParallelItems = 1024;
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 std::string describe_particle(const Particles& particles, std::size_t p) {
   std::ostringstream s;
@@ -262,42 +257,39 @@ void MpmSolver::step() {
 
 template <int W>
 void MpmSolver::run_step() {
-  auto t0 = Clock::now();
-  locate_particles<W>(true);
-  times_.locate += seconds_since(t0);
-
-  t0 = Clock::now();
-  particles_to_grid<W>();
-  times_.particles_to_grid += seconds_since(t0);
-
-  t0 = Clock::now();
-  external_forces();
-  times_.external_forces += seconds_since(t0);
-
-  t0 = Clock::now();
-  prescribed_.update(counters_.time, counters_.dt);
-  update_grid();
-  load_work_recorder_.book(counters_.dt, 1e-12 * particles_.mass.front(), grid_.mass,
-                           grid_.momentum, grid_.velocity, grid_.fixed, prescribed_.start(),
-                           counters_.energy.load_work_by_load);
-  times_.update_grid += seconds_since(t0);
+  {
+    StageTimer timer(times_.locate);
+    locate_particles<W>(true);
+  }
+  {
+    StageTimer timer(times_.particles_to_grid);
+    particles_to_grid<W>();
+  }
+  {
+    StageTimer timer(times_.external_forces);
+    external_forces();
+  }
+  {
+    StageTimer timer(times_.update_grid);
+    update_grid();
+  }
   if (velocity_hook_) velocity_hook_(step_view(), grid_);
 
-  if (case_.solver.scheme == Scheme::kMUSL) {
-    t0 = Clock::now();
-    grid_to_particles<W, true>();
-    times_.grid_to_particles += seconds_since(t0);
-    t0 = Clock::now();
-    update_stress<W>(remapped_velocity_, true);
+  const bool musl = case_.solver.scheme == Scheme::kMUSL;
+  {
+    StageTimer timer(times_.grid_to_particles);
+    if (musl) {
+      grid_to_particles<W, true>();
+    } else {
+      grid_to_particles<W, false>();
+    }
+  }
+  {
+    // MUSL: the remap runs inside the stress update's parallel region, which times it.
+    StageTimer timer(times_.stress);
+    update_stress<W>(musl ? remapped_velocity_ : grid_.velocity, musl);
     times_.remap += remap_seconds_;
-    times_.stress += seconds_since(t0) - remap_seconds_;
-  } else {
-    t0 = Clock::now();
-    grid_to_particles<W, false>();
-    times_.grid_to_particles += seconds_since(t0);
-    t0 = Clock::now();
-    update_stress<W>(grid_.velocity, false);
-    times_.stress += seconds_since(t0);
+    times_.stress -= remap_seconds_;
   }
 
   counters_.time += counters_.dt;
@@ -606,6 +598,7 @@ void MpmSolver::external_forces() {
 }
 
 void MpmSolver::update_grid() {
+  prescribed_.update(counters_.time, counters_.dt);
   const std::size_t n_nodes = grid_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
   const double alpha = counters_.damping;
@@ -647,6 +640,8 @@ void MpmSolver::update_grid() {
   kinetic_stale_ = false;
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
+  load_work_recorder_.book(counters_.dt, tiny, grid_.mass, grid_.momentum, grid_.velocity,
+                           grid_.fixed, prescribed_.start(), counters_.energy.load_work_by_load);
 }
 
 template <int W, bool kScatterMomentum>
