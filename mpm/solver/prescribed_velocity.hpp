@@ -24,8 +24,9 @@ class PrescribedVelocity {
   /// Node `node` is held by condition `k`.
   void add(std::size_t k, std::size_t node);
   /// The velocities of a step from t to t + dt: per node, the components fixed by a moving
-  /// condition at t (start) and t + dt (end); zero elsewhere. Where two moving conditions fix
-  /// the same component of a node, the later one in the case holds.
+  /// condition at t (start) and t + dt (end); zero elsewhere. Where a moving condition and a
+  /// support fix the same component of a node, the moving one holds; between two moving ones,
+  /// the later in the case.
   void update(double t, double dt);
   std::span<const Vec2> start() const { return start_; }
   std::span<const Vec2> end() const { return end_; }
