@@ -15,6 +15,7 @@
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/provenance.hpp"
+#include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/case.hpp"
 
@@ -25,21 +26,10 @@ namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-// Grid from {"origin": [x, y], "cell_size": h, "n_cells": [nx, ny]} (the case's grid block).
+// Grid from {"origin": [x, y], "cell_size": h, "n_cells": [nx, ny]}, as pfm-mpm detect's.
 pfm::Grid grid_from_json(const std::string& text) {
   const json document = json::parse(text);
-  const pfm::JsonView g(document, "<grid>");
-  g.expect_object({"origin", "cell_size", "n_cells", "max_nodes"});
-  pfm::Grid grid;
-  if (g.has("origin")) grid.origin = g.at("origin").as_vec2();
-  grid.cell_size = g.at("cell_size").as_number();
-  g.at("cell_size").require(grid.cell_size > 0.0, "must be > 0");
-  const pfm::JsonView n = g.at("n_cells");
-  n.require(n.array_size() == 2, "expected [nx, ny]");
-  grid.n_cells_x = n.at(std::size_t{0}).as_int();
-  grid.n_cells_y = n.at(std::size_t{1}).as_int();
-  n.require(grid.n_cells_x >= 1 && grid.n_cells_y >= 1, "must be >= 1");
-  return grid;
+  return pfm::parse_detection_grid(pfm::JsonView(document, "<grid>"));
 }
 
 std::vector<pfm::Vec2> points_from(const Array& a, const char* name) {

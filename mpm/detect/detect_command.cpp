@@ -40,6 +40,22 @@ std::vector<std::string> split(const std::string& line) {
 
 }  // namespace
 
+Grid parse_detection_grid(const JsonView& g) {
+  g.expect_object({"origin", "cell_size", "n_cells"});
+  Grid grid;
+  grid.origin = g.at("origin").as_vec2();
+  grid.cell_size = g.at("cell_size").as_number();
+  g.at("cell_size").require(grid.cell_size > 0.0, "must be > 0 (m)");
+  const JsonView n = g.at("n_cells");
+  n.require(n.is_array() && n.array_size() == 2, "must be [nx, ny]");
+  grid.n_cells_x = n.at(0).as_int();
+  grid.n_cells_y = n.at(1).as_int();
+  n.require(grid.n_cells_x >= 1 && grid.n_cells_y >= 1, "must be >= 1");
+  n.require((grid.n_cells_x + 1.0) * (grid.n_cells_y + 1.0) <= kMaxGridNodes,
+            "more than 5e7 grid nodes");
+  return grid;
+}
+
 ParticleTable read_particle_csv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open file");
@@ -167,17 +183,7 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
   }
   Grid grid;
   if (const auto g = root.find("grid")) {
-    g->expect_object({"origin", "cell_size", "n_cells"});
-    grid.origin = g->at("origin").as_vec2();
-    grid.cell_size = g->at("cell_size").as_number();
-    g->at("cell_size").require(grid.cell_size > 0.0, "must be > 0 (m)");
-    const JsonView n = g->at("n_cells");
-    n.require(n.is_array() && n.array_size() == 2, "must be [nx, ny]");
-    grid.n_cells_x = n.at(0).as_int();
-    grid.n_cells_y = n.at(1).as_int();
-    n.require(grid.n_cells_x >= 1 && grid.n_cells_y >= 1, "must be >= 1");
-    n.require((grid.n_cells_x + 1.0) * (grid.n_cells_y + 1.0) <= kMaxGridNodes,
-              "more than 5e7 grid nodes");
+    grid = parse_detection_grid(*g);
     const Vec2 lo = grid.origin, hi = grid.upper_corner();  // no int casts: x may be 1e300
     const bool any_inside =
         std::any_of(table.position.begin(), table.position.end(), [&](const Vec2& p) {

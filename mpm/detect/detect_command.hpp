@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "mpm/core/grid.hpp"
+#include "mpm/core/json_input.hpp"
 #include "mpm/core/types.hpp"
 
 namespace pfm {
@@ -35,6 +37,10 @@ struct ParticleTable {
   std::vector<int> material;   ///< index into a case's materials; empty without the column
 };
 ParticleTable read_particle_csv(const std::string& path);
+
+/// The detection grid of a "grid" block {"origin": [x, y], "cell_size": m, "n_cells": [nx, ny]}
+/// (at most 5e7 nodes); InputError with the block's JSON pointer.
+Grid parse_detection_grid(const JsonView& grid);
 
 /// Runs the command on `threads` OpenMP threads (0: every core; the boundary is the same for any
 /// count); returns 0 on success. Bad input throws InputError before OUT_DIR exists. summary.json

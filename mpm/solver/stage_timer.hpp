@@ -20,8 +20,6 @@ class StageTimer {
   ~StageTimer() { total_ += seconds_since(start_); }
   StageTimer(const StageTimer&) = delete;
   StageTimer& operator=(const StageTimer&) = delete;
-  /// Seconds since the timer started.
-  double elapsed() const { return seconds_since(start_); }
 
  private:
   double& total_;

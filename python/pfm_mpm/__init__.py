@@ -93,15 +93,6 @@ class Curve:
     degree: np.ndarray  # (n,)
     closed: bool
 
-    def point(self, s: float) -> np.ndarray:
-        """The point at global parameter s in [0, n] (segment floor(s)), by de Casteljau."""
-        k = min(int(s), len(self.degree) - 1)
-        t = s - k
-        p = self.control[k, : self.degree[k] + 1].copy()
-        for level in range(len(p) - 1, 0, -1):
-            p = (1.0 - t) * p[:level] + t * p[1 : level + 1]
-        return p[0]
-
 
 def composite_bezier(points, closed: bool, kind: str = "cubic") -> Curve:
     """The composite curve of ``kind`` (linear, quadratic, cubic, catmull_rom) through the

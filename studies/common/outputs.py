@@ -183,13 +183,10 @@ def loop_closed_flags(boundary_csv: Path) -> Optional[list]:
     match = BOUNDARY_FILE.search(boundary_csv.name)
     series = boundary_csv.parent / "boundary.h5"
     if match and series.is_file():
-        import h5py
-
-        group = f"step_{match.group(1)}"
-        with h5py.File(series, "r") as h5:
-            if group not in h5 or "segments" not in h5[group]:
-                return None
-        loops = core().outputs.boundary_loops(series, group)
+        try:
+            loops = core().outputs.boundary_loops(series, f"step_{match.group(1)}")
+        except KeyError:  # no such step group, or one without segments
+            return None
         return [closed for _, closed in loops]
     return None
 

@@ -116,6 +116,10 @@ def test_detection_on_arrays_is_the_detect_commands(pfm_binary, tmp_path):
     )
     cli = pd.read_csv(tmp_path / "d" / "boundary.csv", float_precision="round_trip")
     assert np.array_equal(cli[["x", "y"]].to_numpy(), points)
+    # The grid is read as pfm-mpm detect reads its "grid" block, with its limit of 5e7 nodes.
+    huge = dict(GRID, n_cells=[10000, 10000])
+    with pytest.raises(pfm_mpm.InputError, match="more than 5e7 grid nodes"):
+        pfm_mpm.detect(position, volume, 0.5, huge)
 
 
 def test_composite_bezier_interpolates_its_points():
@@ -126,8 +130,11 @@ def test_composite_bezier_interpolates_its_points():
     for kind in ("linear", "quadratic", "cubic", "catmull_rom"):
         curve = pfm_mpm.composite_bezier(circle, True, kind)
         assert len(curve.degree) == len(circle)
-        for s in range(len(circle)):
-            assert np.abs(curve.point(s) - circle[s]).max() <= 1e-15
+        ends = curve.control[np.arange(len(circle)), curve.degree]
+        assert np.array_equal(
+            curve.control[:, 0], circle
+        )  # each segment starts at a point
+        assert np.array_equal(ends, np.roll(circle, -1, axis=0))  # and ends at the next
     linear = pfm_mpm.composite_bezier(circle, True, "linear")
     assert np.array_equal(linear.control[:, 1], np.roll(circle, -1, axis=0))
     line = np.c_[np.linspace(0, 3, 4), 2 * np.linspace(0, 3, 4)]
