@@ -1,5 +1,7 @@
 #include "mpm/boundary/load_input.hpp"
 
+#include <cmath>
+#include <numbers>
 #include <string>
 
 namespace pfm::boundary {
@@ -8,7 +10,7 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
   entry.expect_object({"apply_on", "type", "pressure", "traction", "x_range", "faces", "curve",
                        "integration", "gauss_points", "split_at_cell_edges", "scale_eq_6_15",
                        "redistribute_lost_load", "min_node_mass_fraction", "interval",
-                       "time_function"});
+                       "normal", "time_function"});
   entry.at("apply_on").as_choice({"detected_boundary"});
   BoundaryLoadSpec spec;
   const std::string type =
@@ -31,20 +33,8 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
   if (spec.type != BoundaryLoadType::kTraction && entry.has("traction")) {
     entry.at("traction").fail("only used by type \"traction\"");
   }
-  if (spec.type == BoundaryLoadType::kVerticalPressure || entry.has("x_range")) {
-    const JsonView range = entry.at("x_range");
-    const Vec2 x_range = range.as_vec2();
-    range.require(x_range.x() < x_range.y(), "must be [x0, x1] with x0 < x1 (m)");
-    spec.x_range = x_range;
-  }
   const bool vertical = spec.type == BoundaryLoadType::kVerticalPressure;
-  const std::string faces =
-      entry.choice_or("faces", {"top", "upward", "all"}, vertical ? "top" : "all");
-  spec.faces = faces == "top"      ? LoadedFaces::kTop
-               : faces == "upward" ? LoadedFaces::kUpward
-                                   : LoadedFaces::kAll;
-  spec.curve = curve_kind_from_name(
-      entry.choice_or("curve", {"linear", "quadratic", "cubic", "catmull_rom"}, "linear"));
+  parse_boundary_part(entry, vertical, vertical ? "top" : "all", spec);
   const bool thesis = entry.choice_or("integration", {"exact", "thesis"}, "exact") == "thesis";
   spec.quadrature.mode = thesis ? IntegrationMode::kThesis : IntegrationMode::kExact;
   spec.quadrature.gauss_points = entry.int_or("gauss_points", 5);
@@ -63,10 +53,39 @@ BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
     fraction->require(spec.min_node_mass_fraction >= 0.0 && spec.min_node_mass_fraction < 1.0,
                       "must be in [0, 1) (a fraction of a full cell's mass)");
   }
+  return spec;
+}
+
+void parse_boundary_part(const pfm::JsonView& entry, bool x_range_required,
+                         const char* default_faces, BoundaryLoadSpec& spec) {
+  if (x_range_required || entry.has("x_range")) {
+    const JsonView range = entry.at("x_range");
+    const Vec2 x_range = range.as_vec2();
+    range.require(x_range.x() < x_range.y(), "must be [x0, x1] with x0 < x1 (m)");
+    spec.x_range = x_range;
+  }
+  const std::string faces = entry.choice_or("faces", {"top", "upward", "all"}, default_faces);
+  spec.faces = faces == "top"      ? LoadedFaces::kTop
+               : faces == "upward" ? LoadedFaces::kUpward
+                                   : LoadedFaces::kAll;
+  if (const auto normal = entry.find("normal")) {
+    normal->expect_object({"direction", "max_angle"});
+    NormalWindow window;
+    const Vec2 direction = normal->at("direction").as_vec2();
+    normal->at("direction").require(direction.norm() > 0.0, "must be a nonzero [nx, ny]");
+    window.direction = direction.normalized();
+    const double angle = normal->at("max_angle").as_number();
+    normal->at("max_angle").require(angle > 0.0 && angle <= 180.0, "must be in (0, 180] (degrees)");
+    window.min_cosine = std::cos(angle * std::numbers::pi / 180.0);
+    spec.normal_window = window;
+  }
+  spec.curve = curve_kind_from_name(
+      entry.choice_or("curve", {"linear", "quadratic", "cubic", "catmull_rom"}, "linear"));
   spec.interval = entry.choice_or("interval", {"fixed", "material"}, "fixed") == "fixed"
                       ? LoadInterval::kFixed
                       : LoadInterval::kMaterial;
-  return spec;
+  if (spec.interval == LoadInterval::kMaterial && !spec.x_range)
+    entry.at("interval").fail("\"material\" moves the ends of x_range: give x_range");
 }
 
 }  // namespace pfm::boundary

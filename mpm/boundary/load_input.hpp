@@ -22,6 +22,9 @@
 // | redistribute_lost_load |      | true                             | move force off nodes too light to carry it     |
 // | min_node_mass_fraction |      | 0.01                             | "too light": mass <= f x a full cell's, [0, 1) |
 // | interval               |      | "fixed"                          | fixed (thesis 6.2) or material                 |
+// | normal                 |      | none (any normal)                | {"direction": [nx, ny], "max_angle": deg}:     |
+// |                        |      |                                  | only segments whose outward normal is within   |
+// |                        |      |                                  | max_angle of direction (a face of a body)      |
 // | time_function          |      | constant                         | read by the case reader                        |
 //
 // clang-format on
@@ -34,5 +37,10 @@ namespace pfm::boundary {
 
 /// Parses and validates one load entry; InputError naming the JSON pointer on bad input.
 BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry);
+
+/// The keys that select a part of the detected boundary, as for loads (x_range, faces, normal,
+/// curve, interval), into spec; shared with the constraints on the detected boundary.
+void parse_boundary_part(const pfm::JsonView& entry, bool x_range_required,
+                         const char* default_faces, BoundaryLoadSpec& spec);
 
 }  // namespace pfm::boundary

@@ -406,41 +406,20 @@ bool BoundaryLoadIntegrator::shadowed(const std::vector<CompositeBezier>& curves
   return false;
 }
 
-int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
-                             std::span<Vec2> forces, std::span<const int> nodes,
-                             double min_node_mass) {
-  const auto n = static_cast<std::size_t>(grid.n_nodes());
-  if (node_mass.size() != n || forces.size() != n) {
-    throw std::invalid_argument("redistribute_lost_forces: sizes != number of grid nodes");
-  }
-  int moved = 0;
-  for (const int node : nodes) {
-    if (node_mass[node] > min_node_mass || forces[node] == Vec2::Zero()) continue;
-    if (move_lost_force(grid, node_mass, min_node_mass, forces, node, [](int) {})) ++moved;
-  }
-  return moved;
-}
-
-BoundaryLoadResult BoundaryLoadIntegrator::integrate(
-    const std::vector<CompositeBezier>& curves, const BoundaryLoadSpec& spec, double load_factor,
-    std::span<const double> node_mass, std::span<Vec2> node_force_out, bool keep_nodal_forces) {
-  const auto n = static_cast<std::size_t>(grid_.n_nodes());
-  if (node_force_out.size() != n || (!node_mass.empty() && node_mass.size() != n)) {
-    throw std::invalid_argument("integrate: array sizes != number of grid nodes");
-  }
-  BoundaryLoadResult result;
-  const TractionLaw law = spec.traction_law(load_factor);
-  const GaussRule& rule =
-      gauss_rule(gauss_points_for_degree(spec.quadrature.gauss_points, degree_));
+void BoundaryLoadIntegrator::select_parts(const std::vector<CompositeBezier>& curves,
+                                          const BoundaryLoadSpec& spec,
+                                          std::vector<CurvePart>& parts) {
+  parts.clear();
   const bool upward_only = spec.faces != LoadedFaces::kAll;
   const bool top_only = spec.faces == LoadedFaces::kTop;
   if (top_only) index_shadows(curves);
+  std::size_t c = 0, j = 0;  // the curve and segment being cut
+  auto push = [&](double t0, double t1) { parts.push_back({c, j, t0, t1}); };
   // Adds a loaded part; for kTop only its sub-parts that nothing lies above (the part is cut
   // at the x of every vertex and turning point of the curves, where shadows begin and end).
   auto add_part = [&](const BezierSegment& segment, double t0, double t1) {
     if (!top_only) {
-      add_unit(segment, t0, t1, law, spec.quadrature, rule);
-      result.exact_force += exact_part_force(segment, t0, t1, law);
+      push(t0, t1);
       return;
     }
     shadow_cuts_.clear();
@@ -464,21 +443,22 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
         run_end = b;
         continue;
       }
-      if (run_end > run_start) {
-        add_unit(segment, run_start, run_end, law, spec.quadrature, rule);
-        result.exact_force += exact_part_force(segment, run_start, run_end, law);
-      }
+      if (run_end > run_start) push(run_start, run_end);
       run_start = a;
       run_end = b;
     }
-    if (run_end > run_start) {
-      add_unit(segment, run_start, run_end, law, spec.quadrature, rule);
-      result.exact_force += exact_part_force(segment, run_start, run_end, law);
-    }
+    if (run_end > run_start) push(run_start, run_end);
   };
   std::vector<double>& cuts = filter_breaks_;
-  for (const auto& curve : curves) {
-    for (const auto& segment : curve.segments) {
+  for (c = 0; c < curves.size(); ++c) {
+    for (j = 0; j < curves[c].segments.size(); ++j) {
+      const BezierSegment& segment = curves[c].segments[j];
+      // A segment whose outward normal at its middle is outside the normal window has no
+      // loaded part.
+      if (spec.normal_window) {
+        const NormalWindow& window = *spec.normal_window;
+        if (segment.outward_normal(0.5).dot(window.direction) < window.min_cosine) continue;
+      }
       // Loaded parts: cut at x = x_min, x = x_max and where the tangent turns (B'_x = 0).
       cuts.clear();
       if (spec.x_range) {
@@ -511,6 +491,65 @@ BoundaryLoadResult BoundaryLoadIntegrator::integrate(
       }
       if (part_end > part_start) add_part(segment, part_start, part_end);
     }
+  }
+}
+
+void BoundaryLoadIntegrator::quadrature_points(const std::vector<CompositeBezier>& curves,
+                                               const BoundaryLoadSpec& spec,
+                                               std::vector<CurvePoint>& points) {
+  points.clear();
+  const GaussRule& rule =
+      gauss_rule(gauss_points_for_degree(spec.quadrature.gauss_points, degree_));
+  select_parts(curves, spec, parts_);
+  for (const CurvePart& part : parts_) {
+    const BezierSegment& segment = curves[part.curve].segments[part.segment];
+    grid_crossing_parameters(segment, knot_grid_, part.t0, part.t1, breaks_);
+    for (std::size_t p = 0; p + 1 < breaks_.size(); ++p) {
+      const double half = 0.5 * (breaks_[p + 1] - breaks_[p]);
+      const double mid = 0.5 * (breaks_[p] + breaks_[p + 1]);
+      for (int q = 0; q < rule.n_points; ++q) {
+        const double t = mid + half * rule.node[q];
+        const Vec2 velocity = segment.derivative(t);
+        const double speed = velocity.norm();
+        if (!(speed > 0.0)) continue;
+        points.push_back({segment.point(t), turned_clockwise(velocity) / speed,
+                          rule.weight[q] * half * speed});
+      }
+    }
+  }
+}
+
+int redistribute_lost_forces(const Grid& grid, std::span<const double> node_mass,
+                             std::span<Vec2> forces, std::span<const int> nodes,
+                             double min_node_mass) {
+  const auto n = static_cast<std::size_t>(grid.n_nodes());
+  if (node_mass.size() != n || forces.size() != n) {
+    throw std::invalid_argument("redistribute_lost_forces: sizes != number of grid nodes");
+  }
+  int moved = 0;
+  for (const int node : nodes) {
+    if (node_mass[node] > min_node_mass || forces[node] == Vec2::Zero()) continue;
+    if (move_lost_force(grid, node_mass, min_node_mass, forces, node, [](int) {})) ++moved;
+  }
+  return moved;
+}
+
+BoundaryLoadResult BoundaryLoadIntegrator::integrate(
+    const std::vector<CompositeBezier>& curves, const BoundaryLoadSpec& spec, double load_factor,
+    std::span<const double> node_mass, std::span<Vec2> node_force_out, bool keep_nodal_forces) {
+  const auto n = static_cast<std::size_t>(grid_.n_nodes());
+  if (node_force_out.size() != n || (!node_mass.empty() && node_mass.size() != n)) {
+    throw std::invalid_argument("integrate: array sizes != number of grid nodes");
+  }
+  BoundaryLoadResult result;
+  const TractionLaw law = spec.traction_law(load_factor);
+  const GaussRule& rule =
+      gauss_rule(gauss_points_for_degree(spec.quadrature.gauss_points, degree_));
+  select_parts(curves, spec, parts_);
+  for (const CurvePart& part : parts_) {
+    const BezierSegment& segment = curves[part.curve].segments[part.segment];
+    add_unit(segment, part.t0, part.t1, law, spec.quadrature, rule);
+    result.exact_force += exact_part_force(segment, part.t0, part.t1, law);
   }
   result.off_grid_force = off_grid_;
   off_grid_ = Vec2::Zero();

@@ -78,6 +78,13 @@ enum class LoadInterval { kFixed, kMaterial };
 /// face, overhangs and the floors of closed holes carry no load).
 enum class LoadedFaces { kAll, kUpward, kTop };
 
+/// The parts of the boundary whose outward unit normal n has n . direction >= min_cosine (a
+/// segment belongs when its normal at its middle does: exact for linear curves).
+struct NormalWindow {
+  Vec2 direction = Vec2(0.0, 1.0);  ///< unit vector
+  double min_cosine = 1.0;          ///< cos of the largest angle between n and direction
+};
+
 /// t(n) = normal_scale (.) n + fixed_traction, kPa (see the header comment).
 struct TractionLaw {
   Vec2 normal_scale = Vec2::Zero();
@@ -116,9 +123,19 @@ struct BoundaryLoadSpec {
   /// solver; 0 = only nodes without mass are lost).
   double min_node_mass = 0.0;
   LoadInterval interval = LoadInterval::kFixed;
+  /// Only the parts whose outward normal lies in this window (none: any normal).
+  std::optional<NormalWindow> normal_window;
 
   /// The traction law at load factor lambda (t = lambda x the full load).
   TractionLaw traction_law(double load_factor) const;
+};
+
+/// A point of a rule along the loaded parts of the curves: position, outward unit normal, and
+/// weight (its share of the arc length, m).
+struct CurvePoint {
+  Vec2 x = Vec2::Zero();
+  Vec2 normal = Vec2::Zero();
+  double weight = 0.0;
 };
 
 struct NodalForce {
@@ -167,6 +184,14 @@ class BoundaryLoadIntegrator {
                                std::span<const double> node_mass, std::span<Vec2> node_force_out,
                                bool keep_nodal_forces = false);
 
+  /// The points of the exact mode's rule along the parts of `curves` that `spec` selects
+  /// (x_range, faces, normal_window), each segment cut where the grid functions change
+  /// polynomial (the cell edges, and midlines for p = 2) and gauss_points_for_degree points
+  /// per piece: sum w f(x) integrates f along the parts exactly for f a polynomial of that
+  /// degree on each piece of a straight segment. Replaces `points`.
+  void quadrature_points(const std::vector<CompositeBezier>& curves, const BoundaryLoadSpec& spec,
+                         std::vector<CurvePoint>& points);
+
   /// Lower level: adds the load of one segment over its parameter range [t0, t1] (no
   /// filtering) to the internal accumulator; then call take_forces.
   void add_segment(const BezierSegment& segment, double t0, double t1, const TractionLaw& law,
@@ -199,6 +224,15 @@ class BoundaryLoadIntegrator {
   std::vector<double> filter_breaks_;  // scratch: x-range and face cuts
   // kTop: the x of every vertex and turning point of the curves (sorted), the curves' segments
   // binned by x, and scratch for the shadow cuts.
+  /// A loaded part: the parameter interval [t0, t1] of segment `segment` of curve `curve`.
+  struct CurvePart {
+    std::size_t curve = 0, segment = 0;
+    double t0 = 0.0, t1 = 0.0;
+  };
+  /// The loaded parts that spec selects (x_range, faces, normal_window), in curve order.
+  void select_parts(const std::vector<CompositeBezier>& curves, const BoundaryLoadSpec& spec,
+                    std::vector<CurvePart>& parts);
+  std::vector<CurvePart> parts_;  // scratch: select_parts
   void index_shadows(const std::vector<CompositeBezier>& curves);
   bool shadowed(const std::vector<CompositeBezier>& curves, const BezierSegment& segment,
                 double t) const;

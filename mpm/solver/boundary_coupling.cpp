@@ -31,7 +31,8 @@ double initial_particle_spacing(const Case& c) {
 BoundaryCoupling::BoundaryCoupling(const Case& c)
     : case_(c),
       initial_spacing_(initial_particle_spacing(c)),
-      integrator_(c.grid, shape_degree(c.solver.shape_function)) {
+      integrator_(c.grid, shape_degree(c.solver.shape_function)),
+      constraints_(c) {
   for (std::size_t k = 0; k < c.loads.size(); ++k) {
     const LoadSpec& load = c.loads[k];
     if (load.apply_on != LoadTarget::kDetectedBoundary) continue;
@@ -72,6 +73,12 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
           }
         }
         if (!loads_.empty()) apply_loads(step, grid_state, force);
+        if (!constraints_.empty()) {
+          const auto start = Clock::now();
+          constraints_.apply(step, grid_state, force,
+                             [this](boundary::CurveKind kind) { return curves_for(kind); });
+          times_.constraint += seconds_since(start);
+        }
       });
 }
 
@@ -151,18 +158,10 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
   const Particles& particles = step.particles;
   const bool keep = case_.output.nodal_loads;
   if (keep) nodal_forces_.clear();
-  boundary::CurveKind built = boundary::CurveKind::kLinear;
-  bool have_curves = false;
   for (std::size_t k = 0; k < loads_.size(); ++k) {
     SurfaceLoad& load = loads_[k];
-    auto start = Clock::now();
-    if (!have_curves || built != load.spec.curve) {
-      curves_ = boundary::make_composite_beziers(boundary_.contours, load.spec.curve);
-      built = load.spec.curve;
-      have_curves = true;
-    }
-    times_.bezier += seconds_since(start);
-    start = Clock::now();
+    const std::vector<boundary::CompositeBezier>& curves = curves_for(load.spec.curve);
+    const auto start = Clock::now();
     boundary::BoundaryLoadSpec spec = load.spec;
     if (load.end_particle[0] >= 0) {
       const double shift0 =
@@ -173,7 +172,7 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
     }
     current_range_[k] = spec.x_range;
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves_, spec, load.time_function.factor(step.time), grid_state.mass, force, true);
+        curves, spec, load.time_function.factor(step.time), grid_state.mass, force, true);
     LoadWorkRecorder& recorder = step.load_work;
     for (const boundary::NodalForce& f : result.nodal_forces)
       recorder.add(load.case_index, static_cast<std::size_t>(f.node), f.force);
@@ -211,6 +210,18 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
   }
 }
 
+const std::vector<boundary::CompositeBezier>& BoundaryCoupling::curves_for(
+    boundary::CurveKind kind) {
+  if (curves_step_ != detected_at_step_ || curves_kind_ != kind) {
+    const auto start = Clock::now();
+    curves_ = boundary::make_composite_beziers(boundary_.contours, kind);
+    curves_step_ = detected_at_step_;
+    curves_kind_ = kind;
+    times_.bezier += seconds_since(start);
+  }
+  return curves_;
+}
+
 void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/detector/shape", flatten(detector_state_.shape));
   file.put("coupling/detector/previous_deformation", flatten(detector_state_.previous_deformation));
@@ -244,6 +255,7 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
                  static_cast<double>(load.end_particle[1]), load.end_x0[0], load.end_x0[1]});
   }
   file.put("coupling/load_ends", ends);
+  file.put("coupling/constraint_targets", flatten(constraints_.target()));
 }
 
 namespace {
@@ -304,6 +316,12 @@ void BoundaryCoupling::restore(const CheckpointFile& file, const StepView& now) 
     boundary_.contours.push_back(std::move(contour));
   }
   detected_at_step_ = file.integer("coupling/detected_at_step", -1, step);
+  curves_step_ = -2;
+  {
+    const std::vector<double>& targets =
+        file.get("coupling/constraint_targets", 2 * constraints_.size());
+    constraints_.set_target(unflatten<Vec2>(targets));
+  }
   {
     const std::size_t size = file.get("coupling/detected_positions").size();
     if (size != 0 && size != 2 * n)

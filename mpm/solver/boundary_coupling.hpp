@@ -40,6 +40,7 @@
 #include "mpm/boundary/bezier.hpp"
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/solver/boundary_constraint.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
@@ -62,6 +63,7 @@ struct CouplingTimes {
   double detect = 0.0;
   double bezier = 0.0;
   double traction = 0.0;
+  double constraint = 0.0;  ///< the constraints on the detected boundary
   long detections = 0;
   /// Due detections skipped because no point had moved more than max_motion x h.
   long kept = 0;
@@ -77,13 +79,16 @@ struct CouplingTimes {
 
 class BoundaryCoupling {
  public:
-  /// Does nothing unless the case has a detection block or detected-boundary loads.
+  /// Does nothing unless the case has a detection block, detected-boundary loads or
+  /// constraints.
   explicit BoundaryCoupling(const Case& c);
   BoundaryCoupling(const BoundaryCoupling&) = delete;
   BoundaryCoupling& operator=(const BoundaryCoupling&) = delete;
 
   bool detection_enabled() const { return case_.detection.has_value(); }
   bool has_surface_loads() const { return !loads_.empty(); }
+  /// The constraints on the detected boundary (boundary_constraint.hpp) and their last reports.
+  const BoundaryConstraints& constraints() const { return constraints_; }
 
   /// Installs the solver hooks, which see the step through a StepView only (no pointer to the
   /// solver is kept). Ties material-carried load intervals to their particles (call after
@@ -128,6 +133,9 @@ class BoundaryCoupling {
   /// (true before the first one, and always with max_motion 0).
   bool moved_since_detection(const Particles& particles) const;
   void apply_loads(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
+  /// The composite curves of kind `kind` through the last boundary (built once per boundary
+  /// and kind).
+  const std::vector<boundary::CompositeBezier>& curves_for(boundary::CurveKind kind);
   void tie_material_intervals(const Particles& particles);
 
   const Case& case_;
@@ -139,7 +147,10 @@ class BoundaryCoupling {
   long detected_at_step_ = -1;
   std::vector<Vec2> detected_positions_;  ///< the points at the last detection, m
   std::vector<boundary::CompositeBezier> curves_;
+  long curves_step_ = -2;  ///< detected_at_step_ when curves_ were built (-2: not built)
+  boundary::CurveKind curves_kind_ = boundary::CurveKind::kLinear;
   boundary::BoundaryLoadIntegrator integrator_;
+  BoundaryConstraints constraints_;
   SurfaceLoadDiagnostics diagnostics_;
   CouplingTimes times_;
   std::vector<boundary::NodalForce> nodal_forces_;

@@ -487,7 +487,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   c.source = document;
   const JsonView root(document, file);
   root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
-                      "node_sets", "boundary_conditions", "loads", "solver", "time", "output",
+                      "node_sets", "boundary_conditions", "loads", "constraints", "solver", "time",
+                      "output",
                       "detection", "manufactured_solution"});
   if (root.has("title")) c.title = root.at("title").as_string();
 
@@ -753,6 +754,57 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
   }
 
+  if (const auto constraints = root.find("constraints")) {
+    // The stiffest material's constrained modulus, the scale of the default penalty.
+    double modulus = 0.0;
+    for (const MaterialRecord& m : c.materials)
+      modulus = std::max(modulus, elastic_parameters(m.model).constrained_modulus());
+    for (std::size_t k = 0; k < constraints->array_size(); ++k) {
+      const JsonView v = constraints->at(k);
+      v.expect_object({"apply_on", "x_range", "faces", "normal", "curve", "interval",
+                       "gauss_points", "normal_displacement", "displacement", "normal_velocity",
+                       "velocity", "time_function", "method", "penalty", "penalty_factor"});
+      v.at("apply_on").as_choice({"detected_boundary"});
+      ConstraintSpec constraint;
+      constraint.raw = v.raw();
+      boundary::parse_boundary_part(v, false, "all", constraint.part);
+      constraint.part.quadrature.gauss_points = v.int_or("gauss_points", 5);
+      if (constraint.part.quadrature.gauss_points < 1 ||
+          constraint.part.quadrature.gauss_points > boundary::kMaxGaussPoints) {
+        v.at("gauss_points").fail("must be in 1.." + std::to_string(boundary::kMaxGaussPoints));
+      }
+      int given = 0;
+      for (const char* key : {"normal_displacement", "displacement", "normal_velocity", "velocity"})
+        given += v.has(key) ? 1 : 0;
+      v.require(given == 1,
+                "give one of normal_displacement (m), displacement ([ux, uy], m), "
+                "normal_velocity (m/s) or velocity ([vx, vy], m/s)");
+      constraint.normal_only = v.has("normal_displacement") || v.has("normal_velocity");
+      constraint.velocity = v.has("normal_velocity") || v.has("velocity");
+      const char* key = constraint.normal_only
+                            ? (constraint.velocity ? "normal_velocity" : "normal_displacement")
+                            : (constraint.velocity ? "velocity" : "displacement");
+      constraint.value = constraint.normal_only ? Vec2(v.at(key).as_number(), 0.0)
+                                                : v.at(key).as_vec2();
+      if (v.has("time_function"))
+        constraint.time_function = parse_time_function(v.at("time_function"));
+      constraint.method =
+          v.choice_or("method", {"penalty"}, "penalty") == "penalty" ? ConstraintMethod::kPenalty
+                                                                     : ConstraintMethod::kNitsche;
+      v.require(!(v.has("penalty") && v.has("penalty_factor")),
+                "give penalty (kPa/m) or penalty_factor, not both");
+      constraint.penalty_factor = v.number_or("penalty_factor", constraint.penalty_factor);
+      if (v.has("penalty_factor"))
+        v.at("penalty_factor").require(constraint.penalty_factor > 0.0, "must be > 0");
+      constraint.penalty = constraint.penalty_factor * modulus / c.grid.cell_size;
+      if (v.has("penalty")) {
+        constraint.penalty = v.at("penalty").as_number();
+        v.at("penalty").require(constraint.penalty > 0.0, "must be > 0 (kPa/m)");
+      }
+      c.constraints.push_back(std::move(constraint));
+    }
+  }
+
   if (const auto s = root.find("solver")) {
     s->expect_object(
         {"scheme", "shape_function", "damping", "damping_form", "pic_fraction", "anti_locking"});
@@ -794,6 +846,17 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       if (s && s->has("shape_function")) s->at("shape_function").fail(message);
       root.at("grid").at("n_cells").fail(
           message + "; they are the default shape function: give solver.shape_function");
+    }
+    for (std::size_t k = 0; k < c.constraints.size(); ++k) {
+      const int extra = boundary::gauss_points_for_degree(0, degree);
+      if (c.constraints[k].part.quadrature.gauss_points + extra > boundary::kMaxGaussPoints) {
+        root.at("constraints")
+            .at(k)
+            .at("gauss_points")
+            .fail("with B-splines of degree " + std::to_string(degree) + " the rule takes " +
+                  std::to_string(extra) + " points more: give at most " +
+                  std::to_string(boundary::kMaxGaussPoints - extra));
+      }
     }
     for (std::size_t k = 0; k < c.loads.size(); ++k) {
       const auto& surface = c.loads[k].surface;
@@ -869,6 +932,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
         break;
       }
     }
+    if (!c.constraints.empty()) c.detection = DetectionSpec{};
   }
   if (const auto m = root.find("manufactured_solution")) parse_manufactured(*m, root, c);
   return c;

@@ -123,6 +123,29 @@ struct LoadSpec {
   nlohmann::json raw;  ///< the entry as written
 };
 
+/// An essential condition on a part of the detected boundary (case-file "constraints",
+/// mpm/solver/boundary_constraint.hpp): the displacement of the material on the part is held at
+/// a prescribed value, in the normal direction only (a smooth contact) or in full (a rough one).
+enum class ConstraintMethod { kPenalty, kNitsche };
+
+struct ConstraintSpec {
+  /// The part of the boundary (x_range, faces, normal window, curve, interval, gauss_points), as
+  /// for a load; its type and pressures are unused.
+  boundary::BoundaryLoadSpec part;
+  bool normal_only = false;  ///< the normal component (a smooth constraint) or the full vector
+  bool velocity = false;     ///< the value is a velocity (m/s), else a displacement (m)
+  /// The prescribed displacement (m) or velocity (m/s) at full time function: the vector, or
+  /// (value along the outward normal, 0) with normal_only.
+  Vec2 value = Vec2::Zero();
+  TimeFunction time_function;
+  ConstraintMethod method = ConstraintMethod::kPenalty;
+  /// beta, kPa/m (traction per metre of gap): penalty_factor x the largest constrained modulus
+  /// (lambda + 2 mu) of the materials / h, unless given.
+  double penalty = 0.0;
+  double penalty_factor = 100.0;
+  nlohmann::json raw;  ///< the entry as written
+};
+
 enum class Scheme { kMUSL, kUSL };
 
 struct SolverSpec {
@@ -187,6 +210,8 @@ struct Case {
   std::vector<NodeSet> node_sets;
   std::vector<BoundaryCondition> boundary_conditions;
   std::vector<LoadSpec> loads;
+  /// Essential conditions on the detected boundary ("constraints"; MPM only).
+  std::vector<ConstraintSpec> constraints;
   SolverSpec solver;
   TimeSpec time;
   OutputSpec output;

@@ -285,6 +285,15 @@ class LoadWorkRecorder {
   std::vector<std::vector<Entry>> forces_;
 };
 
+/// A constraint on the detected boundary at the last step that applied it
+/// (mpm/solver/boundary_constraint.hpp).
+struct ConstraintReport {
+  Vec2 force = Vec2::Zero();  ///< kN/m, the constraint's force on the body
+  double rms_gap = 0.0;       ///< m, root mean square of |g| along the part (arc-length weighted)
+  double length = 0.0;        ///< m, of the part
+  int nodes = 0;              ///< nodes that took a force
+};
+
 /// What the time series and run.json report: the ledger with the energies of the state.
 struct EnergyBalance {
   double kinetic_energy = 0.0;   ///< kJ/m, of the particles

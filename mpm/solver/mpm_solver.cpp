@@ -57,7 +57,8 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   node_energy_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, {});
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
-  load_work_recorder_ = LoadWorkRecorder(case_.loads.size());
+  // The loads' nodal forces, then the constraints' (boundary_constraint.hpp).
+  load_work_recorder_ = LoadWorkRecorder(case_.loads.size() + case_.constraints.size());
   counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
   build_constraints();
 
@@ -640,8 +641,17 @@ void MpmSolver::update_grid() {
   kinetic_stale_ = false;
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
+  step_work_.assign(case_.loads.size() + case_.constraints.size(), 0.0);
   load_work_recorder_.book(counters_.dt, tiny, grid_.mass, grid_.momentum, grid_.velocity,
-                           grid_.fixed, prescribed_.start(), counters_.energy.load_work_by_load);
+                           grid_.fixed, prescribed_.start(), step_work_);
+  EnergyLedger& ledger = counters_.energy;
+  for (std::size_t k = 0; k < case_.loads.size(); ++k) ledger.load_work_by_load[k] += step_work_[k];
+  // The constraints' forces went to the grid as external forces, so update_node booked their
+  // work as load work: it is the constraints'.
+  for (std::size_t k = case_.loads.size(); k < step_work_.size(); ++k) {
+    ledger.load_work -= step_work_[k];
+    ledger.constraint_work += step_work_[k];
+  }
 }
 
 template <int W, bool kScatterMomentum>

@@ -213,6 +213,7 @@ class MpmSolver {
   std::vector<TopNodeLoad> top_loads_;
   double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
   LoadWorkRecorder load_work_recorder_;
+  std::vector<double> step_work_;  ///< the work of each load and constraint in this step
   PrescribedVelocity prescribed_;  ///< moving supports (boundary_conditions[].velocity)
 
   // Per-step work arrays (sized once).

@@ -23,8 +23,12 @@ std::string format_exact(double v) {
 }
 
 TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads,
-                                 const std::vector<std::string>& reactions)
-    : with_loads_(with_loads), n_loads_(n_loads), n_reactions_(reactions.size()) {
+                                 const std::vector<std::string>& reactions,
+                                 std::size_t n_constraints)
+    : with_loads_(with_loads),
+      n_loads_(n_loads),
+      n_reactions_(reactions.size()),
+      n_constraints_(n_constraints) {
   text_ << "time,kinetic_energy,external_work,internal_work,damping_work,momentum_x,momentum_y";
   if (with_loads_) {
     text_ << ",load_target_fx,load_target_fy,load_applied_fx,load_applied_fy,load_lost_fx,"
@@ -37,6 +41,8 @@ TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads,
   for (std::size_t k = 0; k < n_loads_; ++k) text_ << ",load_work_" << k;
   for (const std::string& name : reactions)
     text_ << ",reaction_" << name << "_fx,reaction_" << name << "_fy";
+  for (std::size_t k = 0; k < n_constraints; ++k)
+    text_ << ",constraint_" << k << "_fx,constraint_" << k << "_fy,constraint_" << k << "_gap";
   text_ << '\n';
 }
 

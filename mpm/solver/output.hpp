@@ -4,6 +4,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -25,20 +26,24 @@ std::string format_exact(double v);
 /// load_work, constraint_work, transfer_to_grid, transfer_to_particles, internal_force_work,
 /// rotation_work, volume_work and energy_error (internal_work is the ledger's stress_power,
 /// external_work gravity_work + load_work); last, the work of each of the case's loads,
-/// load_work_0, load_work_1, ... (EnergyLedger::load_work_by_load). The same columns for the
-/// MPM and the UL-FEM runs.
+/// load_work_0, load_work_1, ... (EnergyLedger::load_work_by_load); the moving boundary
+/// conditions' reactions; and per constraint on the detected boundary its force on the body
+/// and its gap, constraint_<k>_fx, constraint_<k>_fy (kN/m), constraint_<k>_gap (m, the
+/// root-mean-square gap; ConstraintReport). The same columns for the MPM and the UL-FEM runs.
 class TimeSeriesTable {
  public:
   /// with_loads: the resultant columns; n_loads: the number of the case's loads; reactions:
   /// the names of the moving boundary conditions (reaction_names, prescribed_velocity.hpp),
   /// whose reactions (EnergyBalance::reactions) are the columns reaction_<name>_fx,
   /// reaction_<name>_fy (kN/m).
+  /// n_constraints: the number of constraints on the detected boundary.
   TimeSeriesTable(bool with_loads, std::size_t n_loads,
-                  const std::vector<std::string>& reactions = {});
+                  const std::vector<std::string>& reactions = {}, std::size_t n_constraints = 0);
   /// One line. `loads` (read only with the load columns): target, applied, lost, off_grid,
   /// loaded_nodes and lost_nodes.
   template <class Loads>
-  void record(double time, const EnergyBalance& e, const Loads& loads) {
+  void record(double time, const EnergyBalance& e, const Loads& loads,
+              std::span<const ConstraintReport> constraints = {}) {
     text_ << format_exact(time) << ',' << format_exact(e.kinetic_energy) << ','
           << format_exact(e.external_work()) << ',' << format_exact(e.internal_work()) << ','
           << format_exact(e.damping_work()) << ',' << format_exact(e.momentum.x()) << ','
@@ -60,6 +65,11 @@ class TimeSeriesTable {
       const Vec2 r = k < e.reactions.size() ? e.reactions[k] : Vec2::Zero();
       text_ << ',' << format_exact(r.x()) << ',' << format_exact(r.y());
     }
+    for (std::size_t k = 0; k < n_constraints_; ++k) {
+      const ConstraintReport r = k < constraints.size() ? constraints[k] : ConstraintReport{};
+      text_ << ',' << format_exact(r.force.x()) << ',' << format_exact(r.force.y()) << ','
+            << format_exact(r.rms_gap);
+    }
     text_ << '\n';
   }
   std::string text() const { return text_.str(); }
@@ -70,6 +80,7 @@ class TimeSeriesTable {
   bool with_loads_;
   std::size_t n_loads_;
   std::size_t n_reactions_;
+  std::size_t n_constraints_;
   std::ostringstream text_;
 };
 

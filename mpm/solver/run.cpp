@@ -126,9 +126,9 @@ int run_case(const Case& c, const RunOptions& options) {
                        {"seconds", options.checkpoint_seconds}};
 
   TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size(),
-                         reaction_names(c.boundary_conditions));
+                         reaction_names(c.boundary_conditions), c.constraints.size());
   auto record = [&](const MpmSolver& s) {
-    series.record(s.time(), s.energy(), coupling.diagnostics());
+    series.record(s.time(), s.energy(), coupling.diagnostics(), coupling.constraints().reports());
   };
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
@@ -347,6 +347,7 @@ int run_case(const Case& c, const RunOptions& options) {
     run["summary"]["stage_seconds"]["detect"] = ct.detect;
     run["summary"]["stage_seconds"]["bezier"] = ct.bezier;
     run["summary"]["stage_seconds"]["traction"] = ct.traction;
+    if (!c.constraints.empty()) run["summary"]["stage_seconds"]["constraints"] = ct.constraint;
     run["summary"]["detection"] = {
         {"calls", ct.detections},
         {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
