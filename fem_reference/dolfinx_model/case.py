@@ -305,6 +305,17 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
             f"{file}: /manufactured_solution: the dolfinx model has no manufactured body "
             "force (run it on pfm-mpm, MPM or UL-FEM)"
         )
+    if c["constraints"]:
+        raise CaseError(
+            f"{file}: /constraints: the dolfinx model prescribes displacements on mesh "
+            "nodes only (a constraint on a detected boundary is the MPM's)"
+        )
+    for k, load in enumerate(c["loads"]):
+        if "normal" in load:
+            raise CaseError(
+                f"{file}: /loads/{k}/normal: the dolfinx model selects a load's faces by "
+                "x_range and faces only"
+            )
     for k, bc in enumerate(c["boundary_conditions"]):
         if bc["velocity"] is not None:
             raise CaseError(

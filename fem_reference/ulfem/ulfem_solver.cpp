@@ -58,6 +58,10 @@ std::vector<EdgeLoad> edge_loads(const Case& c) {
         throw InputError(where + ": a detected_boundary load without its specification");
       }
       const boundary::BoundaryLoadSpec& spec = *load.surface;
+      if (spec.normal_window) {
+        throw InputError(where +
+                         "/normal: the UL-FEM selects a load's faces by x_range and faces only");
+      }
       const boundary::TractionLaw law = spec.traction_law(1.0);
       e.normal_scale = law.normal_scale;
       e.fixed_traction = law.fixed_traction;
@@ -76,7 +80,23 @@ std::vector<EdgeLoad> edge_loads(const Case& c) {
 
 UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
 
-UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh) : case_(c), mesh_(std::move(mesh)) {
+namespace {
+
+/// The UL-FEM's mesh has its boundary on its nodes: a displacement is prescribed there, by
+/// boundary_conditions on a node set, not by constraints on a detected boundary.
+const Case& without_constraints(const Case& c) {
+  if (!c.constraints.empty()) {
+    throw InputError(c.file +
+                     ": /constraints: the UL-FEM prescribes motion on mesh nodes (a node set in "
+                     "boundary_conditions with \"velocity\"), not on a detected boundary");
+  }
+  return c;
+}
+
+}  // namespace
+
+UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
+    : case_(without_constraints(c)), mesh_(std::move(mesh)) {
   node_position_ = mesh_.node_position;
   node_reference_ = mesh_.node_position;
   const std::size_t n_nodes = mesh_.n_nodes();

@@ -9,8 +9,8 @@ namespace pfm::boundary {
 BoundaryLoadSpec parse_boundary_load(const pfm::JsonView& entry) {
   entry.expect_object({"apply_on", "type", "pressure", "traction", "x_range", "faces", "curve",
                        "integration", "gauss_points", "split_at_cell_edges", "scale_eq_6_15",
-                       "redistribute_lost_load", "min_node_mass_fraction", "interval",
-                       "normal", "time_function"});
+                       "redistribute_lost_load", "min_node_mass_fraction", "interval", "normal",
+                       "time_function"});
   entry.at("apply_on").as_choice({"detected_boundary"});
   BoundaryLoadSpec spec;
   const std::string type =

@@ -512,8 +512,8 @@ void BoundaryLoadIntegrator::quadrature_points(const std::vector<CompositeBezier
         const Vec2 velocity = segment.derivative(t);
         const double speed = velocity.norm();
         if (!(speed > 0.0)) continue;
-        points.push_back({segment.point(t), turned_clockwise(velocity) / speed,
-                          rule.weight[q] * half * speed});
+        points.push_back(
+            {segment.point(t), turned_clockwise(velocity) / speed, rule.weight[q] * half * speed});
       }
     }
   }

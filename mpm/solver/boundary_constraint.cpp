@@ -1,6 +1,8 @@
 #include "mpm/solver/boundary_constraint.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace pfm {
 
@@ -11,15 +13,18 @@ BoundaryConstraints::BoundaryConstraints(const Case& c)
       specs_(c.constraints),
       integrator_(c.grid, degree_),
       target_(c.constraints.size(), Vec2::Zero()),
-      reports_(c.constraints.size()) {
-  const auto n = static_cast<std::size_t>(c.grid.n_nodes());
+      reports_(c.constraints.size()),
+      points_(c.constraints.size()),
+      terms_(c.constraints.size()) {
   if (specs_.empty()) return;
-  node_weight_.assign(n, 0.0);
-  node_displacement_.assign(n, Vec2::Zero());
-  penalty_force_.assign(n, Vec2::Zero());
-  stiffness_.assign(n, Mat2::Zero());
-  target_rate_.assign(n, Vec2::Zero());
-  touched_flag_.assign(n, 0);
+  const auto n = static_cast<std::size_t>(c.grid.n_nodes());
+  moments_.assign(n, NodeMoments{});
+  moments_flag_.assign(n, 0);
+  terms_dense_.assign(n, NodeTerm{});
+  terms_flag_.assign(n, 0);
+  total_.assign(n, NodeTerm{});
+  total_flag_.assign(n, 0);
+  velocity_.assign(n, Vec2::Zero());
   // A displacement starts at its time function's value at 0 (a velocity integrates from 0).
   for (std::size_t k = 0; k < specs_.size(); ++k) {
     if (!specs_[k].velocity) target_[k] = specs_[k].time_function.factor(0.0) * specs_[k].value;
@@ -30,130 +35,203 @@ void BoundaryConstraints::functions_at(const Vec2& x) {
   stencil_ = degree_ > 1 ? bspline_stencil(grid_, degree_, x) : linear_stencil(grid_, x);
 }
 
-void BoundaryConstraints::project_displacement(const Particles& particles, std::size_t n_nodes) {
-  std::fill(node_weight_.begin(), node_weight_.end(), 0.0);
-  std::fill(node_displacement_.begin(), node_displacement_.end(), Vec2::Zero());
+template <class Visit>
+void BoundaryConstraints::for_each_node(Visit&& visit) const {
   const int nx = grid_.n_nodes_x();
-  for (std::size_t p = 0; p < particles.size(); ++p) {
-    const Vec2& x = particles.position[p];
-    const Vec2 u = x - particles.reference_position[p];
-    const Mat2 gradient = Mat2::Identity() - particles.deformation_gradient[p].inverse();
-    const double m = particles.mass[p];
-    functions_at(x);
-    for (int b = 0; b < stencil_.width; ++b) {
-      for (int a = 0; a < stencil_.width; ++a) {
-        const double w = m * stencil_.value[static_cast<std::size_t>(b * stencil_.width + a)];
-        if (w == 0.0) continue;
-        const int i = stencil_.base_i + a, j = stencil_.base_j + b;
-        const auto node = static_cast<std::size_t>(j * nx + i);
-        node_weight_[node] += w;
-        node_displacement_[node] += w * (u + gradient * (grid_.node_position(i, j) - x));
-      }
-    }
-  }
-  for (std::size_t node = 0; node < n_nodes; ++node) {
-    if (node_weight_[node] > 0.0) node_displacement_[node] /= node_weight_[node];
+  for (int s = 0; s < stencil_.width * stencil_.width; ++s) {
+    const double value = stencil_.value[static_cast<std::size_t>(s)];
+    if (value == 0.0) continue;
+    const int i = stencil_.base_i + s % stencil_.width, j = stencil_.base_j + s / stencil_.width;
+    visit(static_cast<std::size_t>(j * nx + i), value, i, j);
   }
 }
 
-void BoundaryConstraints::apply_one(std::size_t k, const StepView& step, GridState& grid_state,
-                                    std::vector<Vec2>& force,
-                                    const std::vector<boundary::CompositeBezier>& curves) {
+namespace {
+
+/// Marks a node as holding a value (once) for the sparse clear.
+inline void mark(std::vector<char>& flag, std::vector<int>& list, std::size_t node) {
+  if (flag[node]) return;
+  flag[node] = 1;
+  list.push_back(static_cast<int>(node));
+}
+
+/// Whether x lies in the box [lo, hi] widened by `margin`.
+inline bool in_box(const Vec2& x, const Vec2& lo, const Vec2& hi, double margin) {
+  return x.x() >= lo.x() - margin && x.x() <= hi.x() + margin && x.y() >= lo.y() - margin &&
+         x.y() <= hi.y() + margin;
+}
+
+}  // namespace
+
+void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, const Vec2& hi) {
+  for (const int node : moments_list_) {
+    moments_[static_cast<std::size_t>(node)] = NodeMoments{};
+    moments_flag_[static_cast<std::size_t>(node)] = 0;
+  }
+  moments_list_.clear();
+  const double margin = (degree_ + 2) * grid_.cell_size;
+  for (std::size_t p = 0; p < particles.size(); ++p) {
+    const Vec2& x = particles.position[p];
+    if (!in_box(x, lo, hi, margin)) continue;
+    const Mat2 gradient = Mat2::Identity() - particles.deformation_gradient[p].inverse();
+    const Vec2 offset = x - particles.reference_position[p] - gradient * x;
+    const double m = particles.mass[p];
+    functions_at(x);
+    for_each_node([&](std::size_t node, double value, int, int) {
+      NodeMoments& moments = moments_[node];
+      moments.mass += m * value;
+      moments.offset += m * value * offset;
+      moments.gradient += m * value * gradient;
+      mark(moments_flag_, moments_list_, node);
+    });
+  }
+}
+
+void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
   const ConstraintSpec& spec = specs_[k];
   ConstraintReport& report = reports_[k];
-  report = ConstraintReport{};
-  const double dt = step.dt;
-  // The prescribed displacement at the step's start and its rate over the step.
-  Vec2 rate;
-  if (spec.velocity) {
-    rate = spec.time_function.factor(step.time + 0.5 * dt) * spec.value;
-  } else {
-    rate = (spec.time_function.factor(step.time + dt) * spec.value - target_[k]) / dt;
-  }
   const Vec2 u_bar = target_[k];
   const double beta = spec.penalty;
-  const int nx = grid_.n_nodes_x();
-
-  integrator_.quadrature_points(curves, spec.part, points_);
   double gap_squared = 0.0;
-  for (const boundary::CurvePoint& q : points_) {
+  for (const boundary::CurvePoint& q : points_[k]) {
+    if (!grid_.contains(q.x)) continue;
     functions_at(q.x);
-    // u_h(x): over the nodes the particles reach.
-    Vec2 u = Vec2::Zero();
-    double weight = 0.0;
-    for (int s = 0; s < stencil_.width * stencil_.width; ++s) {
-      const double value = stencil_.value[static_cast<std::size_t>(s)];
-      const int i = stencil_.base_i + s % stencil_.width, j = stencil_.base_j + s / stencil_.width;
-      const auto node = static_cast<std::size_t>(j * nx + i);
-      if (value == 0.0 || !(node_weight_[node] > 0.0)) continue;
-      u += value * node_displacement_[node];
-      weight += value;
-    }
-    if (!(weight > 0.0)) continue;  // no material here
-    u /= weight;
+    // The material's displacement at x: the particles' affine fields, weighted m_p sum_J
+    // N_J(x) N_J(x_p) (header comment).
+    Vec2 weighted = Vec2::Zero();
+    double mass = 0.0;
+    for_each_node([&](std::size_t node, double value, int, int) {
+      const NodeMoments& moments = moments_[node];
+      if (!(moments.mass > 0.0)) return;
+      weighted += value * (moments.offset + moments.gradient * q.x);
+      mass += value * moments.mass;
+    });
+    if (!(mass > 0.0)) continue;  // no material here
+    const Vec2 u = weighted / mass;
     Mat2 projector = Mat2::Identity();
     Vec2 target = u_bar, velocity = rate;
     if (spec.normal_only) {
-      projector = q.normal * q.normal.transpose();
-      target = u_bar.x() * q.normal;
-      velocity = rate.x() * q.normal;
+      // The face's direction where the part is a face (its normal window), else the curve's.
+      const Vec2 n = spec.part.normal_window ? spec.part.normal_window->direction : q.normal;
+      projector = n * n.transpose();
+      target = u_bar.x() * n;
+      velocity = rate.x() * n;
     }
     const Vec2 gap = projector * (u - target);
     gap_squared += q.weight * gap.squaredNorm();
     report.length += q.weight;
-    for (int s = 0; s < stencil_.width * stencil_.width; ++s) {
-      const double value = stencil_.value[static_cast<std::size_t>(s)];
-      if (value == 0.0) continue;
-      const int i = stencil_.base_i + s % stencil_.width, j = stencil_.base_j + s / stencil_.width;
-      const auto node = static_cast<std::size_t>(j * nx + i);
-      const double w = beta * q.weight * value;
-      penalty_force_[node] -= w * gap;
-      stiffness_[node] += w * projector;
-      target_rate_[node] += w * (projector * velocity);
-      if (!touched_flag_[node]) {
-        touched_flag_[node] = 1;
-        touched_.push_back(static_cast<int>(node));
-      }
-    }
+    // The traction -beta g at the point, shared by the nodes of enough mass in proportion to
+    // N_I(x) (header comment).
+    double sum = 0.0;
+    for_each_node([&](std::size_t node, double value, int, int) {
+      if (node_mass_[node] > tiny_mass_) sum += value;
+    });
+    if (!(sum > 0.0)) continue;
+    for_each_node([&](std::size_t node, double value, int, int) {
+      if (!(node_mass_[node] > tiny_mass_)) return;
+      const double share = beta * q.weight * value / sum;
+      NodeTerm& term = terms_dense_[node];
+      term.force -= share * gap;
+      term.stiffness += share * projector;
+      term.rate += share * (projector * velocity);
+      mark(terms_flag_, terms_list_, node);
+    });
   }
   report.rms_gap = report.length > 0.0 ? std::sqrt(gap_squared / report.length) : 0.0;
+}
 
-  // The semi-implicit update of each node (header comment), in node order.
-  std::sort(touched_.begin(), touched_.end());
-  const double tiny = 1e-12 * step.particles.mass.front();
-  const std::size_t recorder_index = n_loads_ + k;
-  for (const int index : touched_) {
+void BoundaryConstraints::collect(std::size_t k) {
+  std::sort(terms_list_.begin(), terms_list_.end());
+  std::vector<std::pair<int, NodeTerm>>& terms = terms_[k];
+  terms.clear();
+  for (const int index : terms_list_) {
+    const auto node = static_cast<std::size_t>(index);
+    terms.emplace_back(index, terms_dense_[node]);
+    NodeTerm& total = total_[node];
+    total.force += terms_dense_[node].force;
+    total.stiffness += terms_dense_[node].stiffness;
+    total.rate += terms_dense_[node].rate;
+    mark(total_flag_, total_list_, node);
+    terms_dense_[node] = NodeTerm{};
+    terms_flag_[node] = 0;
+  }
+  terms_list_.clear();
+}
+
+void BoundaryConstraints::apply_all(const StepView& step, GridState& grid_state,
+                                    std::vector<Vec2>& force) {
+  const double dt = step.dt;
+  // The boxes of the parts, and the particles' displacement moments around them.
+  Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (std::size_t k = 0; k < specs_.size(); ++k) {
+    Vec2 part_lo = Vec2::Constant(std::numeric_limits<double>::infinity()), part_hi = -part_lo;
+    for (const boundary::CurvePoint& q : points_[k]) {
+      part_lo = part_lo.cwiseMin(q.x);
+      part_hi = part_hi.cwiseMax(q.x);
+    }
+    lo = lo.cwiseMin(part_lo);
+    hi = hi.cwiseMax(part_hi);
+  }
+  project(step.particles, lo, hi);
+  node_mass_ = grid_state.mass.data();
+  tiny_mass_ = 1e-12 * step.particles.mass.front();
+  std::vector<Vec2> rates(specs_.size());
+  for (std::size_t k = 0; k < specs_.size(); ++k) {
+    const ConstraintSpec& spec = specs_[k];
+    reports_[k] = ConstraintReport{};
+    // The prescribed displacement's rate over the step.
+    rates[k] =
+        spec.velocity
+            ? Vec2(spec.time_function.factor(step.time + 0.5 * dt) * spec.value)
+            : Vec2((spec.time_function.factor(step.time + dt) * spec.value - target_[k]) / dt);
+    gather(k, rates[k]);
+    collect(k);
+  }
+
+  // Each node's velocity after the step with the penalty's stiffness implicit (header
+  // comment), all constraints together.
+  const double tiny = tiny_mass_;
+  std::sort(total_list_.begin(), total_list_.end());
+  for (const int index : total_list_) {
     const auto node = static_cast<std::size_t>(index);
     const double m = grid_state.mass[node];
+    NodeTerm total = total_[node];
+    // A component held by a support stays as the support has it.
     const unsigned fixed = grid_state.fixed[node];
-    if (m > tiny && fixed != kFixXY) {
-      Mat2 stiffness = stiffness_[node];
-      Vec2 rate_force = target_rate_[node];
-      // A component held by a support stays at rest: it takes no constraint force.
-      for (int c = 0; c < 2; ++c) {
-        if (!(fixed & (c == 0 ? kFixX : kFixY))) continue;
-        stiffness(c, 1 - c) = stiffness(1 - c, c) = 0.0;
-        rate_force[c] = 0.0;
-      }
+    for (int c = 0; c < 2; ++c) {
+      if (!(fixed & (c == 0 ? kFixX : kFixY))) continue;
+      total.stiffness(c, 1 - c) = total.stiffness(1 - c, c) = 0.0;
+      total.rate[c] = 0.0;
+    }
+    velocity_[node] = Vec2::Zero();
+    if (m > tiny) {
       const Vec2 f = grid_state.internal_force[node] + force[node];
-      const Vec2 rhs = grid_state.momentum[node] + dt * (f + penalty_force_[node]) +
-                       dt * dt * rate_force;
-      const Vec2 v_new = (m * Mat2::Identity() + dt * dt * stiffness).inverse() * rhs;
-      Vec2 applied = penalty_force_[node] - dt * (stiffness * v_new - rate_force);
+      const Vec2 rhs = grid_state.momentum[node] + dt * (f + total.force) + dt * dt * total.rate;
+      velocity_[node] = (m * Mat2::Identity() + dt * dt * total.stiffness).inverse() * rhs;
+    }
+    total_[node] = NodeTerm{};
+    total_flag_[node] = 0;
+  }
+  // Each constraint's force on its nodes.
+  for (std::size_t k = 0; k < specs_.size(); ++k) {
+    ConstraintReport& report = reports_[k];
+    for (const auto& [index, term] : terms_[k]) {
+      const auto node = static_cast<std::size_t>(index);
+      const double m = grid_state.mass[node];
+      if (!(m > tiny)) continue;  // nothing there to push
+      const unsigned fixed = grid_state.fixed[node];
+      Vec2 applied = term.force - dt * (term.stiffness * velocity_[node] - term.rate);
       if (fixed & kFixX) applied.x() = 0.0;
       if (fixed & kFixY) applied.y() = 0.0;
+      if (applied == Vec2::Zero()) continue;
       force[node] += applied;
       report.force += applied;
       ++report.nodes;
-      step.load_work.add(recorder_index, node, applied);
+      step.load_work.add(n_loads_ + k, node, applied);
     }
-    penalty_force_[node] = Vec2::Zero();
-    stiffness_[node] = Mat2::Zero();
-    target_rate_[node] = Vec2::Zero();
-    touched_flag_[node] = 0;
+    target_[k] += dt * rates[k];
   }
-  touched_.clear();
-  target_[k] = u_bar + dt * rate;
+  total_list_.clear();
 }
 
 }  // namespace pfm

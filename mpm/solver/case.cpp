@@ -488,8 +488,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   const JsonView root(document, file);
   root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
                       "node_sets", "boundary_conditions", "loads", "constraints", "solver", "time",
-                      "output",
-                      "detection", "manufactured_solution"});
+                      "output", "detection", "manufactured_solution"});
   if (root.has("title")) c.title = root.at("title").as_string();
 
   // Grid.
@@ -768,6 +767,12 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       ConstraintSpec constraint;
       constraint.raw = v.raw();
       boundary::parse_boundary_part(v, false, "all", constraint.part);
+      if (constraint.part.interval == boundary::LoadInterval::kMaterial) {
+        v.at("interval")
+            .fail(
+                "\"material\" is for loads: a constraint's part is fixed in space (x_range) or a "
+                "face (normal)");
+      }
       constraint.part.quadrature.gauss_points = v.int_or("gauss_points", 5);
       if (constraint.part.quadrature.gauss_points < 1 ||
           constraint.part.quadrature.gauss_points > boundary::kMaxGaussPoints) {
@@ -784,13 +789,13 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       const char* key = constraint.normal_only
                             ? (constraint.velocity ? "normal_velocity" : "normal_displacement")
                             : (constraint.velocity ? "velocity" : "displacement");
-      constraint.value = constraint.normal_only ? Vec2(v.at(key).as_number(), 0.0)
-                                                : v.at(key).as_vec2();
+      constraint.value =
+          constraint.normal_only ? Vec2(v.at(key).as_number(), 0.0) : v.at(key).as_vec2();
       if (v.has("time_function"))
         constraint.time_function = parse_time_function(v.at("time_function"));
-      constraint.method =
-          v.choice_or("method", {"penalty"}, "penalty") == "penalty" ? ConstraintMethod::kPenalty
-                                                                     : ConstraintMethod::kNitsche;
+      constraint.method = v.choice_or("method", {"penalty"}, "penalty") == "penalty"
+                              ? ConstraintMethod::kPenalty
+                              : ConstraintMethod::kNitsche;
       v.require(!(v.has("penalty") && v.has("penalty_factor")),
                 "give penalty (kPa/m) or penalty_factor, not both");
       constraint.penalty_factor = v.number_or("penalty_factor", constraint.penalty_factor);

@@ -253,10 +253,12 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// nu / (1 - nu)), kinetic_energy_ratio, damping, max_time}, node_sets [{name, box (null: from a
 /// mesh), mesh, physical_group, segments}], boundary_conditions [{where, fix}], loads [{apply_on,
 /// type, pressure, traction, x_range (null: the whole boundary), faces, interval, time_function
-/// {type, ramp_time}}], solver {scheme, shape_function, damping, damping_form, pic_fraction,
-/// anti_locking}, time {end_time, cfl, dt (null: from cfl), max_steps}, output {interval,
-/// timeseries_interval, nodal_loads, compression, vtk}, detection (null or {every_steps, method}),
-/// manufactured_solution (bool).
+/// {type, ramp_time}, and normal {direction, max_angle} when given}], constraints [{x_range, faces,
+/// normal (null or {direction, max_angle}), quantity (displacement, velocity), normal_only,
+/// value (a number with normal_only, else [x, y]), time_function, method, penalty}], solver
+/// {scheme, shape_function, damping, damping_form, pic_fraction, anti_locking}, time {end_time,
+/// cfl, dt (null: from cfl), max_steps}, output {interval, timeseries_interval, nodal_loads,
+/// compression, vtk}, detection (null or {every_steps, method}), manufactured_solution (bool).
 nlohmann::json resolved_case(const Case& c);
 
 /// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its

@@ -1,5 +1,6 @@
 // resolved_case(): the validated case as JSON, every value resolved (case.hpp).
 #include <cmath>
+#include <numbers>
 #include <variant>
 
 #include "mpm/solver/case.hpp"
@@ -68,6 +69,11 @@ json time_function_json(const TimeFunction& f) {
   return {{"type", type}, {"ramp_time", f.ramp_time}};
 }
 
+json normal_json(const boundary::NormalWindow& w) {
+  return {{"direction", point(w.direction)},
+          {"max_angle", std::acos(w.min_cosine) * 180.0 / std::numbers::pi}};
+}
+
 json load_json(const LoadSpec& load) {
   json out = {{"type", load.type},
               {"apply_on", "grid_top_nodes"},
@@ -89,6 +95,24 @@ json load_json(const LoadSpec& load) {
                  : s.faces == boundary::LoadedFaces::kUpward ? "upward"
                                                              : "all";
   out["interval"] = s.interval == boundary::LoadInterval::kMaterial ? "material" : "fixed";
+  if (s.normal_window) out["normal"] = normal_json(*s.normal_window);
+  return out;
+}
+
+json constraint_json(const ConstraintSpec& c) {
+  const boundary::BoundaryLoadSpec& s = c.part;
+  json out = {{"x_range", s.x_range ? point(*s.x_range) : json(nullptr)},
+              {"faces", s.faces == boundary::LoadedFaces::kTop      ? "top"
+                        : s.faces == boundary::LoadedFaces::kUpward ? "upward"
+                                                                    : "all"},
+              {"normal", nullptr},
+              {"quantity", c.velocity ? "velocity" : "displacement"},
+              {"normal_only", c.normal_only},
+              {"value", c.normal_only ? json(c.value.x()) : point(c.value)},
+              {"time_function", time_function_json(c.time_function)},
+              {"method", "penalty"},
+              {"penalty", c.penalty}};
+  if (s.normal_window) out["normal"] = normal_json(*s.normal_window);
   return out;
 }
 
@@ -150,6 +174,9 @@ json resolved_case(const Case& c) {
   }
   out["loads"] = json::array();
   for (const LoadSpec& load : c.loads) out["loads"].push_back(load_json(load));
+  out["constraints"] = json::array();
+  for (const ConstraintSpec& constraint : c.constraints)
+    out["constraints"].push_back(constraint_json(constraint));
   out["solver"] = {
       {"scheme", c.solver.scheme == Scheme::kUSL ? "usl" : "musl"},
       {"shape_function", shape_function_name(c.solver.shape_function)},

@@ -13,7 +13,8 @@
 //                        `constraint_work` = sum m_I (v_I,prescribed^2 - v_I,fixed^2) / 2,
 //                        and the reaction R_I = m_I a_I - f_I on them (a_I from the prescribed
 //                        velocities at the start and end) adds its work R_I . v_mid dt (none at
-//                        a support, where v_mid = 0);
+//                        a support, where v_mid = 0); the constraints on the detected boundary
+//                        (boundary_constraint.hpp) add their forces' work F_I . v_mid dt;
 //   grid update          v_I' = v_I + dt a_I; exactly 1/2 m (|v'|^2 - |v|^2) = m a . v_mid dt
 //                        with v_mid = (v + v') / 2, split by force: `internal_force_work` =
 //                        sum f_int,I . v_mid dt, `gravity_work` = sum m_I g . v_mid dt (and
