@@ -48,9 +48,13 @@ TEST(BoundaryLoadInput, EveryKeySet) {
       "apply_on": "detected_boundary", "pressure": -20, "faces": "upward",
       "curve": "cubic", "integration": "thesis", "gauss_points": 7, "scale_eq_6_15": true,
       "redistribute_lost_load": false, "min_node_mass_fraction": 0.25,
-      "interval": "material"}]})");
+      "interval": "material", "x_range": [1, 2],
+      "normal": {"direction": [0, 2], "max_angle": 60}}]})");
   EXPECT_EQ(spec.type, BoundaryLoadType::kFollowerPressure);
-  EXPECT_FALSE(spec.x_range.has_value());
+  EXPECT_EQ(*spec.x_range, Vec2(1.0, 2.0));
+  ASSERT_TRUE(spec.normal_window.has_value());
+  EXPECT_EQ(spec.normal_window->direction, Vec2(0.0, 1.0));
+  EXPECT_NEAR(spec.normal_window->min_cosine, 0.5, 1e-15);
   EXPECT_EQ(spec.faces, LoadedFaces::kUpward);
   EXPECT_EQ(spec.curve, CurveKind::kCubicC2);
   EXPECT_EQ(spec.quadrature.mode, IntegrationMode::kThesis);
