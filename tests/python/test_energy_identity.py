@@ -4,6 +4,7 @@ at most 1e-6 of the largest energy or ledger term of that row (mpm/solver/energy
 measured: 2e-14 at worst). The MPM runs of every case are checked by test_bitwise_outputs.py;
 this file runs the UL-FEM on the cases that it does not."""
 
+import json
 import subprocess
 from pathlib import Path
 
@@ -27,8 +28,12 @@ def assert_ledger_closes(out: Path, end_time: float):
         assert ((total - series["load_work"]).abs() <= 1e-9 * largest).all()
 
 
+# The UL-FEM runs every shipped case but column.json (run above) and those with constraints on
+# a detected boundary (MPM only; the UL-FEM refuses them).
 CASES = sorted(
-    p.name for p in (ROOT / "cases").glob("*.json") if p.name != "column.json"
+    p.name
+    for p in (ROOT / "cases").glob("*.json")
+    if p.name != "column.json" and "constraints" not in json.loads(p.read_text())
 )
 
 

@@ -53,6 +53,8 @@ def test_every_shipped_case_reads_resolved(path):
         "shape_function", "quadratic_bspline"
     )
     for body in case["bodies"]:
+        if body["source"] == "particles":  # points from a file: no polygon
+            continue
         polygon = np.array(body["polygon"])
         x, y = polygon[:, 0], polygon[:, 1]
         area = 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
