@@ -73,18 +73,50 @@ void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, co
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     if (!in_box(x, lo, hi, margin)) continue;
-    const Mat2 gradient = Mat2::Identity() - particles.deformation_gradient[p].inverse();
-    const Vec2 offset = x - particles.reference_position[p] - gradient * x;
+    const Vec2 u = x - particles.reference_position[p];
     const double m = particles.mass[p];
     functions_at(x);
-    for_each_node([&](std::size_t node, double value, int, int) {
+    for_each_node([&](std::size_t node, double value, int i, int j) {
+      const Vec2 d = x - grid_.node_position(i, j);
+      const double w = m * value;
       NodeMoments& moments = moments_[node];
-      moments.mass += m * value;
-      moments.offset += m * value * offset;
-      moments.gradient += m * value * gradient;
+      moments.mass += w;
+      moments.first += w * d;
+      moments.second += w * d * d.transpose();
+      moments.displacement += w * u;
+      moments.cross += w * d * u.transpose();
       mark(moments_flag_, moments_list_, node);
     });
   }
+}
+
+Vec2 BoundaryConstraints::material_displacement(const Vec2& x, double& mass) const {
+  // The weighted least-squares fit u(x_p) ~ a + B (x_p - x) over the particles, weights
+  // w_p = m_p sum_J N_J(x) N_J(x_p), from the nodes' moments shifted to x (e = x_J - x).
+  double w = 0.0;
+  Vec2 d = Vec2::Zero(), u = Vec2::Zero();
+  Mat2 q = Mat2::Zero(), c = Mat2::Zero();
+  for_each_node([&](std::size_t node, double value, int i, int j) {
+    const NodeMoments& m = moments_[node];
+    if (!(m.mass > 0.0)) return;
+    const Vec2 e = grid_.node_position(i, j) - x;
+    w += value * m.mass;
+    d += value * (m.first + m.mass * e);
+    q += value * (m.second + m.first * e.transpose() + e * m.first.transpose() +
+                  m.mass * e * e.transpose());
+    u += value * m.displacement;
+    c += value * (m.cross + e * m.displacement.transpose());
+  });
+  mass = w;
+  if (!(w > 0.0)) return Vec2::Zero();
+  // The spread of the points about their centroid; too thin a spread (points on a line) leaves
+  // the gradient undetermined: the weighted mean then.
+  const Mat2 spread = q - d * d.transpose() / w;
+  const double h2 = grid_.cell_size * grid_.cell_size;
+  if (!(spread.determinant() > 1e-6 * (w * h2) * (w * h2))) return u / w;
+  // [w d^T; d q] [a^T; B^T] = [u^T; c]: eliminate B^T = spread^-1 (c - d u^T / w).
+  const Mat2 gradient_t = spread.inverse() * (c - d * u.transpose() / w);
+  return (u - gradient_t.transpose() * d) / w;
 }
 
 void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
@@ -96,18 +128,9 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
   for (const boundary::CurvePoint& q : points_[k]) {
     if (!grid_.contains(q.x)) continue;
     functions_at(q.x);
-    // The material's displacement at x: the particles' affine fields, weighted m_p sum_J
-    // N_J(x) N_J(x_p) (header comment).
-    Vec2 weighted = Vec2::Zero();
     double mass = 0.0;
-    for_each_node([&](std::size_t node, double value, int, int) {
-      const NodeMoments& moments = moments_[node];
-      if (!(moments.mass > 0.0)) return;
-      weighted += value * (moments.offset + moments.gradient * q.x);
-      mass += value * moments.mass;
-    });
+    const Vec2 u = material_displacement(q.x, mass);
     if (!(mass > 0.0)) continue;  // no material here
-    const Vec2 u = weighted / mass;
     Mat2 projector = Mat2::Identity();
     Vec2 target = u_bar, velocity = rate;
     if (spec.normal_only) {

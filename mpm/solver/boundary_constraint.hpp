@@ -3,18 +3,21 @@
 // while that part moves through the grid. The thesis leaves this open (7.2); cb-geo and
 // Anura3D constrain grid nodes, NairnMPM moves rigid particles.
 //
-// The gap. At a point x of the part, the material's displacement is the particles' affine
-// fields u_p + G_p (x - x_p) (u_p = x_p - X_p, G_p = I - F_p^-1, F_p since the fill) averaged
-// with the weights m_p sum_J N_J(x) N_J(x_p) / sum_J N_J(x) m_J: exact wherever the
-// displacement is affine (a homogeneous strain, a translation), also where the body only
-// partly covers the nodes. The per-node sums (m_J, sum m_p N_J(x_p) (u_p - G_p x_p),
-// sum m_p N_J(x_p) G_p) are taken once a step over the particles near the parts. N_J are the
-// loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise). The gap is
-// g = P (u - u_bar): P = n n^T with n the part's normal-window direction (a face: the corners
-// of two constrained faces then hold both) or the curve's normal, for normal_only; else the
-// identity. u_bar is the prescribed displacement (value x time function), or for a velocity its
-// integral over the steps taken (midpoint rule; kept in the checkpoint). With gravity loading,
-// G_p includes the strain of the gravity procedure, which the displacements do not.
+// The gap. At a point x of the part, the material's displacement is the value at x of the
+// weighted least-squares linear fit u(x_p) ~ a + B (x_p - x) to the particles' displacements
+// u_p = x_p - X_p, with weights w_p = m_p sum_J N_J(x) N_J(x_p) (the particles that share a node
+// with x): exact wherever the displacement is affine (a homogeneous strain, a translation),
+// also on a face whose particles all lie on one side of x, and blind to how distorted the
+// particles' F are (the fit uses positions only: a first version extrapolated each particle's
+// field with G_p = I - F_p^-1 and was as accurate on the turned block, but its gaps under a
+// footing's edge were 15 times larger). The fit's sums are per-node moments (the mass and the
+// moments of x_p - x_J and u_p), taken once a step over the particles near the parts, and
+// shifted to x; where the points within reach lie on a line, the weighted mean is taken.
+// N_J are the loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise).
+// The gap is g = P (u - u_bar): P = n n^T with n the part's normal-window direction (a face:
+// the corners of two constrained faces then hold both) or the curve's normal, for normal_only;
+// else the identity. u_bar is the prescribed displacement (value x time function), or for a
+// velocity its integral over the steps taken (midpoint rule; kept in the checkpoint).
 //
 // The penalty method. A traction t = -beta g acts on the part, integrated with the loads' rule
 // (BoundaryLoadIntegrator::quadrature_points, exact on the pieces between cell edges); each
@@ -36,7 +39,9 @@
 //
 // Limits. Sliver particles (1-2 % of a full point, as the conforming fill of a polygon turned
 // to the grid leaves on its edges) sit alone on light nodes and are flung by the constraint's
-// forces; bodies from particle files or grid-aligned polygons do not have them.
+// forces; bodies from particle files or grid-aligned polygons do not have them. A rigid footing
+// pushed into Tresca soil through a constraint is not yet stable past a settlement of about
+// 0.05 b (the edge of the footing, where the soil flows around it; issue 25).
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);
@@ -79,12 +84,14 @@ class BoundaryConstraints {
   void set_target(const std::vector<Vec2>& target) { target_ = target; }
 
  private:
-  /// Per node J: sum_p m_p N_J(x_p) and the moments of the particles' affine displacement
-  /// fields u_p + G_p (x - x_p) = offset_p + G_p x.
+  /// Per node J, over the particles with weights m_p N_J(x_p): the mass, the moments of
+  /// d_p = x_p - x_J (first, second) and of the displacement u_p (displacement, d_p u_p^T).
   struct NodeMoments {
     double mass = 0.0;
-    Vec2 offset = Vec2::Zero();
-    Mat2 gradient = Mat2::Zero();
+    Vec2 first = Vec2::Zero();
+    Mat2 second = Mat2::Zero();
+    Vec2 displacement = Vec2::Zero();
+    Mat2 cross = Mat2::Zero();
   };
   /// A force (or a force per unit mass), its stiffness and the stiffness times the
   /// prescribed velocity.
@@ -95,6 +102,9 @@ class BoundaryConstraints {
   };
 
   void apply_all(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
+  /// The material's displacement at x (header comment); `mass`: the weights' sum (0: no
+  /// material within reach).
+  Vec2 material_displacement(const Vec2& x, double& mass) const;
   /// The moments of the particles within reach of the box [lo, hi].
   void project(const Particles& particles, const Vec2& lo, const Vec2& hi);
   /// Constraint k's nodal terms (terms_dense_) and its report's gap; `rate`: the prescribed
