@@ -143,7 +143,7 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
     const Vec2 gap = projector * (u - target);
     gap_squared += q.weight * gap.squaredNorm();
     report.length += q.weight;
-    // The traction -beta g at the point, shared by the nodes of enough mass in proportion to
+    // The traction -beta g at the point, shared by the nodes with mass in proportion to
     // N_I(x) (header comment).
     double sum = 0.0;
     for_each_node([&](std::size_t node, double value, int, int) {
