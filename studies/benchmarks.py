@@ -27,6 +27,13 @@ What it measures:
   fracture-energy regularisation). The force-shortening curves of both, the peak (2 c W), and
   each law's spread over the grids of the shortening at which the force has fallen halfway
   from the peak to the residual 2 c_r W;
+* ``constraint``: a 1 m square block turned 30 degrees to the grid (a lattice of 2 x 2 points
+  per cell area, turned with it), 0.01 m of normal displacement on one face and zero on the
+  three others through constraints on the detected boundary (``constraints[]``, the penalty
+  method): uniaxial strain, sigma_nn = -(lambda + 2 mu) 0.01. The interior's mean sigma_nn and
+  the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 (the
+  penalty's error, about h / (factor L), falling as the penalty grows) and for h = L / 8, L / 16,
+  L / 32 at the default factor 100, with the constraints' cost per step;
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -36,7 +43,7 @@ Why: they check the loading and the solver apart from the boundary detection's a
 (column, strip and footing loaded on the grid-aligned top), then with it (disk).
 
 Reproduce: ``make study-benchmarks`` = ``/usr/bin/python3 -m studies benchmarks [--quick]``
-(quick: column and disk). Cases are built by this module from the README's case schema
+(quick: column, disk and the constraint at the default penalty). Cases are built by this module from the README's case schema
 (h = 0.25 m but for the footings). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
 ``strip_sigma_z.png``, ``prandtl.png``, ``softening.csv/.md``, ``softening.png`` and
 ``energy_ledger.png`` (the energy ledger of each
@@ -46,6 +53,7 @@ run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 from __future__ import annotations
 
 import copy
+import os
 from pathlib import Path
 
 import numpy as np
@@ -119,8 +127,20 @@ SOFTENING = {
     "samples": 400,  # time-series rows
 }
 DISK = {"radius": 2.0, "pressure": 10.0}
-QUICK_BENCHMARKS = ("column", "disk")
-ALL_BENCHMARKS = ("column", "strip", "prandtl", "softening", "disk")
+CONSTRAINT = {
+    "angle": 30.0,  # degrees, of the block to the grid
+    "side": 1.0,  # m
+    "displacement": -0.01,  # m, along the loaded face's outward normal
+    "youngs_modulus": 1.0e4,  # kPa
+    "poisson_ratio": 0.3,
+    "factors": (1.0, 4.0, 16.0, 100.0, 1000.0),
+    "cells_per_side": (8, 16, 32),
+    "default_factor": 100.0,
+    "default_cells": 16,
+    "interior": 0.3,  # m: |r . n|, |r . t| below this from the centre
+}
+QUICK_BENCHMARKS = ("column", "disk", "constraint")
+ALL_BENCHMARKS = ("column", "strip", "prandtl", "softening", "disk", "constraint")
 
 EXPECTED_METRICS = [
     "benchmarks.column.settlement_rel_error",
@@ -133,6 +153,8 @@ EXPECTED_METRICS = [
     "benchmarks.softening.regularised_half_softening_spread",
     "benchmarks.softening.peak_rel_error",
     "benchmarks.disk.radial_displacement_rel_error",
+    "benchmarks.constraint.interior_stress_rel_error",
+    "benchmarks.constraint.reaction_rel_error",
 ]
 
 
@@ -393,6 +415,103 @@ def disk_case() -> dict:
     }
 
 
+def constraint_lattice(cells_per_side: int) -> Path:
+    """The particle file of the turned block: (2 cells_per_side)^2 points of equal volume on a
+    lattice turned with the block, centred at (1.5, 1.5) m. Written once (atomically) to the
+    system's temporary folder; the same bytes every time."""
+    import tempfile
+
+    c = CONSTRAINT
+    path = (
+        Path(tempfile.gettempdir())
+        / "pfm-mpm-lattices"
+        / f"block{c['angle']:g}_{cells_per_side}.csv"
+    )
+    if path.exists():
+        return path
+    n = 2 * cells_per_side
+    spacing = c["side"] / n
+    local = (np.arange(n) + 0.5) * spacing - 0.5 * c["side"]
+    u, v = np.meshgrid(local, local)
+    a = np.radians(c["angle"])
+    x = 1.5 + np.cos(a) * u - np.sin(a) * v
+    y = 1.5 + np.sin(a) * u + np.cos(a) * v
+    lines = ["x,y,volume"] + [
+        f"{xi!r},{yi!r},{spacing * spacing!r}" for xi, yi in zip(x.ravel(), y.ravel())
+    ]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    scratch = path.with_suffix(f".{os.getpid()}.tmp")
+    scratch.write_text("\n".join(lines) + "\n")
+    scratch.replace(path)
+    return path
+
+
+def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
+    """cases/constraint_inclined_block.json at another penalty factor and cell size."""
+    c = CONSTRAINT
+    h = c["side"] / cells_per_side
+    a = np.radians(c["angle"])
+
+    def face(nx, ny, value):
+        direction = [np.cos(a) * nx - np.sin(a) * ny, np.sin(a) * nx + np.cos(a) * ny]
+        entry = {
+            "apply_on": "detected_boundary",
+            "normal": {"direction": direction, "max_angle": 45.0},
+            "normal_displacement": value,
+            "penalty_factor": penalty_factor,
+        }
+        if value:
+            entry["time_function"] = {"type": "smooth_ramp", "ramp_time": 0.1}
+        return entry
+
+    return {
+        "title": f"benchmark constraint: factor {penalty_factor:g}, h = {h:g} m",
+        "grid": {
+            "origin": [0.0, 0.0],
+            "cell_size": h,
+            "n_cells": [3 * cells_per_side] * 2,
+        },
+        "materials": [
+            {
+                "name": "block",
+                "model": "linear_elastic",
+                "youngs_modulus": c["youngs_modulus"],
+                "poisson_ratio": c["poisson_ratio"],
+                "unit_weight": 20.0,
+            }
+        ],
+        "bodies": [
+            {
+                "name": "block",
+                "material": "block",
+                "particles": str(constraint_lattice(cells_per_side)),
+            }
+        ],
+        "gravity": {"g": 0.0},
+        "constraints": [
+            face(1, 0, c["displacement"]),
+            face(-1, 0, 0.0),
+            face(0, 1, 0.0),
+            face(0, -1, 0.0),
+        ],
+        "solver": {"damping": 0.05, "damping_form": "along_velocity"},
+        "time": {"end_time": 0.4, "cfl": 0.5},
+        "output": {"interval": 0.4},
+    }
+
+
+def constraint_jobs(quick: bool) -> dict:
+    c = CONSTRAINT
+    pairs = {(c["default_factor"], c["default_cells"])}
+    if not quick:
+        pairs |= {(f, c["default_cells"]) for f in c["factors"]}
+        pairs |= {(c["default_factor"], n) for n in c["cells_per_side"]}
+    return {
+        f"constraint/{f:g}/{n}": (constraint_case(f, n), "mpm")
+        for f, n in sorted(pairs)
+    }
+
+
 def _run(job):
     """The output folder of a (case, solver) job, or {"missing": what} when pfm-mpm rejects a
     key it does not support yet, so the other benchmarks still run. A footing run gives
@@ -586,6 +705,8 @@ def run(context) -> StudyOutcome:
             jobs.update(prandtl_jobs())
         elif name == "softening":
             jobs.update(softening_jobs())
+        elif name == "constraint":
+            jobs.update(constraint_jobs(context.quick))
         else:
             jobs[name] = (builders[name](), "mpm")
     outs = dict(
@@ -627,6 +748,8 @@ def run(context) -> StudyOutcome:
                 _prandtl(outs, jobs, outcome, context.folder)
             elif name == "softening":
                 _softening(outs, outcome, context.folder)
+            elif name == "constraint":
+                _constraint(outs, jobs, add, outcome, context.folder)
             else:
                 functions[name](outs[name], add, outcome, context.folder)
         except PrerequisiteMissing as missing:
@@ -1021,6 +1144,110 @@ def _prandtl(outs, jobs, outcome, folder):
             figure,
             "prandtl",
             "Prandtl: load-settlement of every run, normalised",
+        )
+    )
+
+
+def _constraint(outs, jobs, add, outcome, folder):
+    """The turned block's interior stress and reaction against uniaxial strain, per penalty
+    factor and cell size: constraint.csv/.md, constraint.png, and the default run's errors as
+    metrics and benchmark rows."""
+    import json
+
+    import matplotlib.pyplot as plt
+
+    c = CONSTRAINT
+    e, nu = c["youngs_modulus"], c["poisson_ratio"]
+    lam = e * nu / ((1 + nu) * (1 - 2 * nu))
+    modulus = lam + e / (1 + nu)
+    strain = c["displacement"] / c["side"]
+    exact_nn, exact_tt = modulus * strain, lam * strain
+    a = np.radians(c["angle"])
+    n, t = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+    rows = []
+    for key in jobs:
+        if not key.startswith("constraint/"):
+            continue
+        _, factor, cells = key.split("/")
+        particles = _particles(outs[key])
+        r = particles[["x", "y"]].to_numpy() - 1.5
+        inner = (np.abs(r @ n) < c["interior"]) & (np.abs(r @ t) < c["interior"])
+        sxx, syy, sxy = (particles[k].to_numpy()[inner] for k in ("sxx", "syy", "sxy"))
+        snn = sxx * n[0] ** 2 + syy * n[1] ** 2 + 2 * sxy * n[0] * n[1]
+        stt = sxx * t[0] ** 2 + syy * t[1] ** 2 + 2 * sxy * t[0] * t[1]
+        last = read_timeseries(_out(outs[key])).iloc[-1]
+        force = np.array([last["constraint_0_fx"], last["constraint_0_fy"]])
+        run = json.loads((_out(outs[key]) / "run.json").read_text())
+        summary = run["summary"]
+        steps = max(1, summary["n_steps"])
+        stages = summary["stage_seconds"]
+        rows.append(
+            {
+                "penalty_factor": float(factor),
+                "cells_per_side": int(cells),
+                "sigma_nn_rel_error": float(snn.mean() / exact_nn - 1.0),
+                "sigma_tt_rel_error": float(stt.mean() / exact_tt - 1.0),
+                "worst_point_rel_error": float(np.max(np.abs(snn / exact_nn - 1.0))),
+                "reaction_rel_error": float(
+                    force @ (-n) / (abs(exact_nn) * c["side"]) - 1.0
+                ),
+                "constraint_ms_per_step": 1e3 * stages.get("constraints", 0.0) / steps,
+                "step_ms": 1e3 * summary["wall_time_s"] / steps,
+            }
+        )
+    table = pd.DataFrame(rows).sort_values(["cells_per_side", "penalty_factor"])
+    outcome.tables.append(
+        write_table(
+            folder,
+            table,
+            "constraint",
+            "Constraints on the detected boundary: a block turned 30 degrees in uniaxial "
+            "strain",
+        )
+    )
+    default = table[
+        (table.penalty_factor == c["default_factor"])
+        & (table.cells_per_side == c["default_cells"])
+    ].iloc[0]
+    add(
+        "constraint",
+        "interior mean sigma_nn (block turned 30 degrees, factor 100, h = L / 16)",
+        exact_nn * (1.0 + default.sigma_nn_rel_error),
+        exact_nn,
+        "kPa",
+        "interior_stress_rel_error",
+    )
+    add(
+        "constraint",
+        "reaction on the loaded face",
+        abs(exact_nn) * c["side"] * (1.0 + default.reaction_rel_error),
+        abs(exact_nn) * c["side"],
+        "kN/m",
+        "reaction_rel_error",
+    )
+    figure, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    sweep = table[table.cells_per_side == c["default_cells"]]
+    for column, label in (
+        ("reaction_rel_error", "reaction"),
+        ("sigma_nn_rel_error", "interior sigma_nn"),
+    ):
+        axes[0].semilogx(sweep.penalty_factor, 100 * sweep[column], "o-", label=label)
+        refined = table[table.penalty_factor == c["default_factor"]]
+        axes[1].semilogx(
+            c["side"] / refined.cells_per_side, 100 * refined[column], "o-", label=label
+        )
+    axes[0].set_xlabel("penalty factor (beta = factor M / h)")
+    axes[1].set_xlabel("h (m), factor 100")
+    for axis in axes:
+        axis.axhline(0.0, color="grey", lw=0.8)
+        axis.set_ylabel("error (%)")
+        axis.legend()
+    outcome.figures.append(
+        save_figure(
+            folder,
+            figure,
+            "constraint",
+            "Constraint on the detected boundary: error against the penalty and h",
         )
     )
 

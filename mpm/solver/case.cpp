@@ -773,7 +773,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                 "\"material\" is for loads: a constraint's part is fixed in space (x_range) or a "
                 "face (normal)");
       }
-      constraint.part.quadrature.gauss_points = v.int_or("gauss_points", 5);
+      constraint.part.quadrature.gauss_points = v.int_or("gauss_points", 2);
       if (constraint.part.quadrature.gauss_points < 1 ||
           constraint.part.quadrature.gauss_points > boundary::kMaxGaussPoints) {
         v.at("gauss_points").fail("must be in 1.." + std::to_string(boundary::kMaxGaussPoints));

@@ -129,8 +129,9 @@ struct LoadSpec {
 enum class ConstraintMethod { kPenalty, kNitsche };
 
 struct ConstraintSpec {
-  /// The part of the boundary (x_range, faces, normal window, curve, interval, gauss_points), as
-  /// for a load; its type and pressures are unused.
+  /// The part of the boundary (x_range, faces, normal window, curve, interval), as for a load,
+  /// and its rule (gauss_points, default 2: exact for N_I times an affine gap on a straight
+  /// piece); the load's type and pressures are unused.
   boundary::BoundaryLoadSpec part;
   bool normal_only = false;  ///< the normal component (a smooth constraint) or the full vector
   bool velocity = false;     ///< the value is a velocity (m/s), else a displacement (m)
