@@ -227,31 +227,21 @@ Particles fill_bodies(const Case& c) {
         if (point_in_polygon(c.bodies[other].polygon, x)) return;  // the first body's
       particles.add(x, v, density, half_size, body.material, static_cast<int>(b));
     };
-    // Cell by cell, row by row, so particle ids follow the cells (good memory locality).
-    for (int j = j0; j <= j1; ++j) {
+    // Conforming placement: the sub-squares' parts inside the polygon in each cut cell; a part
+    // below a quarter of a sub-square joins the nearest other part of its cell (areas and first
+    // moments add, so the sums stay exact), lest a sliver make a point of almost no mass.
+    const auto cell_of = [&](int i, int j) {
+      return static_cast<std::size_t>((j - j0) * columns + (i - i0));
+    };
+    const double small_part = 0.25 * full;
+    std::vector<std::vector<Piece>> cut_pieces(cut.size());
+    for (int j = j0; j <= j1 && !cut.empty(); ++j) {
       for (int i = i0; i <= i1; ++i) {
+        if (!cut[cell_of(i, j)]) continue;
         const Vec2 corner = grid.node_position(i, j);
-        const bool conform =
-            !cut.empty() && cut[static_cast<std::size_t>((j - j0) * columns + (i - i0))];
-        if (!conform) {
-          for (int bj = 0; bj < n; ++bj) {
-            for (int ai = 0; ai < n; ++ai) {
-              const Vec2 x = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
-                                               local[static_cast<std::size_t>(bj)]);
-              if (point_in_polygon(body.polygon, x)) {
-                add(x, h * h * weight[static_cast<std::size_t>(ai)] *
-                           weight[static_cast<std::size_t>(bj)]);
-              }
-            }
-          }
-          continue;
-        }
-        // The sub-squares' parts inside the polygon; a part below a quarter of a sub-square
-        // joins the nearest other part of its cell (areas and first moments add, so the sums
-        // stay exact), lest a sliver make a point of almost no mass.
         const std::vector<Vec2> in_cell =
             clip_to_box(body.polygon, corner, grid.node_position(i + 1, j + 1));
-        std::vector<Piece> pieces;
+        std::vector<Piece>& pieces = cut_pieces[cell_of(i, j)];
         for (int bj = 0; bj < n && !in_cell.empty(); ++bj) {
           for (int ai = 0; ai < n; ++ai) {
             const Vec2 sub = corner + h / n * Vec2(ai, bj);
@@ -267,7 +257,7 @@ Particles fill_bodies(const Case& c) {
           std::size_t small = 0;
           for (std::size_t k = 1; k < pieces.size(); ++k)
             if (pieces[k].area < pieces[small].area) small = k;
-          if (pieces[small].area >= 0.25 * full) break;
+          if (pieces[small].area >= small_part) break;
           const Vec2 at = pieces[small].moment / pieces[small].area;
           std::size_t nearest = small == 0 ? 1 : 0;
           for (std::size_t k = 0; k < pieces.size(); ++k) {
@@ -281,7 +271,55 @@ Particles fill_bodies(const Case& c) {
           pieces[nearest].whole = false;
           pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(small));
         }
-        for (const Piece& piece : pieces) {
+      }
+    }
+    // A cell whose only part is still below a quarter of a sub-square (the polygon clips its
+    // corner) gives it to the nearest part of a neighbouring cut cell, cells in row order: alone
+    // on its nodes, a point that light would be flung by any force there.
+    for (int j = j0; j <= j1 && !cut.empty(); ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        std::vector<Piece>& pieces = cut_pieces[cell_of(i, j)];
+        if (pieces.size() != 1 || pieces[0].area >= small_part) continue;
+        const Vec2 at = pieces[0].moment / pieces[0].area;
+        Piece* nearest = nullptr;
+        double best = std::numeric_limits<double>::infinity();
+        for (int nj = std::max(j0, j - 1); nj <= std::min(j1, j + 1); ++nj) {
+          for (int ni = std::max(i0, i - 1); ni <= std::min(i1, i + 1); ++ni) {
+            if (ni == i && nj == j) continue;
+            for (Piece& other : cut_pieces[cell_of(ni, nj)]) {
+              const double d = (other.moment / other.area - at).squaredNorm();
+              if (d < best) {
+                best = d;
+                nearest = &other;
+              }
+            }
+          }
+        }
+        if (nearest == nullptr) continue;
+        nearest->area += pieces[0].area;
+        nearest->moment += pieces[0].moment;
+        nearest->whole = false;
+        pieces.clear();
+      }
+    }
+    // Cell by cell, row by row, so particle ids follow the cells (good memory locality).
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        const Vec2 corner = grid.node_position(i, j);
+        if (cut.empty() || !cut[cell_of(i, j)]) {
+          for (int bj = 0; bj < n; ++bj) {
+            for (int ai = 0; ai < n; ++ai) {
+              const Vec2 x = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
+                                               local[static_cast<std::size_t>(bj)]);
+              if (point_in_polygon(body.polygon, x)) {
+                add(x, h * h * weight[static_cast<std::size_t>(ai)] *
+                           weight[static_cast<std::size_t>(bj)]);
+              }
+            }
+          }
+          continue;
+        }
+        for (const Piece& piece : cut_pieces[cell_of(i, j)]) {
           if (piece.whole) {
             add(piece.centre, full);  // a whole sub-square: as the equal placement
           } else {
