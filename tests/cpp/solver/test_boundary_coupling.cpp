@@ -208,7 +208,7 @@ TEST(BoundaryCoupling, TopRowStressUnderADetectedLoadIsExactWithGimpAndShortBySe
 // (boundary_coupling.hpp). The points more than one cell inside are within 1.7 % (4.8 % when
 // only the load was moved: the internal force left on a node of tiny mass then deformed the
 // points around it). Rotation 3.5e-5 rad: Cundall's damping per axis is not frame-invariant.
-// Then with the conforming placement and damping along the velocity: 1.1 %, 5e-7 rad. Over
+// Then with the conforming placement and damping along the velocity: 0.9 %, 2e-6 rad. Over
 // 5-45 degrees the defaults give 0.8-5.3 % one cell inside; the worst angles (15 and 30
 // degrees, 3.6 and 5.3 %) are those where the detector bulges out at the corners (the
 // detected area 0.7 and 0.9 % above the points' volume, and the mean stress as much above p).
