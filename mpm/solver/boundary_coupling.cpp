@@ -317,7 +317,7 @@ void BoundaryCoupling::restore(const CheckpointFile& file, const StepView& now) 
   }
   detected_at_step_ = file.integer("coupling/detected_at_step", -1, step);
   curves_step_ = -2;
-  {
+  if (!constraints_.empty()) {  // checkpoints of runs without constraints may lack it
     const std::vector<double>& targets =
         file.get("coupling/constraint_targets", 2 * constraints_.size());
     constraints_.set_target(unflatten<Vec2>(targets));

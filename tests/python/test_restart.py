@@ -52,6 +52,21 @@ def short_default_case(tmp_path):
     return path
 
 
+def short_constraint_block(tmp_path):
+    """The turned block under constraints on its detected faces, stopped during the ramp of the
+    prescribed displacement (the constraints' prescribed displacement is in the checkpoint).
+    """
+    case = json.loads((ROOT / "cases" / "constraint_inclined_block.json").read_text())
+    case["bodies"][0]["particles"] = str(
+        ROOT / "cases" / case["bodies"][0]["particles"]
+    )
+    case["time"]["end_time"] = 0.08
+    case["output"] = {"interval": 0.02, "timeseries_interval": 0.002}
+    path = tmp_path / "constraint_block_short.json"
+    path.write_text(json.dumps(case))
+    return path
+
+
 def h5_datasets(path):
     values = {}
 
@@ -94,7 +109,9 @@ def assert_same_outputs(reference, restarted):
     assert run_a["summary"]["n_steps"] == run_b["summary"]["n_steps"]
 
 
-@pytest.mark.parametrize("build", [short_bearing_block, short_default_case])
+@pytest.mark.parametrize(
+    "build", [short_bearing_block, short_default_case, short_constraint_block]
+)
 def test_killed_run_restarts_bitwise(pfm_binary, tmp_path, build):
     case = build(tmp_path)
     reference, killed = tmp_path / "reference", tmp_path / "killed"
