@@ -8,20 +8,25 @@ import os
 import sys
 
 
-def ignored_keys(case, mode):
-    """Case keys this run does not use, each as "/json/pointer: reason"."""
+def ignored_keys(case, mode, driven=False):
+    """Case keys this run does not use, each as "/json/pointer: reason". A static run with
+    moving supports (`driven`) follows the case's time (end_time, the time functions).
+    """
     out = list(case.ignored)
     if mode == "static":
         raw = case.raw
         why = "explicit mode only (the static run is quasi-static load control)"
+        if driven:
+            why = "explicit mode only (the static run is quasi-static)"
         for key in raw.get("time", {}):
-            out.append(f"/time/{key}: {why}")
+            if not (driven and key == "end_time"):
+                out.append(f"/time/{key}: {why}")
         if "damping" in raw.get("solver", {}):
             out.append(f"/solver/damping: {why}")
         if "ramp_time" in raw.get("gravity", {}):
             out.append(f"/gravity/ramp_time: {why}")
         for k, load in enumerate(raw.get("loads", [])):
-            if "time_function" in load:
+            if "time_function" in load and not driven:
                 out.append(f"/loads/{k}/time_function: {why}")
     return out
 
@@ -35,7 +40,11 @@ def main(argv=None):
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--mode", choices=("static", "explicit"), default="static")
     parser.add_argument(
-        "--steps", type=int, default=10, help="static: load increments to full load"
+        "--steps",
+        type=int,
+        default=10,
+        help="static: load increments to full load, or with moving supports (displacement "
+        "control) time increments to the end time",
     )
     parser.add_argument(
         "--collapse",
@@ -92,7 +101,9 @@ def main(argv=None):
         help="softening variable (see material.py)",
     )
     parser.add_argument(
-        "--end-time", type=float, help="explicit: override time.end_time"
+        "--end-time",
+        type=float,
+        help="explicit, or static with moving supports: override time.end_time",
     )
     parser.add_argument(
         "--snapshot-times",
@@ -121,11 +132,13 @@ def main(argv=None):
         return 2
     from .analysis import (
         FieldWriter,
+        run_driven,
         run_explicit,
         run_static,
         write_boundary_csv,
         write_curve_csv,
         write_series_csv,
+        write_table_csv,
     )
     from .model import Model, NoConvergence
 
@@ -137,6 +150,23 @@ def main(argv=None):
         updated_lagrangian=args.updated_lagrangian,
         kappa_measure=args.kappa_measure,
     )
+    driven = [
+        k for k, bc in enumerate(case.boundary_conditions) if bc.velocity is not None
+    ]
+    if driven and args.mode == "explicit":
+        print(
+            f"error: {case.file}: /boundary_conditions/{driven[0]}/velocity: the explicit "
+            "mode holds supports still (run a moving support with --mode static)",
+            file=sys.stderr,
+        )
+        return 2
+    if driven and args.collapse:
+        print(
+            f"error: {case.file}: /boundary_conditions/{driven[0]}/velocity: --collapse "
+            "is load control (a moving support drives the run by its displacement)",
+            file=sys.stderr,
+        )
+        return 2
     degree = args.degree or (2 if args.mode == "static" else 1)
     model = Model(case, degree=degree, **options)
     for spec in args.probe:
@@ -150,7 +180,7 @@ def main(argv=None):
         "degree": degree,
         "cells": int(model.n_cells),
         "options": options,
-        "ignored": ignored_keys(case, args.mode),
+        "ignored": ignored_keys(case, args.mode, bool(driven)),
     }
     fields = (
         None
@@ -158,25 +188,24 @@ def main(argv=None):
         else FieldWriter(model, os.path.join(args.out, "fields.xdmf"))
     )
     if args.mode == "static":
-        counter = {"k": 0}
-
-        def on_step(m, factor):
-            if fields:
-                fields.write(float(factor))
-            counter["k"] += 1
-
+        common = dict(
+            steps=args.steps,
+            min_step=args.min_step,
+            initial_stress_method=args.initial_stress,
+            gravity_steps=args.gravity_steps,
+            model=model,
+            on_step=(lambda m, x: fields.write(float(x))) if fields else None,
+        )
         try:
-            result = run_static(
-                case,
-                steps=args.steps,
-                collapse=args.collapse,
-                max_factor=args.max_factor,
-                min_step=args.min_step,
-                initial_stress_method=args.initial_stress,
-                gravity_steps=args.gravity_steps,
-                model=model,
-                on_step=on_step,
-            )
+            if driven:
+                result = run_driven(case, end_time=args.end_time, **common)
+            else:
+                result = run_static(
+                    case,
+                    collapse=args.collapse,
+                    max_factor=args.max_factor,
+                    **common,
+                )
         except NoConvergence as err:
             if fields:
                 fields.close()
@@ -185,6 +214,18 @@ def main(argv=None):
             )
             print(f"error: {err}", file=sys.stderr)
             return 4
+    if args.mode == "static" and driven:
+        write_table_csv(
+            result.columns, result.series, os.path.join(args.out, "timeseries.csv")
+        )
+        summary.update(
+            displacement_control=True,
+            end_time=float(model.time),
+            converged_to_end=result.converged_to_end,
+            newton_iterations=result.newton_iterations,
+            runtime_s=result.runtime,
+        )
+    elif args.mode == "static":
         write_curve_csv(result.curve, os.path.join(args.out, "load_settlement.csv"))
         summary.update(
             initial_stress=result.initial_stress,
@@ -223,6 +264,13 @@ def main(argv=None):
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(json.dumps(summary, indent=2))
+    if args.mode == "static" and not summary.get("converged_to_end", True):
+        print(
+            "warning: Newton failed before the end time; outputs hold the last converged "
+            "state (exit code 3)",
+            file=sys.stderr,
+        )
+        return 3
     if args.mode == "static" and not summary.get("converged_to_full_load", True):
         print(
             "warning: Newton failed before the full load; outputs hold the last converged "

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .case import read_case
+from .case import read_case, time_function_factor
 from .model import Model, NoConvergence
 
 
@@ -102,6 +102,11 @@ def run_static(
     start = wallclock.perf_counter()
     if model is None:
         model = Model(case, **model_options)
+    if model.moving_supports:
+        raise ValueError(
+            f"{case.file}: /boundary_conditions/{model.moving_supports[0]}/velocity: load "
+            "control holds every support still; a moving support needs run_driven"
+        )
     method = initial_stress_method or case.initial_stress
     k0 = case.k0
     result = StaticResult(model, method)
@@ -140,6 +145,95 @@ def run_static(
     result.collapse_load = factor * q_ref if collapse else None
     result.runtime = wallclock.perf_counter() - start
     result.probes = {name: model.probe_displacement(name) for name in model.probes}
+    return result
+
+
+@dataclass
+class DrivenResult:
+    """Results of run_driven: one row per converged increment, (time s, then per moving support
+    k of model.moving_supports its displacement ux, uy (m) and reaction fx, fy (kN/m)).
+    """
+
+    model: Model
+    columns: list
+    series: list = field(default_factory=list)
+    converged_to_end: bool = True
+    newton_iterations: int = 0
+    runtime: float = 0.0
+
+
+def run_driven(
+    case,
+    steps=10,
+    end_time=None,
+    min_step=1e-3,
+    initial_stress_method=None,
+    gravity_steps=1,
+    rtol=1e-8,
+    max_iterations=25,
+    model=None,
+    on_step=None,
+    **model_options,
+):
+    """Quasi-static analysis under displacement control: the moving supports
+    (boundary_conditions with a velocity) reach their displacement at each time t of
+    (0, end_time] (velocity times the integral of the time function) in `steps` equal increments
+    of time; loads act with their time functions' factors at t, gravity in full after the
+    initial-stress procedure. A failed increment is halved (down to min_step x end_time, then
+    the run stops: converged_to_end False), and a converged one lets the next double again up
+    to the nominal increment. The reactions are those of the supports on the body (MPM: the
+    columns reaction_<k>_fx/_fy of timeseries.csv, k the boundary condition's index)."""
+    if isinstance(case, (str, os.PathLike)):
+        case = read_case(case)
+    start = wallclock.perf_counter()
+    if model is None:
+        model = Model(case, **model_options)
+    if not model.moving_supports:
+        raise ValueError(
+            f"{case.file}: /boundary_conditions: no support has a velocity "
+            "(displacement control needs a moving support)"
+        )
+    end_time = end_time or case.end_time
+    method = initial_stress_method or case.initial_stress
+    columns = ["time"]
+    for k in model.moving_supports:
+        columns += [f"displacement_{k}_{c}" for c in "xy"]
+        columns += [f"reaction_{k}_f{c}" for c in "xy"]
+    result = DrivenResult(model, columns)
+    result.newton_iterations += initial_stress(
+        model, method, case.k0, gravity_steps, rtol, min_step
+    )
+
+    def record():
+        row = [model.time]
+        reactions = model.reactions()
+        for k in model.moving_supports:
+            row += list(case.boundary_conditions[k].displacement(model.time))
+            row += list(reactions[k])
+        result.series.append(row)
+        if on_step:
+            on_step(model, model.time)
+
+    record()
+    nominal = end_time / max(steps, 1)
+    step = nominal
+    while model.time < end_time - 1e-12 * end_time:
+        trial = min(model.time + step, end_time)
+        for k, load in enumerate(case.loads):
+            model.load_fractions[k] = time_function_factor(load.time_function, trial)
+        try:
+            result.newton_iterations += model.solve_step(
+                1.0, 1.0, rtol, max_iterations, time=trial
+            )
+        except NoConvergence:
+            step *= 0.5
+            if step < min_step * end_time:
+                result.converged_to_end = False
+                break
+            continue
+        record()
+        step = min(2.0 * step, nominal)
+    result.runtime = wallclock.perf_counter() - start
     return result
 
 
@@ -186,6 +280,11 @@ def run_explicit(
         model = Model(case, **model_options)
     if model.degree != 1:
         raise ValueError("explicit mode needs degree 1 (lumped mass)")
+    if model.moving_supports:
+        raise ValueError(
+            f"{case.file}: /boundary_conditions/{model.moving_supports[0]}/velocity: the "
+            "explicit mode holds supports still (a moving support runs in static mode)"
+        )
     method = initial_stress_method or case.initial_stress
     if method != "zero":
         initial_stress(model, method, case.k0, 1)
@@ -225,24 +324,13 @@ def run_explicit(
             min(1.0, t / case.gravity_ramp_time) if case.gravity_ramp_time > 0 else 1.0
         )
 
-    def load_fraction(load, t):
-        tf = load.time_function
-        if tf.get("type") in ("ramp", "smooth_ramp") and tf.get("ramp_time", 0) > 0:
-            u = min(1.0, t / tf["ramp_time"])
-            if (
-                tf["type"] == "smooth_ramp"
-            ):  # as TimeFunction::factor (mpm/solver/case.hpp)
-                return u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-            return u
-        return 1.0
-
     model.load_factor = 1.0  # each load follows its own time function
 
     for n in range(n_steps + 1):
         t = n * dt
         model.gravity_factor.value = gravity_at(t)
         for k, load in enumerate(case.loads):
-            model.load_fractions[k] = load_fraction(load, t)
+            model.load_fractions[k] = time_function_factor(load.time_function, t)
         model._to_quadrature(model.sig_q, model.stress, 4)
         # f_int - f_ext (zero on fixed dofs)
         residual = model._assemble_residual().array
@@ -289,6 +377,14 @@ def write_curve_csv(curve, path):
         w = csv.writer(f)
         w.writerow(["load", "settlement", "settlement_total"])
         for row in curve:
+            w.writerow([f"{v:.10g}" for v in row])
+
+
+def write_table_csv(columns, rows, path):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(columns)
+        for row in rows:
             w.writerow([f"{v:.10g}" for v in row])
 
 

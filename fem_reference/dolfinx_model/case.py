@@ -149,6 +149,51 @@ class Load:
 
 
 @dataclass
+class Support:
+    """A boundary condition: the components `fix` ("x", "y" or "xy") of the nodes on `where`
+    (left, right, bottom, top or a node-set name) are held, at zero displacement, or moved with
+    `velocity` (m/s, of the fixed components) times the time function (a moving support: the
+    static analysis prescribes its displacement, `velocity` times the time function's integral).
+    """
+
+    where: str
+    fix: str
+    velocity: Optional[tuple] = None
+    time_function: dict = field(default_factory=lambda: {"type": "constant"})
+
+    def displacement(self, t: float):
+        """m: the support's displacement at time t, (ux, uy) (zero if it does not move)."""
+        if self.velocity is None:
+            return (0.0, 0.0)
+        return tuple(v * time_integral(self.time_function, t) for v in self.velocity)
+
+
+def time_function_factor(tf: dict, t: float) -> float:
+    """The time function's factor at time t (as TimeFunction::factor, mpm/solver/case.hpp):
+    1 (constant), t / t_r (ramp) or 10 u^3 - 15 u^4 + 6 u^5 with u = t / t_r (smooth ramp), and
+    1 after t_r."""
+    ramp = tf.get("ramp_time", 0.0)
+    if tf.get("type", "constant") == "constant" or ramp <= 0.0 or t >= ramp:
+        return 1.0
+    u = t / ramp
+    return (
+        u**3 * (10.0 - 15.0 * u + 6.0 * u * u) if tf["type"] == "smooth_ramp" else u
+    )
+
+
+def time_integral(tf: dict, t: float) -> float:
+    """s: the integral of the time function's factor from 0 to t (a moving support's
+    displacement per unit velocity): t, then t - t_r / 2 after a ramp of t_r."""
+    ramp = tf.get("ramp_time", 0.0)
+    if tf.get("type", "constant") == "constant" or ramp <= 0.0 or t >= ramp:
+        return t - (0.5 * ramp if tf.get("type", "constant") != "constant" else 0.0)
+    u = t / ramp
+    if tf["type"] == "smooth_ramp":
+        return ramp * u**4 * (2.5 - 3.0 * u + u * u)
+    return 0.5 * ramp * u * u
+
+
+@dataclass
 class Case:
     file: str
     title: str
@@ -162,7 +207,7 @@ class Case:
     initial_stress: str
     k0: Optional[float]
     node_sets: dict  # name -> box ((x0, y0), (x1, y1)) or {"segments": (k, 2, 2)}
-    boundary_conditions: list  # [(where, fix)]
+    boundary_conditions: list  # [Support]
     loads: list
     damping: float
     end_time: float
@@ -316,12 +361,6 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
                 f"{file}: /loads/{k}/normal: the dolfinx model selects a load's faces by "
                 "x_range and faces only"
             )
-    for k, bc in enumerate(c["boundary_conditions"]):
-        if bc["velocity"] is not None:
-            raise CaseError(
-                f"{file}: /boundary_conditions/{k}/velocity: the dolfinx model takes "
-                "supports only (a prescribed velocity is the MPM's and the UL-FEM's)"
-            )
     materials = {m["name"]: _material(m) for m in c["materials"]}
     bodies = []
     for k, b in enumerate(c["bodies"]):
@@ -346,7 +385,15 @@ def case_from_dict(root: dict, file: str = "<dict>") -> Case:
         stress["method"],
         stress["k0"],
         {s["name"]: _node_set(s) for s in c["node_sets"]},
-        [(bc["where"], bc["fix"]) for bc in c["boundary_conditions"]],
+        [
+            Support(
+                bc["where"],
+                bc["fix"],
+                None if bc["velocity"] is None else tuple(bc["velocity"]),
+                bc["time_function"],
+            )
+            for bc in c["boundary_conditions"]
+        ],
         [_load(ld) for ld in c["loads"]],
         c["solver"]["damping"],
         c["time"]["end_time"],

@@ -150,27 +150,37 @@ class Model:
             "top": lambda x: np.isclose(x[1], gy1, atol=tol),
         }
         self.bcs = []
-        self.fixed_dofs = []  # (component, dof indices in the blocked numbering)
-        for where, fix in case.boundary_conditions:
-            comps = {"x": [0], "y": [1], "xy": [0, 1]}[fix]
-            if where in lines:
-                facets = dmesh.locate_entities_boundary(msh, fdim, lines[where])
-                for comp in comps:
-                    dofs = fem.locate_dofs_topological(self.V.sub(comp), fdim, facets)
-                    self.bcs.append(
-                        fem.dirichletbc(PETSc.ScalarType(0.0), dofs, self.V.sub(comp))
-                    )
-                    self.fixed_dofs.append(dofs)
-            else:
-                inside = _node_set_test(case.node_sets[where], tol)
-                for comp in comps:
-                    sub = self.V.sub(comp)
+        self.fixed_dofs = []  # dof indices (into u.x.array) of each fixed component
+        # per boundary condition: [(component, its dofs)]
+        self.support_dofs = []
+        for k, bc in enumerate(case.boundary_conditions):
+            comps = {"x": [0], "y": [1], "xy": [0, 1]}[bc.fix]
+            held = []
+            for comp in comps:
+                sub = self.V.sub(comp)
+                if bc.where in lines:
+                    facets = dmesh.locate_entities_boundary(msh, fdim, lines[bc.where])
+                    dofs = fem.locate_dofs_topological(sub, fdim, facets)
+                else:
                     collapsed, _ = sub.collapse()
-                    dofs = fem.locate_dofs_geometrical((sub, collapsed), inside)
-                    self.bcs.append(
-                        fem.dirichletbc(PETSc.ScalarType(0.0), dofs[0], sub)
+                    inside = _node_set_test(case.node_sets[bc.where], tol)
+                    dofs = fem.locate_dofs_geometrical((sub, collapsed), inside)[0]
+                if len(dofs) == 0:
+                    raise ValueError(
+                        f"{case.file}: /boundary_conditions/{k}/where: "
+                        f"'{bc.where}' holds no node of the mesh"
                     )
-                    self.fixed_dofs.append(dofs[0])
+                self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), dofs, sub))
+                self.fixed_dofs.append(dofs)
+                held.append((comp, dofs))
+            self.support_dofs.append(held)
+        self.moving_supports = [
+            k
+            for k, bc in enumerate(case.boundary_conditions)
+            if bc.velocity is not None
+        ]
+        # time of the committed state (s): the moving supports' displacements are theirs at it
+        self.time = 0.0
         self.constrained = (
             np.unique(np.concatenate(self.fixed_dofs))
             if self.fixed_dofs
@@ -337,15 +347,72 @@ class Model:
         return out
 
     # ------------------------------------------------------------------ solve
-    def _assemble_residual(self):
+    def _assemble_residual(self, supports=False):
+        """f_int - f_ext at the stress in sig_q; zero on the fixed dofs unless `supports`
+        (there it is the force the supports exert, the reaction)."""
         with self.b.localForm() as loc:
             loc.set(0.0)
         fem.petsc.assemble_vector(self.b, self.residual_form)
         self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self.case.loads:
             self.b.array[:] -= self.load_vector()
-        fem.petsc.set_bc(self.b, self.bcs, scale=0.0)
+        if not supports:
+            fem.petsc.set_bc(self.b, self.bcs, scale=0.0)
         return self.b
+
+    def reactions(self):
+        """kN/m: the force (fx, fy) each boundary condition exerts on the body in the committed
+        state, the sum of f_int - f_ext over its fixed dofs (a component it does not fix: 0).
+        """
+        self._to_quadrature(self.sig_q, self.stress, 4)
+        residual = self._assemble_residual(supports=True).array
+        out = []
+        for held in self.support_dofs:
+            force = [0.0, 0.0]
+            for comp, dofs in held:
+                force[comp] = float(np.sum(residual[dofs]))
+            out.append(tuple(force))
+        return out
+
+    def _predict(self, time):
+        """The first iterate of an increment that moves the supports to their displacement
+        at `time`: du = d on their dofs (d: that displacement less the committed one) and, on
+        the free dofs, the linear solution with the tangent of the committed state,
+        K_ff du_f = -R_f(0) - K_fc d (a support's increment spread through the body instead
+        of concentrated in the elements along it, which would yield there spuriously).
+        """
+        prescribed = np.zeros_like(self.du.x.array)
+        for k in self.moving_supports:
+            target = self.case.boundary_conditions[k].displacement(time)
+            for comp, dofs in self.support_dofs[k]:
+                prescribed[dofs] = target[comp] - self.u.x.array[dofs]
+        self.du.x.array[:] = 0.0
+        stress, _, tangent = self._constitutive(self._increment_gradient())
+        self._to_quadrature(self.sig_q, stress, 4)
+        self._to_quadrature(self.tan_q, tangent.reshape(-1, 9), 9)
+        self.A.zeroEntries()
+        fem.petsc.assemble_matrix(self.A, self.tangent_form)
+        self.A.assemble()
+        lift = self.A.createVecRight()
+        lift.array[:] = prescribed
+        coupling = self.A.createVecLeft()
+        self.A.mult(lift, coupling)
+        rhs = self._assemble_residual()
+        rhs.array[:] += coupling.array
+        rhs.array[self.constrained] = 0.0
+        self._solve_tangent(rhs)
+        self.du.x.array[:] = prescribed - self.delta.array
+        self.du.x.scatter_forward()
+        lift.destroy()
+        coupling.destroy()
+
+    def _solve_tangent(self, rhs):
+        """delta = K^-1 rhs with the tangent in tan_q (fixed dofs: delta = rhs there)."""
+        self.A.zeroEntries()
+        fem.petsc.assemble_matrix(self.A, self.tangent_form, bcs=self.bcs)
+        self.A.assemble()
+        self.ksp.setOperators(self.A)
+        self.ksp.solve(rhs, self.delta)
 
     def external_force(self):
         """External nodal forces (numpy, kN/m): body force and surface loads at the current
@@ -363,37 +430,50 @@ class Model:
         values[self.constrained] = 0.0
         return float(np.linalg.norm(values))
 
-    def solve_step(self, gravity_factor, load_factor, rtol=1e-8, max_iterations=25):
-        """Newton for one increment to the given load factors; commits on success.
+    def solve_step(
+        self, gravity_factor, load_factor, rtol=1e-8, max_iterations=25, time=None
+    ):
+        """Newton for one increment to the given load factors and (with `time`, s) to the
+        moving supports' displacements at that time; commits on success.
 
-        Converged when ||R|| <= rtol ||f_ext|| (free dofs). Gives up after max_iterations, or when
-        the residual has not improved on its best value for 10 iterations or exceeds 1e6 ||f_ext||.
-        Returns the number of iterations; raises NoConvergence (state untouched)."""
+        The supports' increment is imposed at the first iterate (_predict; the corrections
+        vanish on every fixed dof). Converged when ||R|| <= rtol ||f_ext|| (R on the free dofs), or with
+        moving supports rtol max(||f_ext||, ||reactions||) (the reactions of the iterate). Gives up after max_iterations, or when
+        the residual has not improved on its best value for 10 iterations or exceeds 1e6 times
+        that reference. Returns the number of iterations; raises NoConvergence (state
+        untouched)."""
         self.gravity_factor.value = gravity_factor
         self.load_factor = load_factor
         self.du.x.array[:] = 0.0
-        reference = max(self.external_force_norm(), 1e-12)
+        if time is not None:
+            self._predict(time)
+        external = self.external_force_norm()
         best, best_iteration = np.inf, 0
         for iteration in range(max_iterations + 1):
             stress, kappa, tangent = self._constitutive(self._increment_gradient())
             self._to_quadrature(self.sig_q, stress, 4)
+            reference = external
+            if time is not None and self.moving_supports:
+                full = self._assemble_residual(supports=True).array
+                reference = max(
+                    reference, float(np.linalg.norm(full[self.constrained]))
+                )
+            reference = max(reference, 1e-12)
             residual = self._assemble_residual()
             rnorm = residual.norm()
             if not np.isfinite(rnorm):
                 break
             if rnorm <= rtol * reference:
                 self._commit(stress, kappa)
+                if time is not None:
+                    self.time = time
                 return iteration
             if rnorm < best:
                 best, best_iteration = rnorm, iteration
             elif iteration - best_iteration >= 10 or rnorm > 1e6 * reference:
                 break  # diverging or stalled: halving the increment is cheaper
             self._to_quadrature(self.tan_q, tangent.reshape(-1, 9), 9)
-            self.A.zeroEntries()
-            fem.petsc.assemble_matrix(self.A, self.tangent_form, bcs=self.bcs)
-            self.A.assemble()
-            self.ksp.setOperators(self.A)
-            self.ksp.solve(residual, self.delta)
+            self._solve_tangent(residual)
             self.du.x.array[:] -= self.delta.array
             self.du.x.scatter_forward()
         self.du.x.array[:] = 0.0
