@@ -26,7 +26,9 @@ What it measures:
   ``materials[].softening_length`` = 1/32 m the law's plastic strains are scaled by L / h (the
   fracture-energy regularisation). The force-shortening curves of both, the peak (2 c W), and
   each law's spread over the grids of the shortening at which the force has fallen halfway
-  from the peak to the residual 2 c_r W;
+  from the peak to the residual 2 c_r W. The same test on the dolfinx model (P2 triangles of
+  h = 1/16, 1/32, 1/48 m, static, the top platen's displacement prescribed on its mesh nodes:
+  ``run_driven``), the same two laws (its regularisation scales by L / element size);
 * ``constraint``: a 1 m square block turned 30 degrees to the grid (a lattice of 2 x 2 points
   per cell area, turned with it), 0.01 m of normal displacement on one face and zero on the
   three others through constraints on the detected boundary (``constraints[]``, the penalty
@@ -72,7 +74,7 @@ from studies.common.outputs import (
 )
 from studies.common.parallel import parallel_map
 from studies.common.paths import PrerequisiteMissing, tool_path
-from studies.common.runner import RunFailed, run_mpm
+from studies.common.runner import RunFailed, run_dolfinx, run_mpm
 from studies.common.study import missing_reason
 from studies.common.tables import save_figure, write_table
 
@@ -121,6 +123,13 @@ SOFTENING = {
     "flaw": 0.125,  # m
     "softening_length": 1.0 / 32.0,  # m: the middle grid's h
     "cells_across": (16, 32, 64),
+    # the dolfinx model's meshes (P2 triangles of size h = width / n; a shear band there is
+    # about one element wide, in the MPM's quadratic B-splines two to three cells; at h = 1/8
+    # the regularised law, scaled by L / h = 1/4, snaps back and the static run stops past the
+    # peak) and its static increments over the duration (400 give the same half-softening
+    # shortening within 0.15 %)
+    "dolfinx_cells_across": (16, 32, 48),
+    "dolfinx_steps": 200,
     "shortening": 0.08,  # m
     "duration": 2.0,  # s
     "ramp_fraction": 0.05,
@@ -522,6 +531,10 @@ def _run(job):
     case, solver = job
     footing = case["title"].startswith("benchmark Prandtl")
     try:
+        if solver == "dolfinx":  # a stop (exit 3: Newton failed) is a result up to then
+            arguments = ["--mode", "static", "--no-fields", "--min-step", "1e-5"]
+            arguments += ["--steps", SOFTENING["dolfinx_steps"]]
+            return str(run_dolfinx(case, arguments, accept=(0, 3)).out)
         out = run_mpm(case, threads=1, solver=solver, allow_stopped=footing).out
         if footing:
             return {
@@ -633,6 +646,16 @@ def softening_curve(out: Path) -> pd.DataFrame:
     ).reset_index(drop=True)
 
 
+def dolfinx_softening_curve(out: Path) -> pd.DataFrame:
+    """shortening (m) and force (kN/m) of a softening_case run of the dolfinx model (static,
+    every converged increment): the top platen's prescribed displacement and reaction.
+    """
+    series = pd.read_csv(out / "timeseries.csv")
+    return pd.DataFrame(
+        {"shortening": -series["displacement_2_y"], "force": -series["reaction_2_fy"]}
+    )
+
+
 def half_softening_shortening(curve: pd.DataFrame, residual: float) -> float:
     """The shortening past the peak at which the force first falls halfway from the peak to
     `residual` (linear between the samples); NaN if it never does."""
@@ -648,14 +671,15 @@ def half_softening_shortening(curve: pd.DataFrame, residual: float) -> float:
 
 
 def softening_jobs() -> dict:
-    return {
-        f"softening/{'regularised' if r else 'plain'}/cells{n}": (
-            softening_case(n, r),
-            "mpm",
-        )
-        for n in SOFTENING["cells_across"]
-        for r in (False, True)
-    }
+    """The MPM's runs (softening/<law>/cells<n>), then the dolfinx model's
+    (softening/dolfinx/<law>/cells<n>)."""
+    jobs = {}
+    for code, grids in (("", "cells_across"), ("dolfinx/", "dolfinx_cells_across")):
+        for n in SOFTENING[grids]:
+            for r in (False, True):
+                key = f"softening/{code}{'regularised' if r else 'plain'}/cells{n}"
+                jobs[key] = (softening_case(n, r), code.rstrip("/") or "mpm")
+    return jobs
 
 
 def prandtl_jobs() -> dict:
@@ -775,32 +799,50 @@ def run(context) -> StudyOutcome:
 
 
 def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
-    """The softening compression test on every grid, plain and regularised: the table
-    softening.md (peak force, shortening at half softening), the curves softening.png, and per
-    law the spread over the grids of the shortening at half softening, (largest - smallest) /
-    smallest (benchmarks.softening.<law>_half_softening_spread)."""
+    """The softening compression test on every grid, plain and regularised, on the MPM and
+    the dolfinx model: the table softening.md (peak force, shortening at half softening), the
+    curves softening.png, and per code and law the spread over the grids of the shortening at
+    half softening, (largest - smallest) / smallest
+    (benchmarks.softening.[dolfinx_]<law>_half_softening_spread). A dolfinx run that stopped
+    (Newton failed: a snap-back) is read up to its stop; missing, its rows are left out.
+    """
     import matplotlib.pyplot as plt
 
     s = SOFTENING
     peak_force = 2.0 * s["cohesion"] * s["width"]  # Tresca, unconfined: s1 - s3 = 2 c
     residual = peak_force * s["residual_fraction"]
+    codes = {
+        "mpm": ("", s["cells_across"], lambda run: softening_curve(_out(run))),
+        "dolfinx": (
+            "dolfinx/",
+            s["dolfinx_cells_across"],
+            lambda run: dolfinx_softening_curve(_out(run)),
+        ),
+    }
     rows, curves = [], {}
-    for law in ("plain", "regularised"):
-        for cells in s["cells_across"]:
-            curve = softening_curve(_out(outs[f"softening/{law}/cells{cells}"]))
-            curves[(law, cells)] = curve
-            rows.append(
-                {
-                    "law": law,
-                    "cells_across": cells,
-                    "h_m": s["width"] / cells,
-                    "peak_force_kN_per_m": float(curve["force"].max()),
-                    "peak_rel_error": float(curve["force"].max()) / peak_force - 1.0,
-                    "half_softening_shortening_m": half_softening_shortening(
-                        curve, residual
-                    ),
-                }
-            )
+    for code, (prefix, grids, read) in codes.items():
+        for law in ("plain", "regularised"):
+            for cells in grids:
+                run = outs[f"softening/{prefix}{law}/cells{cells}"]
+                if code == "dolfinx" and _missing(run):
+                    continue
+                curve = read(run)
+                curves[(code, law, cells)] = curve
+                rows.append(
+                    {
+                        "code": code,
+                        "law": law,
+                        "cells_across": cells,
+                        "h_m": s["width"] / cells,
+                        "peak_force_kN_per_m": float(curve["force"].max()),
+                        "peak_rel_error": float(curve["force"].max()) / peak_force
+                        - 1.0,
+                        "half_softening_shortening_m": half_softening_shortening(
+                            curve, residual
+                        ),
+                        "last_shortening_m": float(curve["shortening"].iloc[-1]),
+                    }
+                )
     table = pd.DataFrame(rows)
     outcome.tables.append(
         write_table(
@@ -812,15 +854,18 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
             f"plastic strain of {s['residual_plastic_strain']:g}, softening_length "
             f"{s['softening_length']:g} m): peak force (2 c W = {peak_force:g} kN/m) and the "
             f"shortening at which the force has fallen halfway to {residual:g} kN/m, on three "
-            f"grids, the law as given (plain) and regularised",
+            f"grids, the law as given (plain) and regularised; the MPM (quadratic B-splines) "
+            f"and the dolfinx model (P2 triangles, static; last_shortening_m short of "
+            f"{s['shortening']:g} m: its Newton failed there)",
         )
     )
-    for law, group in table.groupby("law"):
+    for (code, law), group in table.groupby(["code", "law"]):
         d = group["half_softening_shortening_m"]
-        if d.notna().all():
+        if d.notna().all() and len(d) == len(codes[code][1]):
+            name = law if code == "mpm" else f"{code}_{law}"
             outcome.metrics.append(
                 Metric(
-                    f"benchmarks.softening.{law}_half_softening_spread",
+                    f"benchmarks.softening.{name}_half_softening_spread",
                     float(d.max() / d.min() - 1.0),
                     "1",
                 )
@@ -828,31 +873,38 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
     outcome.metrics.append(
         Metric(
             "benchmarks.softening.peak_rel_error",
-            float(table["peak_rel_error"].abs().max()),
+            float(table[table["code"] == "mpm"]["peak_rel_error"].abs().max()),
             "1",
         )
     )
-    figure, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    for axis, law in zip(axes, ("plain", "regularised")):
-        for cells in s["cells_across"]:
-            curve = curves[(law, cells)]
-            axis.plot(curve["shortening"], curve["force"], label=f"h = 1/{cells} m")
-        for level, text in ((peak_force, "2 c W"), (residual, "2 c_r W")):
-            axis.axhline(level, color="0.6", lw=0.8, ls="--")
-            axis.annotate(
-                text, (s["shortening"], level), ha="right", va="bottom", fontsize=8
+    figure, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharey=True, sharex=True)
+    for row, code in zip(axes, codes):
+        for axis, law in zip(row, ("plain", "regularised")):
+            for cells in codes[code][1]:
+                if (code, law, cells) not in curves:
+                    continue
+                curve = curves[(code, law, cells)]
+                axis.plot(curve["shortening"], curve["force"], label=f"h = 1/{cells} m")
+            for level, text in ((peak_force, "2 c W"), (residual, "2 c_r W")):
+                axis.axhline(level, color="0.6", lw=0.8, ls="--")
+                axis.annotate(
+                    text, (s["shortening"], level), ha="right", va="bottom", fontsize=8
+                )
+            axis.set_title(
+                f"{'MPM' if code == 'mpm' else 'dolfinx (P2, static)'}, {law}"
             )
+            axis.legend(fontsize=8)
+        row[0].set_ylabel("force on the top platen [kN/m]")
+    for axis in axes[1]:
         axis.set_xlabel("shortening (top platen's displacement) [m]")
-        axis.set_title(law)
-        axis.legend(fontsize=8)
-    axes[0].set_ylabel("force on the top platen [kN/m]")
     figure.tight_layout()
     outcome.figures.append(
         save_figure(
             folder,
             figure,
             "softening",
-            "Softening compression test: force-shortening on three grids, plain and regularised",
+            "Softening compression test: force-shortening on three grids, plain and "
+            "regularised, MPM (top) and dolfinx (bottom)",
         )
     )
 

@@ -374,8 +374,11 @@ def run_dolfinx(
     use_cache: bool = True,
     cache: Optional[Cache] = None,
     timeout: Optional[float] = None,
+    accept: Sequence[int] = (0,),
 ) -> RunResult:
-    """``arguments``: the model's options (``--mode explicit``, ``--updated-lagrangian``...)."""
+    """``arguments``: the model's options (``--mode explicit``, ``--updated-lagrangian``...).
+    ``accept``: the exit codes that are results (3: a static run stopped before its end, its
+    outputs up to then)."""
     module_file = dolfinx_module_file()
     arguments = [str(a) for a in arguments]
 
@@ -407,6 +410,7 @@ def run_dolfinx(
         cache,
         timeout,
         cwd=repo_root(),
+        accept=accept,
     )
 
 

@@ -3,6 +3,9 @@ C++ reader (through pfm_mpm), its top platen is the third condition (the reactio
 study reads) and moves the shortening in the duration; the half-softening shortening is exact
 on a piecewise-linear curve."""
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -38,3 +41,36 @@ def test_half_softening_is_where_the_force_crosses_the_middle():
         0.02, abs=1e-15
     )
     assert np.isnan(benchmarks.half_softening_shortening(curve, -10.0))
+
+
+def test_the_dolfinx_model_drives_the_same_case_elastically_exactly():
+    """The dolfinx jobs run softening_case as it is: on its coarsest mesh the model holds one
+    node in x (the base centre), the top platen moves v times the smooth ramp's integral, and
+    while the specimen is elastic (the first 0.12 s: 0.0027 m, 12 kN/m, below the flaw's
+    2 c W = 36 kN/m) the platen's force is the plane-strain uniaxial E / (1 - nu^2) W d / H
+    (1e-9 relative; the flaw has the same stiffness). dolfinx_softening_curve reads it.
+    """
+    pytest.importorskip("dolfinx")
+    from fem_reference.dolfinx_model import case_from_dict, run_driven, write_table_csv
+
+    s = benchmarks.SOFTENING
+    cells = s["dolfinx_cells_across"][0]
+    jobs = benchmarks.softening_jobs()
+    assert jobs[f"softening/dolfinx/regularised/cells{cells}"][1] == "dolfinx"
+    case = case_from_dict(benchmarks.softening_case(cells, True))
+    result = run_driven(case, steps=4, end_time=0.12, degree=2)
+    assert result.converged_to_end
+    assert [len(dofs) for _, dofs in result.model.support_dofs[1]] == [1]
+    with tempfile.TemporaryDirectory() as tmp:
+        write_table_csv(result.columns, result.series, Path(tmp) / "timeseries.csv")
+        curve = benchmarks.dolfinx_softening_curve(Path(tmp))
+    e_prime = s["youngs_modulus"] / (1 - s["poisson_ratio"] ** 2)
+    exact = e_prime * s["width"] / s["height"] * curve["shortening"]
+    assert curve["shortening"].iloc[-1] == pytest.approx(
+        benchmarks.softening_speed()
+        * (0.12 - 0.5 * s["ramp_fraction"] * s["duration"]),
+        rel=1e-12,
+    )
+    error = np.abs(curve["force"] - exact)[1:] / exact[1:]
+    print(f"\ndolfinx softening case, elastic: worst force error {error.max():.1e}")
+    assert error.max() <= 1e-9
