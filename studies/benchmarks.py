@@ -36,6 +36,12 @@ What it measures:
   the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 (the
   penalty's error, about h / (factor L), falling as the penalty grows) and for h = L / 8, L / 16,
   L / 32 at the default factor 100, with the constraints' cost per step;
+* ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
+  into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
+  constraint on the detected top under it (normal velocity; penalty factors 16 and 100), as a
+  moving support on the grid's top nodes, on the UL-FEM (its mesh nodes) and on the dolfinx
+  model (static): the reaction pressure against (2 + pi) c along the settlement, and its
+  plateau's mean over s / b in [0.03, 0.12] (issue 25 must-show 2);
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -47,7 +53,8 @@ Why: they check the loading and the solver apart from the boundary detection's a
 Reproduce: ``make study-benchmarks`` = ``/usr/bin/python3 -m studies benchmarks [--quick]``
 (quick: column, disk and the constraint at the default penalty). Cases are built by this module from the README's case schema
 (h = 0.25 m but for the footings). Writes ``benchmarks.csv/.md``, ``prandtl.csv/.md``, ``column_stress.png``,
-``strip_sigma_z.png``, ``prandtl.png``, ``softening.csv/.md``, ``softening.png`` and
+``strip_sigma_z.png``, ``prandtl.png``, ``softening.csv/.md``, ``softening.png``,
+``footing.csv/.md``, ``footing.png`` and
 ``energy_ledger.png`` (the energy ledger of each
 run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 """
@@ -135,6 +142,30 @@ SOFTENING = {
     "ramp_fraction": 0.05,
     "samples": 400,  # time-series rows
 }
+# A rigid smooth strip footing of half-width b pushed at `speed` (after a smooth ramp of
+# ramp_fraction x duration) into weightless Tresca soil, half model as PRANDTL's (8 cells under
+# b, uGIMP, B-bar): through a constraint on the detected top under it (normal velocity, a face
+# window of window_angle about the vertical) at each penalty factor, as a moving support on the
+# grid's top nodes over it, on the UL-FEM (its mesh nodes) and on the dolfinx model (static,
+# `dolfinx_steps` increments). The reaction pressure (the force on the body over b) against
+# (2 + pi) c; its plateau the mean over the settlements s / b in `plateau`.
+FOOTING = {
+    "cohesion": 10.0,  # kPa
+    "half_width": 1.0,  # m
+    "cells_under_half_width": 8,
+    "speed": 0.0375,  # m/s
+    "duration": 4.0,  # s: a settlement of 0.1425 b
+    "ramp_fraction": 0.1,
+    "damping": 0.05,
+    # FLIP's particle velocities pick up the constraint's band of nodes and grow (the run
+    # stops at s / b 0.05); 5 % PIC removes it and adds about 2 % to the node support's plateau
+    "pic_fraction": 0.05,
+    "window_angle": 45.0,  # degrees
+    "penalty_factors": (16.0, 100.0),
+    "plateau": (0.03, 0.12),  # s / b
+    "dolfinx_steps": 80,
+    "samples": 400,  # time-series rows
+}
 DISK = {"radius": 2.0, "pressure": 10.0}
 CONSTRAINT = {
     "angle": 30.0,  # degrees, of the block to the grid
@@ -149,7 +180,15 @@ CONSTRAINT = {
     "interior": 0.3,  # m: |r . n|, |r . t| below this from the centre
 }
 QUICK_BENCHMARKS = ("column", "disk", "constraint")
-ALL_BENCHMARKS = ("column", "strip", "prandtl", "softening", "disk", "constraint")
+ALL_BENCHMARKS = (
+    "column",
+    "strip",
+    "prandtl",
+    "softening",
+    "disk",
+    "constraint",
+    "footing",
+)
 
 EXPECTED_METRICS = [
     "benchmarks.column.settlement_rel_error",
@@ -390,6 +429,109 @@ def prandtl_curve(out: Path, case: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def footing_case(how: str, penalty_factor: float | None = None) -> dict:
+    """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
+    `penalty_factor`) or "support" (the grid's or the mesh's top nodes over x <= b: MPM, UL-FEM
+    and dolfinx). The support is the fourth boundary condition (reaction_3_*), the constraint
+    the first (constraint_0_*)."""
+    f = FOOTING
+    b = f["half_width"]
+    extent = 5.0 * b
+    h = b / f["cells_under_half_width"]
+    material = {
+        "name": "clay",
+        "model": "tresca",
+        "youngs_modulus": PRANDTL["youngs_modulus"],
+        "poisson_ratio": PRANDTL["poisson_ratio"],
+        "unit_weight": 20.0,
+        "cohesion": f["cohesion"],
+    }
+    duration = f["duration"]
+    case = _block(
+        extent,
+        extent,
+        material,
+        [],
+        gravity=False,
+        end_time=duration,
+        h=h,
+        damping=f["damping"],
+        output_interval=duration / 4,
+        headroom=int(round(extent / h)) // 2,
+        shape_function="gimp",
+    )
+    case["title"] = f"benchmark footing: {how}" + (
+        f", penalty factor {penalty_factor:g}" if penalty_factor else ""
+    )
+    case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
+    case["output"]["timeseries_interval"] = duration / f["samples"]
+    ramp = {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * duration}
+    if how == "constraint":
+        case["constraints"] = [
+            {
+                "apply_on": "detected_boundary",
+                "x_range": [-b, b],
+                "faces": "top",
+                "normal": {"direction": [0.0, 1.0], "max_angle": f["window_angle"]},
+                "normal_velocity": -f["speed"],
+                "time_function": ramp,
+                "penalty_factor": penalty_factor,
+            }
+        ]
+    else:
+        case["node_sets"].append(
+            {
+                "name": "footing",
+                "box": [[-1e3, extent - 1e-9], [b + 1e-9, extent + 1e-9]],
+            }
+        )
+        case["boundary_conditions"].append(
+            {
+                "where": "footing",
+                "fix": "y",
+                "velocity": [0.0, -f["speed"]],
+                "time_function": ramp,
+            }
+        )
+    return case
+
+
+def footing_jobs() -> dict:
+    f = FOOTING
+    jobs = {
+        f"footing/constraint/f{k:g}": (footing_case("constraint", k), "mpm")
+        for k in f["penalty_factors"]
+    }
+    jobs["footing/support/mpm"] = (footing_case("support"), "mpm")
+    jobs["footing/support/ulfem"] = (footing_case("support"), "ulfem")
+    jobs["footing/support/dolfinx"] = (
+        footing_case("support"),
+        "dolfinx",
+        f["dolfinx_steps"],
+    )
+    return jobs
+
+
+def footing_curve(out: Path, solver: str, constraint: bool) -> pd.DataFrame:
+    """s_over_b (the footing's prescribed settlement over b) and q_over_prandtl (the force
+    the footing exerts on the body over b, against (2 + pi) c) of a footing_case run."""
+    from fem_reference.dolfinx_model.case import time_integral
+
+    f = FOOTING
+    b = f["half_width"]
+    series = pd.read_csv(out / "timeseries.csv")
+    column = "constraint_0_fy" if constraint else "reaction_3_fy"
+    if solver == "dolfinx":
+        settlement = -series["displacement_3_y"]
+    else:
+        ramp = {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * f["duration"]}
+        settlement = f["speed"] * series["time"].map(lambda t: time_integral(ramp, t))
+    q_u = analytic.prandtl_bearing_capacity(f["cohesion"])
+    return pd.DataFrame(
+        {"s_over_b": settlement / b, "q_over_prandtl": -series[column] / b / q_u}
+    )
+
+
 def disk_case() -> dict:
     r = DISK["radius"]
     angles = np.linspace(0.0, 2 * np.pi, 128, endpoint=False)
@@ -526,16 +668,18 @@ def _run(job):
     key it does not support yet, so the other benchmarks still run. A footing run gives
     {"curve": its prandtl_curve, "timeseries": ...} at once: its outputs (about 250 MB) are
     more than the run cache keeps (PFM_CACHE_MAX_MB), which may drop them before the study reads
-    them. A footing run that stops (a UL-FEM element inverted past the collapse) is a result:
-    its outputs up to the stop."""
-    case, solver = job
+    them. A footing run that stops (a UL-FEM element inverted past the collapse, a rigid
+    footing's run past its stable settlement) is a result: its outputs up to the stop. A job
+    (case, "dolfinx", steps) runs the dolfinx model in static mode."""
+    case, solver = job[:2]
     footing = case["title"].startswith("benchmark Prandtl")
+    stop_is_result = footing or case["title"].startswith("benchmark footing")
     try:
         if solver == "dolfinx":  # a stop (exit 3: Newton failed) is a result up to then
             arguments = ["--mode", "static", "--no-fields", "--min-step", "1e-5"]
-            arguments += ["--steps", SOFTENING["dolfinx_steps"]]
+            arguments += ["--steps", job[2]]
             return str(run_dolfinx(case, arguments, accept=(0, 3)).out)
-        out = run_mpm(case, threads=1, solver=solver, allow_stopped=footing).out
+        out = run_mpm(case, threads=1, solver=solver, allow_stopped=stop_is_result).out
         if footing:
             return {
                 "curve": prandtl_curve(out, case),
@@ -679,6 +823,8 @@ def softening_jobs() -> dict:
             for r in (False, True):
                 key = f"softening/{code}{'regularised' if r else 'plain'}/cells{n}"
                 jobs[key] = (softening_case(n, r), code.rstrip("/") or "mpm")
+                if code:
+                    jobs[key] += (SOFTENING["dolfinx_steps"],)
     return jobs
 
 
@@ -731,6 +877,8 @@ def run(context) -> StudyOutcome:
             jobs.update(softening_jobs())
         elif name == "constraint":
             jobs.update(constraint_jobs(context.quick))
+        elif name == "footing":
+            jobs.update(footing_jobs())
         else:
             jobs[name] = (builders[name](), "mpm")
     outs = dict(
@@ -774,6 +922,8 @@ def run(context) -> StudyOutcome:
                 _softening(outs, outcome, context.folder)
             elif name == "constraint":
                 _constraint(outs, jobs, add, outcome, context.folder)
+            elif name == "footing":
+                _footing(outs, jobs, outcome, context.folder)
             else:
                 functions[name](outs[name], add, outcome, context.folder)
         except PrerequisiteMissing as missing:
@@ -905,6 +1055,85 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
             "softening",
             "Softening compression test: force-shortening on three grids, plain and "
             "regularised, MPM (top) and dolfinx (bottom)",
+        )
+    )
+
+
+def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
+    """The rigid footing on every code: the table footing.md (the plateau's mean, least and
+    largest q / (2 + pi) c over FOOTING's plateau window, the last settlement reached), the
+    curves footing.png, and per run the plateau's mean |q / (2 + pi) c - 1| as a metric
+    (benchmarks.footing.<how>_plateau_rel_error: constraint_f<factor>, support_mpm,
+    support_ulfem, support_dolfinx). A run that stopped is read up to its stop."""
+    import matplotlib.pyplot as plt
+
+    f = FOOTING
+    lo, hi = f["plateau"]
+    rows, curves = [], {}
+    for key, job in jobs.items():
+        if not key.startswith("footing/"):
+            continue
+        if _missing(outs[key]):
+            continue
+        _, how, which = key.split("/")
+        curve = footing_curve(_out(outs[key]), job[1], how == "constraint")
+        curves[key] = curve
+        plateau = curve[(curve["s_over_b"] >= lo) & (curve["s_over_b"] <= hi)]
+        q = plateau["q_over_prandtl"]
+        reached = float(curve["s_over_b"].iloc[-1])
+        name = f"{how}_{which}"
+        rows.append(
+            {
+                "run": name,
+                "solver": job[1],
+                "plateau_mean": float(q.mean()) if reached >= hi else float("nan"),
+                "plateau_min": float(q.min()),
+                "plateau_max": float(q.max()),
+                "last_s_over_b": reached,
+            }
+        )
+        if reached >= hi:
+            outcome.metrics.append(
+                Metric(
+                    f"benchmarks.footing.{name}_plateau_rel_error",
+                    abs(float(q.mean()) - 1.0),
+                    "1",
+                )
+            )
+    if not rows:
+        raise PrerequisiteMissing("footing outputs")
+    outcome.tables.append(
+        write_table(
+            folder,
+            pd.DataFrame(rows),
+            "footing",
+            f"Rigid smooth footing pushed at {f['speed']:g} m/s into weightless Tresca soil "
+            f"(c = {f['cohesion']:g} kPa, b = {f['half_width']:g} m, "
+            f"{f['cells_under_half_width']} cells under b): the reaction pressure over "
+            f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest; "
+            "NaN mean: the run stopped before its end), through a constraint on the detected "
+            "top (MPM, per penalty factor) and as a moving support on the grid's or mesh's "
+            "top nodes (MPM, UL-FEM, dolfinx static)",
+        )
+    )
+    figure, axis = plt.subplots(figsize=(7.5, 4.5))
+    for key, curve in curves.items():
+        axis.plot(
+            curve["s_over_b"], curve["q_over_prandtl"], label=key[len("footing/") :]
+        )
+    axis.axhline(1.0, color="0.5", lw=0.8, ls="--")
+    axis.axvspan(lo, hi, color="0.9", zorder=0)
+    axis.set_ylim(0.0, 1.4)
+    axis.set_xlabel("settlement s / b")
+    axis.set_ylabel("reaction pressure / (2 + pi) c")
+    axis.legend(fontsize=8)
+    figure.tight_layout()
+    outcome.figures.append(
+        save_figure(
+            folder,
+            figure,
+            "footing",
+            "Rigid footing: reaction pressure against settlement on every code",
         )
     )
 

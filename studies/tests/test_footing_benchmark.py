@@ -1,0 +1,51 @@
+"""The footing benchmark's cases and measure (studies/benchmarks.py): both cases are valid for
+the C++ reader; the constraint is the first and holds the top under the footing, the support the
+fourth condition; footing_curve gives the settlement the footing's velocity and smooth ramp
+prescribe and the reaction pressure over (2 + pi) c."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from studies import analytic, benchmarks
+from studies.common.paths import core
+
+
+def test_the_footing_cases_are_valid_and_drive_the_footing():
+    pfm_mpm = core()
+    f = benchmarks.FOOTING
+    constraint = pfm_mpm.parse_case(
+        benchmarks.footing_case("constraint", 16.0), "c.json"
+    )
+    (spec,) = constraint["constraints"]
+    assert spec["x_range"] == [-f["half_width"], f["half_width"]]
+    assert constraint["solver"]["pic_fraction"] == f["pic_fraction"]
+    support = pfm_mpm.parse_case(benchmarks.footing_case("support"), "s.json")
+    moving = support["boundary_conditions"][3]
+    assert moving["where"] == "footing" and moving["velocity"] == [0.0, -f["speed"]]
+
+
+def test_footing_curve_is_the_prescribed_settlement_and_the_pressure(tmp_path):
+    """After the smooth ramp t_r the footing has moved v (t - t_r / 2); before it, v t_r u^4
+    (5/2 - 3 u + u^2) with u = t / t_r (the ramp's integral), to 1e-15 m."""
+    f = benchmarks.FOOTING
+    ramp = f["ramp_fraction"] * f["duration"]
+    t = np.array([0.0, 0.5 * ramp, ramp, 2.0, f["duration"]])
+    q_u = analytic.prandtl_bearing_capacity(f["cohesion"])
+    force = -q_u * f["half_width"] * np.array([0.0, 0.5, 0.9, 1.0, 1.1])
+    pd.DataFrame({"time": t, "reaction_3_fy": force}).to_csv(
+        tmp_path / "timeseries.csv", index=False
+    )
+    curve = benchmarks.footing_curve(tmp_path, "mpm", constraint=False)
+    u = 0.5
+    expected = f["speed"] * np.array(
+        [
+            0.0,
+            ramp * u**4 * (2.5 - 3 * u + u * u),
+            ramp / 2,
+            2.0 - ramp / 2,
+            4.0 - ramp / 2,
+        ]
+    )
+    assert np.allclose(curve["s_over_b"] * f["half_width"], expected, atol=1e-15)
+    assert curve["q_over_prandtl"].tolist() == pytest.approx([0.0, 0.5, 0.9, 1.0, 1.1])
