@@ -32,7 +32,8 @@ What it measures:
 * ``constraint``: a 1 m square block turned 30 degrees to the grid (a lattice of 2 x 2 points
   per cell area, turned with it), 0.01 m of normal displacement on one face and zero on the
   three others through constraints on the detected boundary (``constraints[]``, the penalty
-  method): uniaxial strain, sigma_nn = -(lambda + 2 mu) 0.01. The interior's mean sigma_nn and
+  method): uniaxial strain, sigma_nn = (lambda + 2 mu) ln(0.99) (the solver's rate form
+  integrates the stretching; small strain's -0.01 is 0.5 % less). The interior's mean sigma_nn and
   the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 (the
   penalty's error, about h / (factor L), falling as the penalty grows) and for h = L / 8, L / 16,
   L / 32 at the default factor 100, with the constraints' cost per step;
@@ -1441,7 +1442,8 @@ def _constraint(outs, jobs, add, outcome, folder):
     e, nu = c["youngs_modulus"], c["poisson_ratio"]
     lam = e * nu / ((1 + nu) * (1 - 2 * nu))
     modulus = lam + e / (1 + nu)
-    strain = c["displacement"] / c["side"]
+    # the rate form integrates the stretching: ln(L / L0), not the small strain dL / L0
+    strain = float(np.log1p(c["displacement"] / c["side"]))
     exact_nn, exact_tt = modulus * strain, lam * strain
     a = np.radians(c["angle"])
     n, t = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
