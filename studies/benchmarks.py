@@ -1430,52 +1430,72 @@ def _prandtl(outs, jobs, outcome, folder):
     )
 
 
+def constraint_exact() -> tuple:
+    """(sigma_nn, sigma_tt) in kPa of the turned block of CONSTRAINT: uniaxial strain along the
+    loaded face's normal, ln(1 + d / L) (the rate form integrates the stretching: ln(L / L0),
+    not the small strain d / L)."""
+    c = CONSTRAINT
+    e, nu = c["youngs_modulus"], c["poisson_ratio"]
+    lam = e * nu / ((1 + nu) * (1 - 2 * nu))
+    strain = float(np.log1p(c["displacement"] / c["side"]))
+    return (lam + e / (1 + nu)) * strain, lam * strain
+
+
+def constraint_measures(out: Path) -> dict:
+    """The turned block's errors at the end of a constraint_case run (its interior's mean
+    sigma_nn and sigma_tt, its worst interior point, the loaded and opposite faces' reactions,
+    against constraint_exact) and its costs per step (the constraints, detection, the step),
+    ms."""
+    import json
+
+    c = CONSTRAINT
+    exact_nn, exact_tt = constraint_exact()
+    a = np.radians(c["angle"])
+    n, t = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+    particles = _particles(out)
+    r = particles[["x", "y"]].to_numpy() - 1.5
+    inner = (np.abs(r @ n) < c["interior"]) & (np.abs(r @ t) < c["interior"])
+    sxx, syy, sxy = (particles[k].to_numpy()[inner] for k in ("sxx", "syy", "sxy"))
+    snn = sxx * n[0] ** 2 + syy * n[1] ** 2 + 2 * sxy * n[0] * n[1]
+    stt = sxx * t[0] ** 2 + syy * t[1] ** 2 + 2 * sxy * t[0] * t[1]
+    last = read_timeseries(_out(out)).iloc[-1]
+    face = abs(exact_nn) * c["side"]
+    loaded = np.array([last["constraint_0_fx"], last["constraint_0_fy"]])
+    opposite = np.array([last["constraint_1_fx"], last["constraint_1_fy"]])
+    summary = json.loads((_out(out) / "run.json").read_text())["summary"]
+    steps = max(1, summary["n_steps"])
+    stages = summary["stage_seconds"]
+    return {
+        "sigma_nn_rel_error": float(snn.mean() / exact_nn - 1.0),
+        "sigma_tt_rel_error": float(stt.mean() / exact_tt - 1.0),
+        "worst_point_rel_error": float(np.max(np.abs(snn / exact_nn - 1.0))),
+        "reaction_rel_error": float(loaded @ (-n) / face - 1.0),
+        "opposite_rel_error": float(opposite @ n / face - 1.0),
+        "rms_gap_m": float(last["constraint_0_gap"]),
+        "constraint_ms_per_step": 1e3 * stages.get("constraints", 0.0) / steps,
+        "detection_ms_per_step": 1e3 * stages.get("detect", 0.0) / steps,
+        "step_ms": 1e3 * summary["wall_time_s"] / steps,
+    }
+
+
 def _constraint(outs, jobs, add, outcome, folder):
     """The turned block's interior stress and reaction against uniaxial strain, per penalty
     factor and cell size: constraint.csv/.md, constraint.png, and the default run's errors as
     metrics and benchmark rows."""
-    import json
-
     import matplotlib.pyplot as plt
 
     c = CONSTRAINT
-    e, nu = c["youngs_modulus"], c["poisson_ratio"]
-    lam = e * nu / ((1 + nu) * (1 - 2 * nu))
-    modulus = lam + e / (1 + nu)
-    # the rate form integrates the stretching: ln(L / L0), not the small strain dL / L0
-    strain = float(np.log1p(c["displacement"] / c["side"]))
-    exact_nn, exact_tt = modulus * strain, lam * strain
-    a = np.radians(c["angle"])
-    n, t = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+    exact_nn, _ = constraint_exact()
     rows = []
     for key in jobs:
         if not key.startswith("constraint/"):
             continue
         _, factor, cells = key.split("/")
-        particles = _particles(outs[key])
-        r = particles[["x", "y"]].to_numpy() - 1.5
-        inner = (np.abs(r @ n) < c["interior"]) & (np.abs(r @ t) < c["interior"])
-        sxx, syy, sxy = (particles[k].to_numpy()[inner] for k in ("sxx", "syy", "sxy"))
-        snn = sxx * n[0] ** 2 + syy * n[1] ** 2 + 2 * sxy * n[0] * n[1]
-        stt = sxx * t[0] ** 2 + syy * t[1] ** 2 + 2 * sxy * t[0] * t[1]
-        last = read_timeseries(_out(outs[key])).iloc[-1]
-        force = np.array([last["constraint_0_fx"], last["constraint_0_fy"]])
-        run = json.loads((_out(outs[key]) / "run.json").read_text())
-        summary = run["summary"]
-        steps = max(1, summary["n_steps"])
-        stages = summary["stage_seconds"]
         rows.append(
             {
                 "penalty_factor": float(factor),
                 "cells_per_side": int(cells),
-                "sigma_nn_rel_error": float(snn.mean() / exact_nn - 1.0),
-                "sigma_tt_rel_error": float(stt.mean() / exact_tt - 1.0),
-                "worst_point_rel_error": float(np.max(np.abs(snn / exact_nn - 1.0))),
-                "reaction_rel_error": float(
-                    force @ (-n) / (abs(exact_nn) * c["side"]) - 1.0
-                ),
-                "constraint_ms_per_step": 1e3 * stages.get("constraints", 0.0) / steps,
-                "step_ms": 1e3 * summary["wall_time_s"] / steps,
+                **constraint_measures(_out(outs[key])),
             }
         )
     table = pd.DataFrame(rows).sort_values(["cells_per_side", "penalty_factor"])

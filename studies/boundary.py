@@ -32,6 +32,13 @@ runs the nodal forces at the outputs (figs. 6.6, 6.14, ``nodal_forces_<case>_<de
 and from zero stress once more with the points at the cells' Gauss points, fig. 6.13);
 and the detection cost per call (run.json ``summary.detection``).
 
+Constraints (issue 25): the benchmarks study's block turned 30 degrees to the grid, compressed
+by 0.01 m through constraints on its detected faces (penalty factor 100, h = L / 16), held on
+each in-run detector's boundary in turn: the loaded and opposite faces' reactions and the
+interior stress against uniaxial strain, the rms gap and the costs per step
+(``constraint.csv/.md``, metrics ``boundary.constraint.<detector>.reaction_rel_error``). A
+detector's boundary off the material by delta moves the held face: about delta / L of error.
+
 Starts. ``zero``: the thesis's, no initial stress: gravity acts from t = 0 and the body settles
 under it while it is compared (the thesis's figures are for this start). ``k0``: the K0 stress
 of the case reader; on the thesis's soils the K0 state violates Tresca below about 2.4 m (block,
@@ -56,7 +63,7 @@ and 0.625 s). Needs
 ``detect``), ``cases/thesis55_slope_dynamic_zero_start.json`` and ``cases/thesis62_bearing_dynamic_zero_start.json``. Writes
 ``boundary_errors.csv/.md`` (one row per case, detector, measure, time, region),
 ``summary.csv/.md`` (overall max and RMS in h), ``traction.csv/.md``, ``detectors.csv/.md``
-(which detectors ran) and ``overlay_<case>_t<time>.png``.
+(which detectors ran), ``constraint.csv/.md`` and ``overlay_<case>_t<time>.png``.
 """
 
 from __future__ import annotations
@@ -66,6 +73,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from studies import benchmarks
 from studies.common import detectors as det
 from studies.common.cases import (
     base_case,
@@ -320,6 +328,10 @@ def run(context) -> StudyOutcome:
                 }
             )
             keys.append((spec.name, detector))
+    # Constraints held on each detector's boundary (the benchmarks study's turned block).
+    for detector in hosts:
+        tasks.append({"case": constraint_case(detector), "solver": "mpm"})
+        keys.append(("constraint", detector))
     # Thesis fig. 6.13: the block from zero stress with its points at the cells' Gauss points
     # instead of equally spaced, for the nodal forces of the thesis's PFM.
     gauss = [c for c in cases if c.name == PLACEMENT_CASE]
@@ -717,7 +729,61 @@ def run(context) -> StudyOutcome:
                 f"{name}: detected boundaries and the UL-FEM boundary at t = {time:g} s",
             )
         )
+    _constraints(runs, hosts, outcome, context.folder)
     return outcome
+
+
+def constraint_case(detector: str) -> dict:
+    """The benchmarks study's turned block (its default penalty factor and cell size) with
+    `detector` finding the boundary its constraints hold."""
+    c = benchmarks.CONSTRAINT
+    case = benchmarks.constraint_case(c["default_factor"], c["default_cells"])
+    case["detection"] = det.detection_block(detector)
+    case["title"] += f", {detector}"
+    return case
+
+
+def _constraints(runs: dict, detectors, outcome: StudyOutcome, folder: Path) -> None:
+    """constraint.csv/.md: per detector the turned block's errors and costs
+    (benchmarks.constraint_measures), or why there are none (the run failed or stopped), and
+    the metrics boundary.constraint.<detector>.reaction_rel_error (|loaded face's reaction /
+    exact - 1|)."""
+    rows = []
+    for detector in detectors:
+        result = runs[("constraint", detector)]
+        row = {"detector": detector}
+        if "error" in result:
+            kind = "not run" if result.get("missing") else "failed"
+            row["status"] = f"{kind}: {result['error']}"
+        else:
+            out = Path(result["value"])
+            status = run_status(out)
+            if status["status"] != "completed":
+                row["status"] = (
+                    f"stopped at t = {status['final_time_s']:.3g} s: "
+                    f"{status['error'][:100]}"
+                )
+            else:
+                row["status"] = "completed"
+                row.update(benchmarks.constraint_measures(out))
+                outcome.metrics.append(
+                    Metric(
+                        f"boundary.constraint.{detector}.reaction_rel_error",
+                        abs(row["reaction_rel_error"]),
+                        "1",
+                    )
+                )
+        rows.append(row)
+    outcome.tables.append(
+        write_table(
+            folder,
+            pd.DataFrame(rows),
+            "constraint",
+            "Constraints held on each detector's boundary: a 1 m block turned 30 degrees, "
+            "0.01 m of normal displacement on one face (penalty factor 100, h = L / 16), "
+            "errors against uniaxial strain (the rate form's, ln 0.99)",
+        )
+    )
 
 
 def traction_errors(series: pd.DataFrame, load: dict) -> dict:
