@@ -209,10 +209,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     }
     write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
-    status = kExitSimulationError;
-    message = e.what();
-    std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
-              << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+    status = note_simulation_stop(e, dir, message);
   } catch (const IoError& e) {
     return fail_on_write_fault(folder, run, e);
   } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
@@ -220,12 +217,7 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     throw;
   }
 
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  record_run_end(run, solver, initial_steps, wall, status, message,
-                 {"geometry", "particles_to_nodes", "external_forces", "update_nodes",
-                  "nodes_to_particles", "remap", "stress"},
-                 governor.summary());
+  record_run_end(run, solver, initial_steps, wall_start, status, message, governor.summary());
   run["summary"]["solver"] = "ulfem";
   run["summary"]["mesh"] = {{"generator", solver.mesh().generator},
                             {"n_elements", solver.mesh().n_elements()},

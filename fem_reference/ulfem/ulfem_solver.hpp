@@ -140,6 +140,11 @@ class UlFemSolver {
   const GridState& node_state() const { return nodes_; }
   const Case& case_spec() const { return case_; }
   const StageTimes& stage_times() const { return times_; }
+  /// The stages' names in run.json's stage_seconds, in the order of StageTimes' fields.
+  static constexpr std::array<const char*, 7> kStageNames = {
+      "geometry",     "particles_to_nodes", "external_forces",
+      "update_nodes", "nodes_to_particles", "remap",
+      "stress"};
   /// Every boundary edge of the mesh (the candidates for loads), in boundary_edges() order.
   const std::vector<LoadedEdge>& boundary_edges() const { return boundary_edges_; }
   const std::vector<EdgeLoad>& loads() const { return loads_; }

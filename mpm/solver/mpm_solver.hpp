@@ -139,6 +139,10 @@ class MpmSolver {
   const GridState& grid_state() const { return grid_; }
   const Case& case_spec() const { return case_; }
   const StageTimes& stage_times() const { return times_; }
+  /// The stages' names in run.json's stage_seconds, in the order of StageTimes' fields.
+  static constexpr std::array<const char*, 7> kStageNames = {
+      "locate", "particles_to_grid", "external_forces", "update_grid", "grid_to_particles", "remap",
+      "stress"};
   /// Kinetic and elastic energy of the particles now and the energy ledger since time 0
   /// (mpm/solver/energy_ledger.hpp).
   EnergyBalance energy() const;

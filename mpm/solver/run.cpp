@@ -78,6 +78,14 @@ void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& r
   folder.remove_temporaries();
 }
 
+int note_simulation_stop(const SimulationError& error, const std::string& dir,
+                         std::string& message) {
+  message = error.what();
+  std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
+            << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+  return kExitSimulationError;
+}
+
 int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error) {
   std::cerr << "pfm-mpm: write failed: " << error.what() << "\n";
   mark_failed(folder, run, std::string("write failed: ") + error.what());
@@ -319,10 +327,7 @@ int run_case(const Case& c, const RunOptions& options) {
     }
     write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
-    status = kExitSimulationError;
-    message = e.what();
-    std::cerr << "pfm-mpm: simulation stopped: " << message << "\n"
-              << "pfm-mpm: outputs up to the last good step are kept in " << dir << "\n";
+    status = note_simulation_stop(e, dir, message);
   } catch (const IoError& e) {
     writer_owner.reset();  // closes the HDF5 files before run.json is marked
     boundary_writer.reset();
@@ -334,12 +339,7 @@ int run_case(const Case& c, const RunOptions& options) {
     throw;
   }
 
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  record_run_end(run, solver, initial_steps, wall, status, message,
-                 {"locate", "particles_to_grid", "external_forces", "update_grid",
-                  "grid_to_particles", "remap", "stress"},
-                 governor.summary());
+  record_run_end(run, solver, initial_steps, wall_start, status, message, governor.summary());
   if (coupling.detection_enabled()) {
     // The in-step parts of these run inside external_forces (the hook); detections for output
     // steps run outside the step.

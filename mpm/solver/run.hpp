@@ -28,6 +28,8 @@
 
 namespace pfm {
 
+class SimulationError;  // mpm/solver/mpm_solver.hpp
+
 struct RunOptions {
   std::string out_dir;
   int threads = 0;           ///< 0: all cores
@@ -82,16 +84,21 @@ OutputFolder::Mode output_folder_mode(const RunOptions& options);
 void mark_failed(OutputFolder& folder, nlohmann::json& run, const std::string& reason) noexcept;
 /// Ends a run that a write fault stopped: prints the reason, mark_failed(). Returns kExitIoError.
 int fail_on_write_fault(OutputFolder& folder, nlohmann::json& run, const IoError& error);
+/// A simulation error stopped the stepping: prints it and that the outputs so far are kept in
+/// `dir`, sets `message` to it. Returns kExitSimulationError (the run's status).
+int note_simulation_stop(const SimulationError& error, const std::string& dir,
+                         std::string& message);
 
 /// The status, error and summary of a finished run in run.json, as both solvers write them:
 /// status ("completed" for kExitOk, else "failed"), error (`message`, when given), the finish
-/// time, and the summary's particles, steps, times, speed, the stage seconds under the
-/// solver's names for locate, particles-to-grid, external forces, grid update, grid-to-particles,
-/// remap and stress, the energy ledger and the threads. `Solver` is MpmSolver or UlFemSolver.
+/// time, and the summary's particles, steps, times, speed (wall time since `wall_start`), the
+/// stage seconds under the solver's names (Solver::kStageNames) for locate, particles-to-grid,
+/// external forces, grid update, grid-to-particles, remap and stress, the energy ledger and the
+/// threads. `Solver` is MpmSolver or UlFemSolver.
 template <class Solver>
-void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps, double wall,
-                    int status, const std::string& message,
-                    const std::array<const char*, 7>& stage_names, const nlohmann::json& threads);
+void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps,
+                    std::chrono::steady_clock::time_point wall_start, int status,
+                    const std::string& message, const nlohmann::json& threads);
 
 /// Ends a run: writes its timeseries.csv and final run.json (the reserve given back first; a
 /// write fault ends in fail_on_write_fault) and, unless quiet, prints the summary line. Returns
@@ -106,9 +113,12 @@ int finish_run(OutputFolder& folder, nlohmann::json& run, const std::string& tim
 int run_case(const Case& c, const RunOptions& options);
 
 template <class Solver>
-void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps, double wall,
-                    int status, const std::string& message,
-                    const std::array<const char*, 7>& stage_names, const nlohmann::json& threads) {
+void record_run_end(nlohmann::json& run, const Solver& solver, long initial_steps,
+                    std::chrono::steady_clock::time_point wall_start, int status,
+                    const std::string& message, const nlohmann::json& threads) {
+  const auto& stage_names = Solver::kStageNames;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const auto& st = solver.stage_times();
   const double n_particles = static_cast<double>(solver.particles().size());
   const double n_steps_done = static_cast<double>(solver.step_count() + initial_steps);
