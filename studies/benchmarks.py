@@ -646,7 +646,11 @@ def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
             face(0, 1, 0.0),
             face(0, -1, 0.0),
         ],
-        "solver": {"damping": 0.05, "damping_form": "along_velocity"},
+        "solver": {
+            "damping": 0.05,
+            "damping_form": "along_velocity",
+            "pic_fraction": 0.05,
+        },
         "time": {"end_time": 0.4, "cfl": 0.5},
         "output": {"interval": 0.4},
     }
