@@ -53,12 +53,14 @@
 // weightless Tresca soil (the benchmarks study's footing, 8 cells under the half-width b, uGIMP,
 // B-bar; with FLIP its particles carry 0.3-10 m/s) runs to 0.14 b, but the reaction's plateau is
 // 8-9 % above (2 + pi) c (factor 16 or 100; the same footing as a moving support on the grid's
-// top nodes: +1 %, the dolfinx model: +2.8 %; 16 cells under b: +5.5 % up to 0.09 b): the
-// lumped stiffness holds every node of the band under the curve to the footing's velocity, not
-// only their interpolation on it. A consistent (sparse) stiffness held by the velocity gave
-// (2 + pi) c within 1 % early, but grew unstable from 0.04-0.1 b. Past 0.09 b (0.7 h) of
-// settlement the particles under the footing cross a cell row together and every MPM variant,
-// the node support too, turns noisy (the cells' mean dilatation changes its points at once).
+// top nodes: +1 %, the dolfinx model: +2.8 %; 16 cells under b: +5.5 % up to 0.09 b). It is
+// not the penalty's stiffness (factor 0.25 and 1: +10 %) and it grows with the functions'
+// support (linear +8-14 %, quadratic B-splines +18-32 %): the footing's force reaches the
+// material through the nodes around its edge, beyond the part. A consistent (sparse) stiffness
+// held by the velocity gave (2 + pi) c within 1 % early, but grew unstable from 0.04-0.1 b.
+// Past 0.09 b (0.7 h) of settlement the particles under the footing cross a cell row together
+// and every MPM variant, the node support too, turns noisy (the cells' mean dilatation changes
+// its points at once).
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);
