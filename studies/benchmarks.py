@@ -1363,9 +1363,10 @@ def _prandtl(outs, jobs, outcome, folder):
 
     p = PRANDTL
     rows, curves = [], {}
-    for key, (case, _) in jobs.items():
+    for key, job in jobs.items():
         if not key.startswith("prandtl/"):
             continue
+        case = job[0]
         _, solver, c_label, b_label = key.split("/")
         cohesion = case["materials"][0]["cohesion"]
         q_u = analytic.prandtl_bearing_capacity(cohesion)
