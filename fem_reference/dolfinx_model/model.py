@@ -165,10 +165,11 @@ class Model:
                     collapsed, _ = sub.collapse()
                     inside = _node_set_test(case.node_sets[bc.where], tol)
                     dofs = fem.locate_dofs_geometrical((sub, collapsed), inside)[0]
-                if len(dofs) == 0:
+                if len(dofs) == 0 and bc.velocity is not None:
+                    # (a support off the body holds nothing, as on the MPM's empty nodes)
                     raise ValueError(
                         f"{case.file}: /boundary_conditions/{k}/where: "
-                        f"'{bc.where}' holds no node of the mesh"
+                        f"'{bc.where}' holds no node of the mesh to move"
                     )
                 self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), dofs, sub))
                 self.fixed_dofs.append(dofs)
