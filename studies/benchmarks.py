@@ -466,7 +466,7 @@ def footing_case(how: str, penalty_factor: float | None = None) -> dict:
     )
     case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
     case["output"]["timeseries_interval"] = duration / f["samples"]
-    ramp = {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * duration}
+    ramp = footing_ramp()
     if how == "constraint":
         case["constraints"] = [
             {
@@ -497,6 +497,12 @@ def footing_case(how: str, penalty_factor: float | None = None) -> dict:
     return case
 
 
+def footing_ramp() -> dict:
+    """The time function of the footing's speed: a smooth ramp over ramp_fraction x duration."""
+    f = FOOTING
+    return {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * f["duration"]}
+
+
 def footing_jobs() -> dict:
     f = FOOTING
     jobs = {
@@ -520,12 +526,12 @@ def footing_curve(out: Path, solver: str, constraint: bool) -> pd.DataFrame:
 
     f = FOOTING
     b = f["half_width"]
-    series = pd.read_csv(out / "timeseries.csv")
+    series = read_timeseries(out)
     column = "constraint_0_fy" if constraint else "reaction_3_fy"
     if solver == "dolfinx":
         settlement = -series["displacement_3_y"]
     else:
-        ramp = {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * f["duration"]}
+        ramp = footing_ramp()
         settlement = f["speed"] * series["time"].map(lambda t: time_integral(ramp, t))
     q_u = analytic.prandtl_bearing_capacity(f["cohesion"])
     return pd.DataFrame(
@@ -799,7 +805,7 @@ def dolfinx_softening_curve(out: Path) -> pd.DataFrame:
     """shortening (m) and force (kN/m) of a softening_case run of the dolfinx model (static,
     every converged increment): the top platen's prescribed displacement and reaction.
     """
-    series = pd.read_csv(out / "timeseries.csv")
+    series = read_timeseries(out)
     return pd.DataFrame(
         {"shortening": -series["displacement_2_y"], "force": -series["reaction_2_fy"]}
     )
@@ -822,14 +828,20 @@ def half_softening_shortening(curve: pd.DataFrame, residual: float) -> float:
 def softening_jobs() -> dict:
     """The MPM's runs (softening/<law>/cells<n>), then the dolfinx model's
     (softening/dolfinx/<law>/cells<n>)."""
-    jobs = {}
-    for code, grids in (("", "cells_across"), ("dolfinx/", "dolfinx_cells_across")):
-        for n in SOFTENING[grids]:
-            for r in (False, True):
-                key = f"softening/{code}{'regularised' if r else 'plain'}/cells{n}"
-                jobs[key] = (softening_case(n, r), code.rstrip("/") or "mpm")
-                if code:
-                    jobs[key] += (SOFTENING["dolfinx_steps"],)
+    s = SOFTENING
+    laws = {"plain": False, "regularised": True}
+    jobs = {
+        f"softening/{law}/cells{n}": (softening_case(n, r), "mpm")
+        for n in s["cells_across"]
+        for law, r in laws.items()
+    }
+    for n in s["dolfinx_cells_across"]:
+        for law, r in laws.items():
+            jobs[f"softening/dolfinx/{law}/cells{n}"] = (
+                softening_case(n, r),
+                "dolfinx",
+                s["dolfinx_steps"],
+            )
     return jobs
 
 

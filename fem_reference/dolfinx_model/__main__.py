@@ -132,6 +132,7 @@ def main(argv=None):
         return 2
     from .analysis import (
         FieldWriter,
+        refuse_moving_supports,
         run_driven,
         run_explicit,
         run_static,
@@ -150,23 +151,15 @@ def main(argv=None):
         updated_lagrangian=args.updated_lagrangian,
         kappa_measure=args.kappa_measure,
     )
-    driven = [
-        k for k, bc in enumerate(case.boundary_conditions) if bc.velocity is not None
-    ]
-    if driven and args.mode == "explicit":
-        print(
-            f"error: {case.file}: /boundary_conditions/{driven[0]}/velocity: the explicit "
-            "mode holds supports still (run a moving support with --mode static)",
-            file=sys.stderr,
-        )
+    try:  # before anything is written
+        if args.mode == "explicit" or args.collapse:
+            refuse_moving_supports(
+                case, "explicit" if args.mode == "explicit" else "load control"
+            )
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
         return 2
-    if driven and args.collapse:
-        print(
-            f"error: {case.file}: /boundary_conditions/{driven[0]}/velocity: --collapse "
-            "is load control (a moving support drives the run by its displacement)",
-            file=sys.stderr,
-        )
-        return 2
+    driven = any(bc.velocity is not None for bc in case.boundary_conditions)
     degree = args.degree or (2 if args.mode == "static" else 1)
     model = Model(case, degree=degree, **options)
     for spec in args.probe:
@@ -180,7 +173,7 @@ def main(argv=None):
         "degree": degree,
         "cells": int(model.n_cells),
         "options": options,
-        "ignored": ignored_keys(case, args.mode, bool(driven)),
+        "ignored": ignored_keys(case, args.mode, driven),
     }
     fields = (
         None
@@ -264,17 +257,13 @@ def main(argv=None):
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(json.dumps(summary, indent=2))
-    if args.mode == "static" and not summary.get("converged_to_end", True):
+    short = not summary.get("converged_to_end", True) or not summary.get(
+        "converged_to_full_load", True
+    )
+    if args.mode == "static" and short:
         print(
-            "warning: Newton failed before the end time; outputs hold the last converged "
-            "state (exit code 3)",
-            file=sys.stderr,
-        )
-        return 3
-    if args.mode == "static" and not summary.get("converged_to_full_load", True):
-        print(
-            "warning: Newton failed before the full load; outputs hold the last converged "
-            "state (exit code 3)",
+            f"warning: Newton failed before the {'end time' if driven else 'full load'}; "
+            "outputs hold the last converged state (exit code 3)",
             file=sys.stderr,
         )
         return 3

@@ -13,6 +13,34 @@ from .case import read_case, time_function_factor
 from .model import Model, NoConvergence
 
 
+# Why a run refuses a moving support (boundary_conditions[].velocity), by run.
+MOVING_SUPPORT_REFUSALS = {
+    "load control": "load control holds every support still (a moving support runs under "
+    "displacement control: run_driven, the static mode without --collapse)",
+    "explicit": "the explicit mode holds supports still (run a moving support with --mode "
+    "static)",
+}
+
+
+def refuse_moving_supports(case, run: str) -> None:
+    """ValueError '<file>: /boundary_conditions/<k>/velocity: <why>' naming the case's first
+    moving support, when it has one and `run` (a key of MOVING_SUPPORT_REFUSALS) holds them.
+    """
+    for k, bc in enumerate(case.boundary_conditions):
+        if bc.velocity is not None:
+            raise ValueError(
+                f"{case.file}: /boundary_conditions/{k}/velocity: "
+                f"{MOVING_SUPPORT_REFUSALS[run]}"
+            )
+
+
+def _case_and_model(case, model, model_options):
+    """The case (read when given as a path) and its model (built unless given)."""
+    if isinstance(case, (str, os.PathLike)):
+        case = read_case(case)
+    return case, model if model is not None else Model(case, **model_options)
+
+
 @dataclass
 class StaticResult:
     """Results of run_static. Settlements are downward displacements (m, positive down) of the
@@ -97,16 +125,9 @@ def run_static(
     load is the last converged pressure of the first load (a lower bound of the FE limit load).
     model_options go to Model (degree, element_size, refine_size, refine_distance, quads,
     updated_lagrangian, kappa_measure)."""
-    if isinstance(case, (str, os.PathLike)):
-        case = read_case(case)
     start = wallclock.perf_counter()
-    if model is None:
-        model = Model(case, **model_options)
-    if model.moving_supports:
-        raise ValueError(
-            f"{case.file}: /boundary_conditions/{model.moving_supports[0]}/velocity: load "
-            "control holds every support still; a moving support needs run_driven"
-        )
+    case, model = _case_and_model(case, model, model_options)
+    refuse_moving_supports(case, "load control")
     method = initial_stress_method or case.initial_stress
     k0 = case.k0
     result = StaticResult(model, method)
@@ -183,11 +204,8 @@ def run_driven(
     the run stops: converged_to_end False), and a converged one lets the next double again up
     to the nominal increment. The reactions are those of the supports on the body (MPM: the
     columns reaction_<k>_fx/_fy of timeseries.csv, k the boundary condition's index)."""
-    if isinstance(case, (str, os.PathLike)):
-        case = read_case(case)
     start = wallclock.perf_counter()
-    if model is None:
-        model = Model(case, **model_options)
+    case, model = _case_and_model(case, model, model_options)
     if not model.moving_supports:
         raise ValueError(
             f"{case.file}: /boundary_conditions: no support has a velocity "
@@ -272,19 +290,12 @@ def run_explicit(
     import ufl
     from dolfinx import fem
 
-    if isinstance(case, (str, os.PathLike)):
-        case = read_case(case)
     start = wallclock.perf_counter()
     model_options.setdefault("degree", 1)
-    if model is None:
-        model = Model(case, **model_options)
+    case, model = _case_and_model(case, model, model_options)
     if model.degree != 1:
         raise ValueError("explicit mode needs degree 1 (lumped mass)")
-    if model.moving_supports:
-        raise ValueError(
-            f"{case.file}: /boundary_conditions/{model.moving_supports[0]}/velocity: the "
-            "explicit mode holds supports still (a moving support runs in static mode)"
-        )
+    refuse_moving_supports(case, "explicit")
     method = initial_stress_method or case.initial_stress
     if method != "zero":
         initial_stress(model, method, case.k0, 1)
@@ -372,15 +383,8 @@ def write_boundary_csv(loops, path):
                 w.writerow([k, f"{x:.10g}", f"{y:.10g}"])
 
 
-def write_curve_csv(curve, path):
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["load", "settlement", "settlement_total"])
-        for row in curve:
-            w.writerow([f"{v:.10g}" for v in row])
-
-
 def write_table_csv(columns, rows, path):
+    """A header of `columns`, then each row's numbers to 10 significant digits."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(columns)
@@ -388,12 +392,12 @@ def write_table_csv(columns, rows, path):
             w.writerow([f"{v:.10g}" for v in row])
 
 
+def write_curve_csv(curve, path):
+    write_table_csv(["load", "settlement", "settlement_total"], curve, path)
+
+
 def write_series_csv(series, path):
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["time", "load", "settlement", "kinetic_energy"])
-        for row in series:
-            w.writerow([f"{v:.10g}" for v in row])
+    write_table_csv(["time", "load", "settlement", "kinetic_energy"], series, path)
 
 
 class FieldWriter:
