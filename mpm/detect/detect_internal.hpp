@@ -4,13 +4,16 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "mpm/detect/detector.hpp"
+#include "mpm/detect/loop_classes.hpp"
 
 namespace pfm {
 class ParticleBins;
@@ -18,8 +21,80 @@ class ParticleBins;
 
 namespace pfm::detail {
 
+/// The improved detector with its narrow band and accelerations (improved_detector.cpp).
 DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
                                  const ImprovedConfig& config, DetectionTimings& timings);
+/// Its definition, plainly (reference_detector.cpp): bitwise the same contours, the field
+/// evaluated at every node of the refined grid. detect() runs it for `narrow_band: false`.
+DetectedBoundary detect_improved_reference(const ParticleCloud& cloud, const Grid& grid,
+                                           const ImprovedConfig& config, DetectionTimings& timings);
+
+// ---- pieces of the improved detector's definition that both of them call (in
+// reference_detector.cpp; the bridges' pairs and the removal of spurious loops in
+// loop_classes.cpp, the curvature correction, a filter on the contours, in
+// improved_detector.cpp) ----
+
+/// Chebyshev (max-norm) distance from x to the segment a-b (a point: a == b), m.
+double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b);
+/// The refinement of contour pass `pass` (0, 1 or, joining spurious loops, 2), for a grid of
+/// cell h (m) and the smallest semi-axis of an active guard (m; infinity: none). Automatic
+/// (config.refinement <= 0): 4 for the first pass and, joining spurious loops, for the bridges'
+/// pass; the last pass takes cells whose diagonal fits in the smallest guard, so that a guarded
+/// particle has the four corners of its fine cell inside (capped at max_refinement /
+/// sqrt(1 - neighbour_shape)). The first pass does not refine for the guards: a few guarded
+/// corner particles of a long face would refine the whole band (300k-point block: 13 ms at
+/// refinement 10, 8 ms at 4), and the containment check sends what it misses to the last pass.
+int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h);
+/// The bridges of the second pass (ImprovedConfig::join_spurious_loops): from each particle of
+/// `left_out` to every particle within kContactSpacings initial spacings of it, and the contacts
+/// of the spurious islands of `classes`; pairs in increasing order, each once.
+std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> positions,
+                                                     std::span<const std::size_t> left_out,
+                                                     const LoopClasses& classes, double spacing);
+/// Removes the loops the particle spacing cannot resolve (`classes`, classify_loops() of
+/// `boundary`): every spurious hole, with the loops inside it (their region becomes material: it
+/// held no free disk of one spacing), and every material loop that holds no particle. Returns the
+/// number of loops removed.
+long remove_spurious_loops(DetectedBoundary& boundary, const LoopClasses& classes);
+/// The fine cell (i, j) of the lattice `nodes` (its geometry) holding x, clamped to the lattice;
+/// false when x lies outside it.
+bool fine_cell(const NodalField& nodes, const Vec2& x, int& i, int& j);
+/// A segment of a contour, a to b, and the fine cell (j (n_x - 1) + i) holding its middle.
+struct CellSegment {
+  int cell;
+  Vec2 a, b;
+};
+/// Every segment of the contours, sorted by fine cell of `nodes`, in contour order within a cell.
+std::vector<CellSegment> segments_by_cell(const DetectedBoundary& boundary,
+                                          const NodalField& nodes);
+/// The segments of `segments` (segments_by_cell()) in fine cell `cell`.
+std::span<const CellSegment> segments_in(const std::vector<CellSegment>& segments, int cell);
+/// The containment check for a point x in the fine cell of `segments` (not empty): whether x lies
+/// right of (outside) the segment nearest to it; the first of equally near ones decides.
+bool outside_nearest_segment(std::span<const CellSegment> segments, const Vec2& x);
+/// What the contours of pass `pass` call for (ImprovedConfig: join_spurious_loops, guards): no
+/// further pass (nullopt), or one with bridges between `pairs` (pass 0, joining spurious loops,
+/// when a particle is outside or an island is in contact) or one at the guards' refinement (a
+/// particle is still outside); in both the particles `left_out` get their guard. `positions`:
+/// the field's particles, `left_out` indexes them; `classes` takes the loops' classes when they
+/// were found. Counts the particles outside the first contours and the guards' passes.
+struct NextPass {
+  bool bridging = false;
+  std::vector<std::array<std::size_t, 2>> pairs;
+};
+std::optional<NextPass> next_pass(const ImprovedConfig& config, int pass,
+                                  const DetectedBoundary& boundary, std::span<const Vec2> positions,
+                                  std::span<const std::size_t> left_out, double spacing,
+                                  std::optional<LoopClasses>& classes, DetectionTimings& timings);
+/// After the last pass, joining spurious loops: removes the loops the spacing cannot resolve
+/// (remove_spurious_loops(); `classes`: those of the last pass's contours if found).
+void remove_unresolved_loops(const ImprovedConfig& config, DetectedBoundary& boundary,
+                             std::span<const Vec2> positions, double spacing,
+                             std::optional<LoopClasses>& classes, DetectionTimings& timings);
+/// Curvature-bias correction (ImprovedConfig::curvature_correction): each point moves towards
+/// the void by kappa moment / 2, kappa from the circle through the neighbours `arc` (m) away
+/// along the contour.
+void correct_curvature(DetectedBoundary& boundary, double moment, double arc);
 
 DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
                                    const ThesisPfmConfig& config, DetectorState& state,

@@ -293,7 +293,9 @@ DetectedBoundary detect(const ParticleCloud& cloud, const Grid& grid, const Dete
   t = DetectionTimings{};
   switch (config.method) {
     case DetectorMethod::kImproved:
-      return detail::detect_improved(cloud, grid, config.improved, t);
+      return config.improved.narrow_band
+                 ? detail::detect_improved(cloud, grid, config.improved, t)
+                 : detail::detect_improved_reference(cloud, grid, config.improved, t);
     case DetectorMethod::kPfm:
       return detail::detect_thesis_pfm(cloud, grid, config.pfm, state, t);
     case DetectorMethod::kSmm:

@@ -45,8 +45,8 @@ std::size_t rows_per_chunk(int width) {
   return std::max<std::size_t>(1, kCellChunk / static_cast<std::size_t>(std::max(width, 1)));
 }
 
-// Curvature-bias correction: each point moves towards the void by kappa m / 2 (m: curvature
-// moment), kappa from the circle through the neighbours one kernel radius away along the contour.
+}  // namespace
+
 void correct_curvature(DetectedBoundary& boundary, double moment, double arc) {
   for (auto& contour : boundary.contours) {
     const int n = static_cast<int>(contour.points.size());
@@ -83,8 +83,6 @@ void correct_curvature(DetectedBoundary& boundary, double moment, double arc) {
     contour.points = std::move(moved);
   }
 }
-
-}  // namespace
 
 // Values of type T on the fine field grid stored in blocks of r x r, one per coarse (grid) cell,
 // allocated on first use: the narrow band touches few blocks of a large refined grid. Block
@@ -206,7 +204,7 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
 // clouds are swept by chunks on the OpenMP threads; the chunks' minima and maxima, the volumes of
 // the runs (each added in particle order) and the cells' volumes (the runs added in run order)
 // are those of one sweep, whatever the thread count.
-CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cells) {
+CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
   if (n == 0) return survey;
@@ -216,8 +214,7 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
       cloud.deformation_gradient.empty() ? nullptr : cloud.deformation_gradient.data()->data();
   const int n_x = grid.n_cells_x, n_y = grid.n_cells_y;
   const CellLattice lattice = cell_lattice(grid);
-  std::vector<int> cell_of(cells ? n : 0);  // grid cell of each particle, -1 outside
-  const int* cell = cells ? cell_of.data() : nullptr;
+  std::vector<int> cell_of(n);  // grid cell of each particle, -1 outside
   const std::size_t n_chunks = (n + kParticleChunk - 1) / kParticleChunk;
   const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
   const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
@@ -226,7 +223,7 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
     const std::size_t b = chunk_begin(k);
     chunk_totals[k] =
         sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
-                    chunk_end(k) - b, lattice, cells ? cell_of.data() + b : nullptr);
+                    chunk_end(k) - b, lattice, cell_of.data() + b);
   });
   CloudTotals totals = chunk_totals[0];
   for (std::size_t k = 1; k < n_chunks; ++k) {
@@ -237,24 +234,22 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, bool cell
     for (std::size_t p = 0; p < n; ++p) check_particle(cloud, p);
   }
   // (After every cell is known: a run may go on into the next chunk.)
-  std::vector<Runs> chunk_runs(cells ? n_chunks : 0);
+  std::vector<Runs> chunk_runs(n_chunks);
   for_each_on_threads(chunk_runs.size(), 1, [&](std::size_t k) {
-    chunk_runs[k] = runs_starting_in(cell, volume, chunk_begin(k), chunk_end(k), n);
+    chunk_runs[k] = runs_starting_in(cell_of.data(), volume, chunk_begin(k), chunk_end(k), n);
   });
   survey.lo = Vec2(totals.positions.lo_x, totals.positions.lo_y);
   survey.hi = Vec2(totals.positions.hi_x, totals.positions.hi_y);
   survey.largest_stretch = std::sqrt(totals.volumes.largest_squared);
   survey.largest_volume = totals.volumes.largest_volume;
   survey.smallest_det = totals.volumes.smallest_det;
-  if (cells) {
-    survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
-    for (const Runs& r : chunk_runs) {
-      for (std::size_t k = 0; k < r.cell.size(); ++k) {
-        if (r.cell[k] >= 0) survey.cell_volume[static_cast<std::size_t>(r.cell[k])] += r.volume[k];
-      }
+  survey.cell_volume.assign(static_cast<std::size_t>(n_x) * n_y, 0.0);
+  for (const Runs& r : chunk_runs) {
+    for (std::size_t k = 0; k < r.cell.size(); ++k) {
+      if (r.cell[k] >= 0) survey.cell_volume[static_cast<std::size_t>(r.cell[k])] += r.volume[k];
     }
-    survey.runs = std::move(chunk_runs);
   }
+  survey.runs = std::move(chunk_runs);
   return survey;
 }
 
@@ -676,31 +671,6 @@ std::vector<char> guard_candidates(std::span<const Vec2> positions, const Grid& 
   return candidate;
 }
 
-// The refinement of contour pass `pass` (0, 1 or, joining spurious loops, 2). Automatic
-// (config.refinement <= 0): a field cell whose diagonal fits in the smallest guard semi-axis has
-// all four corners in the guard ellipse of any particle inside it, which is then inside the
-// contour. The first pass tries the base refinement (4) whatever the guards, and so does the
-// bridges' pass; the containment check (particles_left_out()) tests the guarded particles too,
-// and the last pass takes the guards' refinement if any particle is still outside. A few guarded
-// corner particles of a long face would otherwise refine the whole band (300k-point block: 13 ms at
-// refinement 10, 8 ms at 4).
-int pass_refinement(const ImprovedConfig& config, int pass, const ImprovedField& field, double h) {
-  if (config.refinement > 0) return config.refinement;
-  // Joining the spurious loops, the second pass (the bridges) keeps the first's refinement.
-  const int base_passes = config.join_spurious_loops ? 2 : 1;
-  const double axis =
-      pass < base_passes ? std::numeric_limits<double>::infinity() : field.smallest_guard_axis();
-  // (Capped before the conversion: a guard squeezed to nothing asks for any refinement.)
-  const int refinement = std::isfinite(axis)
-                             ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
-                             : 4;
-  // Kernels shaped by the neighbours narrow their guards by up to sqrt(1 - beta) across: the cap
-  // grows as much, so that it covers the guards of F as it does without the option.
-  const int cap = static_cast<int>(
-      std::ceil(std::max(1, config.max_refinement) / std::sqrt(1.0 - config.neighbour_shape)));
-  return std::clamp(std::max(refinement, 4), 1, cap);
-}
-
 // The field max(phi, guard) on the nodes of the grid refined r times, each evaluated on first use
 // and kept (the narrow band touches few blocks of a large refined grid).
 class FineNodes {
@@ -724,13 +694,7 @@ class FineNodes {
   int n_cells_x() const { return geometry_.n_x - 1; }
   int n_cells_y() const { return geometry_.n_y - 1; }
   /// The fine cell (i, j) holding x, clamped to the grid; false when x lies outside the grid.
-  bool cell_of(const Vec2& x, int& i, int& j) const {
-    const double u = std::floor((x.x() - geometry_.origin.x()) / geometry_.spacing);
-    const double v = std::floor((x.y() - geometry_.origin.y()) / geometry_.spacing);
-    i = static_cast<int>(std::clamp(u, 0.0, n_cells_x() - 1.0));
-    j = static_cast<int>(std::clamp(v, 0.0, n_cells_y() - 1.0));
-    return u >= 0.0 && v >= 0.0 && u < n_cells_x() && v < n_cells_y();
-  }
+  bool cell_of(const Vec2& x, int& i, int& j) const { return fine_cell(geometry_, x, i, j); }
   /// Takes phi at the grid nodes from the screening (`coarse`, NaN where it has none) where the
   /// field is phi alone (no guard) and the fine node lies bitwise where the grid node does.
   void reuse_grid_nodes(std::span<const double> coarse) { coarse_ = coarse; }
@@ -1131,28 +1095,11 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
                                             const std::vector<char>& candidate, double level) {
   const int ncx = grid.n_cells_x, ncy = grid.n_cells_y;
   const int r = nodes.refinement(), n_fine_x = nodes.n_cells_x();
-  struct CellSegment {
-    int cell;
-    Vec2 a, b;
-  };
-  std::vector<CellSegment> segments;
-  std::size_t n_segments = 0;
-  for (const Contour& c : boundary.contours) n_segments += c.points.size();
-  segments.reserve(n_segments);
+  const std::vector<CellSegment> segments = segments_by_cell(boundary, nodes.geometry());
   std::vector<char> crossed(static_cast<std::size_t>(ncx) * ncy, 0);
-  for (const Contour& c : boundary.contours) {
-    const std::size_t n = c.points.size();
-    for (std::size_t k = 0; k + 1 < n || (c.closed && k < n); ++k) {
-      const Vec2& a = c.points[k];
-      const Vec2& b = c.points[(k + 1) % n];
-      int i = 0, j = 0;
-      nodes.cell_of(0.5 * (a + b), i, j);
-      segments.push_back({j * n_fine_x + i, a, b});
-      crossed[static_cast<std::size_t>(j / r) * ncx + i / r] = 1;
-    }
+  for (const CellSegment& s : segments) {
+    crossed[static_cast<std::size_t>(s.cell / n_fine_x / r) * ncx + s.cell % n_fine_x / r] = 1;
   }
-  std::stable_sort(segments.begin(), segments.end(),
-                   [](const CellSegment& x, const CellSegment& y) { return x.cell < y.cell; });
   // Each particle's verdict on the threads: 0 inside, 1 outside, 2 its fine cell holds no
   // contour and none of its corners is known (evaluated after, on this thread: the node store
   // grows).
@@ -1163,13 +1110,11 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
     int fi = 0, fj = 0;
     if (!nodes.cell_of(x, fi, fj)) return;
     const int ci = fi / r, cj = fj / r;
-    const int cell = fj * n_fine_x + fi;
-    auto it = segments.cend();
+    std::span<const CellSegment> near;
     if (crossed[static_cast<std::size_t>(cj) * ncx + ci]) {
-      it = std::lower_bound(segments.cbegin(), segments.cend(), cell,
-                            [](const CellSegment& s, int value) { return s.cell < value; });
+      near = segments_in(segments, fj * n_fine_x + fi);
     }
-    if (it == segments.cend() || it->cell != cell) {
+    if (near.empty()) {
       // No contour in p's fine cell: its corners share one sign, which must be inside (a few
       // stacked points make an island smaller than a fine cell, which no node sees). Any corner
       // tells; one already evaluated (the lattice holds one of every fine cell at stride 2)
@@ -1184,20 +1129,7 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
       verdict[p] = 2;
       return;
     }
-    const CellSegment* nearest = nullptr;
-    double best = std::numeric_limits<double>::infinity();
-    for (; it != segments.cend() && it->cell == cell; ++it) {
-      const Vec2 d = it->b - it->a;
-      const double t = std::clamp((x - it->a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
-      const double distance = (it->a + t * d - x).squaredNorm();
-      if (distance < best) {
-        best = distance;
-        nearest = &*it;
-      }
-    }
-    if (nearest == nullptr) return;
-    const Vec2 d = nearest->b - nearest->a, e = x - nearest->a;
-    verdict[p] = d.x() * e.y() - d.y() * e.x() < 0.0 ? 1 : 0;
+    verdict[p] = outside_nearest_segment(near, x) ? 1 : 0;
   });
   std::vector<std::size_t> left_out;
   for (std::size_t p = 0; p < positions.size(); ++p) {
@@ -1209,31 +1141,6 @@ std::vector<std::size_t> particles_left_out(const DetectedBoundary& boundary, Fi
     if (verdict[p] == 1) left_out.push_back(p);
   }
   return left_out;
-}
-
-// The bridges of the second pass (ImprovedConfig::join_spurious_loops): from each particle of
-// `left_out` to every particle within kContactSpacings initial spacings of it, and the contacts
-// of the spurious islands of `classes`; pairs in increasing order, each once.
-std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> positions,
-                                                     std::span<const std::size_t> left_out,
-                                                     const LoopClasses& classes, double spacing) {
-  std::vector<std::array<std::size_t, 2>> pairs = classes.contacts;
-  if (!left_out.empty()) {
-    const double contact = kContactSpacings * spacing;
-    const ParticleBins bins(positions, contact);
-    for (const std::size_t p : left_out) {
-      bins.for_each_near(positions[p], [&](int q) {
-        const auto r = static_cast<std::size_t>(q);
-        if (r != p && (positions[r] - positions[p]).norm() < contact) pairs.push_back({p, r});
-      });
-    }
-  }
-  for (auto& pair : pairs) {
-    if (pair[0] > pair[1]) std::swap(pair[0], pair[1]);
-  }
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  return pairs;
 }
 
 // The grid cells where the field of the next pass may differ from the last one's: those met by
@@ -1269,39 +1176,6 @@ std::vector<char> cells_changed_by(const Grid& grid, std::span<const Vec2> posit
          positions[p].cwiseMax(positions[q]) + support);
   }
   return changed;
-}
-
-// Removes the loops the particle spacing cannot resolve (`classes`, classify_loops() of
-// `boundary`): every spurious hole, with the loops inside it (their region becomes material: it
-// held no free disk of one spacing), and every material loop that holds no particle. Returns the
-// number of loops removed.
-long remove_spurious_loops(DetectedBoundary& boundary, const LoopClasses& classes) {
-  const std::size_t n = boundary.contours.size();
-  std::vector<char> drop(n, 0);
-  for (std::size_t c = 0; c < n; ++c) {
-    if (classes.of_loop[c] == LoopClass::kSpuriousLoop) drop[c] = 1;
-    if (classes.of_loop[c] != LoopClass::kSpuriousHole) continue;
-    drop[c] = 1;
-    // Loops do not cross: one inside the hole has all its points, the first among them, inside.
-    const std::vector<Vec2>& hole = boundary.contours[c].points;
-    for (std::size_t d = 0; d < n; ++d) {
-      if (d != c && boundary.contours[d].closed && !boundary.contours[d].points.empty() &&
-          point_in_polygon(hole, boundary.contours[d].points.front())) {
-        drop[d] = 1;
-      }
-    }
-  }
-  long removed = 0;
-  std::vector<Contour> kept;
-  for (std::size_t c = 0; c < n; ++c) {
-    if (drop[c]) {
-      ++removed;
-    } else {
-      kept.push_back(std::move(boundary.contours[c]));
-    }
-  }
-  boundary.contours = std::move(kept);
-  return removed;
 }
 
 }  // namespace
@@ -1349,7 +1223,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   // 0. One sweep over the cloud. The fixed-point unit of the kernel sums follows from the whole
   //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
   //    sums of one built on all of them (the sums are of integers: any order gives the same).
-  CloudSurvey survey = survey_cloud(input, grid, config.narrow_band);
+  CloudSurvey survey = survey_cloud(input, grid);
   //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
   //    values clamped to [1 / cap, cap] where any lies outside.
   //    A particle's volume is V0 det F: where det F' < det F (stretched beyond the cap), the
@@ -1375,7 +1249,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
       survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
       cloud.deformation_gradient = capped;
       cloud.volume = capped_volume;
-      if (config.narrow_band) total_volumes_again(survey, capped_volume);
+      total_volumes_again(survey, capped_volume);
     }
   }
   lap(parts.survey);
@@ -1393,7 +1267,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   //    nothing to screen.
   const double widest = std::max(grid.n_cells_x, grid.n_cells_y);
   std::optional<Band> band;
-  if (config.narrow_band && !cloud.position.empty() && particle_reach / h < widest) {
+  if (!cloud.position.empty() && particle_reach / h < widest) {
     band = select_band(cloud, grid, config, survey, kernel_reach, particle_reach);
   }
   ParticleCloud field_cloud =
@@ -1426,18 +1300,13 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   long field_evaluations = 0;
   const auto positions = field.positions();
 
-  // 1. Coarse screening (narrow band only).
-  Screening screen;
-  if (config.narrow_band) {
-    screen = screen_cells(field, grid, config, interior_by_volume, field_evaluations);
-  }
+  // 1. Coarse screening.
+  const Screening screen = screen_cells(field, grid, config, interior_by_volume, field_evaluations);
   lap(parts.screening);
-  // 2. Guards: every particle outside the deep cells is a candidate (all without narrow band).
-  std::vector<char> candidate;
-  if (config.narrow_band) candidate = guard_candidates(positions, grid, screen.deep);
+  // 2. Guards: every particle outside the deep cells is a candidate.
+  const std::vector<char> candidate = guard_candidates(positions, grid, screen.deep);
   field.decide_guards(candidate);
-  field_evaluations += static_cast<long>(
-      candidate.empty() ? positions.size() : std::count(candidate.begin(), candidate.end(), 1));
+  field_evaluations += static_cast<long>(std::count(candidate.begin(), candidate.end(), 1));
   lap(parts.guards);
 
   // Steps 3-5 run again when the contours of the first pass leave a particle outside (step 5) or
@@ -1455,11 +1324,10 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   std::vector<char> changed;
   // The loops' classes of the last pass's contours, when they were taken (for the bridges).
   std::optional<LoopClasses> classes;
-  const bool join = config.join_spurious_loops && config.guard_factor > 0.0;
   for (int pass = 0;; ++pass) {
     classes.reset();
     lap.restart();
-    const int r = pass_refinement(config, pass, field, h);
+    const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h);
     timings.refinement = r;
     if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
       kept_nodes->forget(changed);
@@ -1473,15 +1341,9 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     const bool phi_alone = field.n_guarded() == 0 && field.n_bridges() == 0;
     nodes.reuse_grid_nodes(phi_alone ? std::span<const double>(screen.coarse)
                                      : std::span<const double>());
-    // 3. The fine cells to contour: all of them for the full field.
-    std::vector<int> cells;
-    if (config.narrow_band) {
-      cells =
-          trace_band_cells(nodes, grid, field, screen, interior_by_volume, candidate, guard_reach);
-    } else {
-      cells.resize(static_cast<std::size_t>(nodes.n_cells_x()) * nodes.n_cells_y());
-      for (std::size_t c = 0; c < cells.size(); ++c) cells[c] = static_cast<int>(c);
-    }
+    // 3. The fine cells to contour.
+    const std::vector<int> cells =
+        trace_band_cells(nodes, grid, field, screen, interior_by_volume, candidate, guard_reach);
     lap(parts.nodes);
 
     // 4. Edge points and contours.
@@ -1504,39 +1366,17 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     edge_points += roots.count();
     root_evaluations += roots.evaluations();
     connection_seconds += seconds_since(contour_start) - roots.seconds();
-    // Pass 0 is followed, joining spurious loops, by the bridges' pass (if a particle is outside
-    // or an island is in contact), and any pass before the last by one at the guards'
-    // refinement if a particle is outside.
-    if (config.guard_factor <= 0.0) break;
-    const bool bridging = pass == 0 && join;
-    std::vector<std::array<std::size_t, 2>> pairs;
-    if (bridging) {
-      if (boundary.contours.size() > 1) {
-        classes = classify_loops(boundary, positions, cloud.initial_spacing);
-      }
-      pairs =
-          bridge_pairs(positions, left_out, classes.value_or(LoopClasses{}), cloud.initial_spacing);
-      if (left_out.empty() && pairs.empty()) break;
-    } else if (left_out.empty() || pass == (join ? 2 : 1)) {
-      break;
-    }
-    if (pass == 0) timings.particles_outside_first_contours = static_cast<long>(left_out.size());
-    const std::size_t guarded_before = field.n_guarded();
-    field.add_guards(left_out);
-    timings.particles_guarded_after_contouring +=
-        static_cast<long>(field.n_guarded() - guarded_before);
-    if (bridging) {
-      field.add_bridges(left_out, pairs, h / r);
+    const auto next = next_pass(config, pass, boundary, positions, left_out, cloud.initial_spacing,
+                                classes, timings);
+    if (!next) break;
+    timings.particles_guarded_after_contouring += static_cast<long>(field.add_guards(left_out));
+    if (next->bridging) {
+      field.add_bridges(left_out, next->pairs, h / r);
       timings.bridges = static_cast<long>(field.n_bridges());
-    } else {
-      timings.guard_refinement_passes += 1;
     }
-    changed = cells_changed_by(grid, positions, left_out, pairs, guard_reach, h / r);
+    changed = cells_changed_by(grid, positions, left_out, next->pairs, guard_reach, h / r);
   }
-  if (join && boundary.contours.size() > 1) {
-    if (!classes) classes = classify_loops(boundary, positions, cloud.initial_spacing);
-    timings.spurious_loops_removed = remove_spurious_loops(boundary, *classes);
-  }
+  remove_unresolved_loops(config, boundary, positions, cloud.initial_spacing, classes, timings);
   timings.edge_points = edge_seconds;
   timings.connection = connection_seconds;
   timings.edge_point_count = edge_points;

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/kernel.hpp"
 #include "mpm/detect/vector_loops.hpp"
 
 namespace pfm {
@@ -53,7 +54,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
 ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config, DeferGuards,
                              const Grid* walls, const CloudBounds* bounds,
                              const WallContacts* contacts)
-    : exponent_(static_cast<int>(config.profile)),
+    : exponent_(detail::kernel_exponent(config.profile)),
       guard_(config.guard_factor > 0.0),
       level_(config.level),
       guard_margin_(config.guard_margin) {
@@ -68,8 +69,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   reach_box_.resize(n);
   smallest_stretch_.resize(n);
   smallest_guard_axis_ = std::numeric_limits<double>::infinity();
-  curvature_moment_ = a0 * a0 / (2.0 * exponent_ + 3.0);
-  const double mass_constant = (exponent_ + 1.0) / std::numbers::pi;  // C det S, unit mass
+  curvature_moment_ = detail::kernel_curvature_moment(config.profile, a0);
   const bool deformed = !cloud.deformation_gradient.empty();
   const double guard_reach = reference_guard_reach(config, cloud.initial_spacing);
   const double unit_reach = reference_reach(config, cloud.initial_spacing);
@@ -124,37 +124,11 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
       own = find_wall_contacts(position_, lo, hi, *walls, spacing);
       contacts = &own;
     }
-    const bool* wall = contacts->wall;
-    const std::vector<char>* touched = contacts->touched;
-    const auto distance_to = [&](int w, const Vec2& x) { return wall_distance(w, x, g0, g1); };
-    const auto along = [&](int w, const Vec2& x) { return wall_along(w, x, g0); };
-    const auto mirrored = [&](int w, const Vec2& x, double half_across, double half_along) {
-      if (!wall[w] || distance_to(w, x) >= half_across) return false;
-      const auto& bins = touched[w];
-      const double a = along(w, x);
-      const long b0 = std::max(0L, static_cast<long>(std::floor((a - half_along) / spacing)));
-      const long b1 = std::min(static_cast<long>(bins.size()) - 1,
-                               static_cast<long>(std::floor((a + half_along) / spacing)));
-      for (long b = b0; b <= b1; ++b) {
-        if (bins[static_cast<std::size_t>(b)]) return true;
-      }
-      return false;
-    };
     for (std::size_t p = 0; p < n; ++p) {
       const Vec2& x = position_[p];
       const double half_x = std::max(reach_box_[p].x(), particle_reach_[p]);
       const double half_y = std::max(reach_box_[p].y(), particle_reach_[p]);
-      int side_x = -1, side_y = -1;  // which wall (0 low, 1 high) the particle is mirrored across
-      if (mirrored(0, x, half_x, half_y)) {
-        side_x = 0;
-      } else if (mirrored(1, x, half_x, half_y)) {
-        side_x = 1;
-      }
-      if (mirrored(2, x, half_y, half_x)) {
-        side_y = 0;
-      } else if (mirrored(3, x, half_y, half_x)) {
-        side_y = 1;
-      }
+      const auto [side_x, side_y] = mirror_sides(*contacts, *walls, x, half_x, half_y, spacing);
       if (side_x < 0 && side_y < 0) continue;
       const double ex = side_x == 1 ? g1.x() : g0.x(), ey = side_y == 1 ? g1.y() : g0.y();
       const std::pair<bool, bool> kinds[3] = {{true, false}, {false, true}, {true, true}};
@@ -170,39 +144,15 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
   rings_ = kBinRings;
   bins_ = ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
   // Pass 2, in bin order (the cloud's arrays are read in a few streams): the slots.
-  struct Slot {
-    double x, y, k00, k01, k10, k11, weight, half_x, half_y;
-  };
   const auto kernel_of = [&](std::size_t p) {
-    Slot slot{position_[p].x(),
-              position_[p].y(),
-              1.0 / a0,
-              0.0,
-              0.0,
-              1.0 / a0,
-              cloud.volume[p] * mass_constant / (a0 * a0),
-              a0,
-              a0};
-    if (deformed) {
-      const Mat2& f = cloud.deformation_gradient[p];
-      const double det_f = f.determinant();
-      // S = F S0 with S0 = a0 I: the kernel follows the material (no clamping); S^-1 = F^-1 / a0.
-      const double inverse_scale = 1.0 / (det_f * a0);
-      slot.k00 = f(1, 1) * inverse_scale;
-      slot.k01 = -f(0, 1) * inverse_scale;
-      slot.k10 = -f(1, 0) * inverse_scale;
-      slot.k11 = f(0, 0) * inverse_scale;
-      slot.weight /= det_f;
-      // Half widths of the box around the ellipse {a0 F u : |u| < 1}: a0 |row of F|.
-      slot.half_x = a0 * std::sqrt(f(0, 0) * f(0, 0) + f(0, 1) * f(0, 1));
-      slot.half_y = a0 * std::sqrt(f(1, 0) * f(1, 0) + f(1, 1) * f(1, 1));
-    }
-    return slot;
+    return detail::kernel_slot(position_[p], cloud.volume[p],
+                               deformed ? &cloud.deformation_gradient[p] : nullptr, a0,
+                               config.profile);
   };
   slot_.assign_zeros(all_positions.size());
   detail::for_each_on_threads(slot_.size(), kParticleChunk, [&](std::size_t k) {
     const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
-    Slot m = kernel_of(q < n ? q : images[q - n].particle);
+    detail::KernelSlot m = kernel_of(q < n ? q : images[q - n].particle);
     if (q >= n) {
       const Image& image = images[q - n];
       if (image.in_x) {
@@ -247,11 +197,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     bound = bounds->weight_bound;
     slots = static_cast<double>(bounds->slot_bound);
   }
-  bound = bound > 0.0 ? bound : 1.0;
-  int exponent_of_bound = 0, exponent_of_total = 0;
-  std::frexp(bound, &exponent_of_bound);  // bound < 2^exponent_of_bound
-  std::frexp(bound * std::max(slots, 1.0), &exponent_of_total);
-  fixed_point_bits_ = std::min(44 - exponent_of_bound, 62 - exponent_of_total);
+  fixed_point_bits_ = detail::fixed_point_bits(bound, slots);
   fixed_point_unit_ = std::ldexp(1.0, -fixed_point_bits_);
   // A power of two: each product is std::ldexp(weight, bits), correctly rounded alike.
   const double scale = std::ldexp(1.0, fixed_point_bits_);
@@ -260,9 +206,8 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
 
 double ImprovedField::weight_bound(const ImprovedConfig& config, double initial_spacing,
                                    double largest_volume, double smallest_det) {
-  const double a0 = config.radius_factor * initial_spacing;
-  const double mass_constant = (static_cast<int>(config.profile) + 1.0) / std::numbers::pi;
-  return largest_volume * mass_constant / (a0 * a0) / smallest_det;
+  return detail::kernel_weight_bound(config.profile, config.radius_factor * initial_spacing,
+                                     largest_volume, smallest_det);
 }
 
 void ImprovedField::KernelArrays::assign_zeros(std::size_t n) {
@@ -302,6 +247,29 @@ double ImprovedField::reference_guard_reach(const ImprovedConfig& config, double
 double ImprovedField::reference_reach(const ImprovedConfig& config, double initial_spacing) {
   return std::max(config.radius_factor * initial_spacing,
                   reference_guard_reach(config, initial_spacing));
+}
+
+std::array<int, 2> ImprovedField::mirror_sides(const WallContacts& contacts, const Grid& walls,
+                                               const Vec2& x, double half_x, double half_y,
+                                               double spacing) {
+  const Vec2 g0 = walls.origin, g1 = walls.upper_corner();
+  // Across wall w if the particle reaches it (half_across) where the body touches it, within
+  // half_along along it.
+  const auto mirrored = [&](int w, double half_across, double half_along) {
+    if (!contacts.wall[w] || wall_distance(w, x, g0, g1) >= half_across) return false;
+    const auto& bins = contacts.touched[w];
+    const double a = wall_along(w, x, g0);
+    const long b0 = std::max(0L, static_cast<long>(std::floor((a - half_along) / spacing)));
+    const long b1 = std::min(static_cast<long>(bins.size()) - 1,
+                             static_cast<long>(std::floor((a + half_along) / spacing)));
+    for (long b = b0; b <= b1; ++b) {
+      if (bins[static_cast<std::size_t>(b)]) return true;
+    }
+    return false;
+  };
+  const int side_x = mirrored(0, half_x, half_y) ? 0 : mirrored(1, half_x, half_y) ? 1 : -1;
+  const int side_y = mirrored(2, half_y, half_x) ? 0 : mirrored(3, half_y, half_x) ? 1 : -1;
+  return {side_x, side_y};
 }
 
 ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,
@@ -353,14 +321,16 @@ void ImprovedField::decide_guards(std::span<const char> candidate) {
   }
 }
 
-void ImprovedField::add_guards(std::span<const std::size_t> particles) {
-  if (!guard_) return;
+std::size_t ImprovedField::add_guards(std::span<const std::size_t> particles) {
+  if (!guard_) return 0;
+  const std::size_t before = n_guarded_;
   for (const std::size_t p : particles) {
     if (guarded_[p]) continue;
     switch_guard_on(p);
     particle_reach_[p] = kernel_reach_[p] * std::max(1.0, std::sqrt(2.0) / guard_scale_);
   }
   list_guarded_slots();
+  return n_guarded_ - before;
 }
 
 void ImprovedField::list_guarded_slots() {
@@ -423,27 +393,6 @@ double ImprovedField::volume_fraction(const Vec2& x) const {
   return sum_at(x, false);
 }
 
-namespace {
-
-// Chebyshev (max-norm) distance from x to the segment a-b: the convex, piecewise linear
-// max(|e_x - t d_x|, |e_y - t d_y|) (e = x - a, d = b - a) is least on [0, 1] at an end or where
-// a term vanishes or the two are equal.
-double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b) {
-  const Vec2 e = x - a, d = b - a;
-  const auto at = [&](double t) {
-    t = std::clamp(t, 0.0, 1.0);
-    return std::max(std::abs(e.x() - t * d.x()), std::abs(e.y() - t * d.y()));
-  };
-  double best = std::min(at(0.0), at(1.0));
-  if (d.x() != 0.0) best = std::min(best, at(e.x() / d.x()));
-  if (d.y() != 0.0) best = std::min(best, at(e.y() / d.y()));
-  if (d.x() != d.y()) best = std::min(best, at((e.x() - e.y()) / (d.x() - d.y())));
-  if (d.x() != -d.y()) best = std::min(best, at((e.x() + e.y()) / (d.x() + d.y())));
-  return best;
-}
-
-}  // namespace
-
 double ImprovedField::Bridges::value(const Vec2& x, double level) const {
   const double u = std::floor((x.x() - origin.x()) / bin),
                v = std::floor((x.y() - origin.y()) / bin);
@@ -459,7 +408,7 @@ double ImprovedField::Bridges::value(const Vec2& x, double level) const {
     const Vec2 lo = a[s].cwiseMin(b[s]), hi = a[s].cwiseMax(b[s]);
     const double box = std::max(std::max(lo.x() - x.x(), x.x() - hi.x()),
                                 std::max(lo.y() - x.y(), x.y() - hi.y()));
-    if (box < support) nearest = std::min(nearest, chebyshev_distance(x, a[s], b[s]));
+    if (box < support) nearest = std::min(nearest, detail::chebyshev_distance(x, a[s], b[s]));
   }
   return nearest < support ? level * (2.0 - nearest / half) : 0.0;
 }

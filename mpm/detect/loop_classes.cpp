@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "mpm/core/polygon.hpp"
+#include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/particle_bins.hpp"
 
 namespace pfm {
@@ -159,3 +160,58 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
 }
 
 }  // namespace pfm
+
+namespace pfm::detail {
+
+std::vector<std::array<std::size_t, 2>> bridge_pairs(std::span<const Vec2> positions,
+                                                     std::span<const std::size_t> left_out,
+                                                     const LoopClasses& classes, double spacing) {
+  std::vector<std::array<std::size_t, 2>> pairs = classes.contacts;
+  if (!left_out.empty()) {
+    const double contact = kContactSpacings * spacing;
+    const ParticleBins bins(positions, contact);
+    for (const std::size_t p : left_out) {
+      bins.for_each_near(positions[p], [&](int q) {
+        const auto r = static_cast<std::size_t>(q);
+        if (r != p && (positions[r] - positions[p]).norm() < contact) pairs.push_back({p, r});
+      });
+    }
+  }
+  for (auto& pair : pairs) {
+    if (pair[0] > pair[1]) std::swap(pair[0], pair[1]);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+long remove_spurious_loops(DetectedBoundary& boundary, const LoopClasses& classes) {
+  const std::size_t n = boundary.contours.size();
+  std::vector<char> drop(n, 0);
+  for (std::size_t c = 0; c < n; ++c) {
+    if (classes.of_loop[c] == LoopClass::kSpuriousLoop) drop[c] = 1;
+    if (classes.of_loop[c] != LoopClass::kSpuriousHole) continue;
+    drop[c] = 1;
+    // Loops do not cross: one inside the hole has all its points, the first among them, inside.
+    const std::vector<Vec2>& hole = boundary.contours[c].points;
+    for (std::size_t d = 0; d < n; ++d) {
+      if (d != c && boundary.contours[d].closed && !boundary.contours[d].points.empty() &&
+          point_in_polygon(hole, boundary.contours[d].points.front())) {
+        drop[d] = 1;
+      }
+    }
+  }
+  long removed = 0;
+  std::vector<Contour> kept;
+  for (std::size_t c = 0; c < n; ++c) {
+    if (drop[c]) {
+      ++removed;
+    } else {
+      kept.push_back(std::move(boundary.contours[c]));
+    }
+  }
+  boundary.contours = std::move(kept);
+  return removed;
+}
+
+}  // namespace pfm::detail

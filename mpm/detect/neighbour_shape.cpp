@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/kernel.hpp"
 #include "mpm/detect/particle_bins.hpp"
 
 namespace pfm::detail {
@@ -39,8 +40,7 @@ struct Neighbour {
 }  // namespace
 
 double neighbour_moment_of_unit_window(KernelProfile profile) {
-  // E[x^2] under the weight (1 - r^2)^k on the unit disk: E[r^2] / 2 = 1 / (2 (k + 2)).
-  return 1.0 / (2.0 * (static_cast<int>(profile) + 2.0));
+  return kernel_window_moment(profile);
 }
 
 NeighbourSearch::NeighbourSearch(const ParticleCloud& cloud, double window_reach)
@@ -51,7 +51,7 @@ NeighbourSearch::~NeighbourSearch() = default;
 WindowMoment neighbour_window_moment(const NeighbourSearch& search, const ImprovedConfig& config,
                                      const Vec2& x, const Mat2& f) {
   const ParticleCloud& cloud = search.cloud();
-  const int k = static_cast<int>(config.profile);
+  const int k = kernel_exponent(config.profile);
   const double a0 = config.radius_factor * cloud.initial_spacing;
   const Mat2 to_unit = f.inverse() / a0;
   // The window's box: |x_j - x| <= a0 |row of F| in each axis.

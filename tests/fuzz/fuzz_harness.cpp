@@ -207,7 +207,7 @@ DetectInput decode_detect(const std::vector<std::uint8_t>& bytes) {
 
 // The improved detector on the decoded cloud: the contour invariants of issue 3 (closed or
 // ending on the grid edge, no shared point, no crossing, orientation, every material point
-// inside), the narrow band bitwise equal to the full field.
+// inside), the narrow band bitwise equal to the reference detector.
 Outcome run_detect(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(file)),
@@ -224,7 +224,7 @@ Outcome run_detect(const std::string& path) {
   DetectorState band_state, full_state;
   const DetectedBoundary a = detect(cloud, in.grid, band, band_state);
   const DetectedBoundary b = detect(cloud, in.grid, full, full_state);
-  check(test::same_contours(a, b), path, "the narrow band gives the full field's contours");
+  check(test::same_contours(a, b), path, "the narrow band gives the reference detector's contours");
   if (a.contours.empty()) {
     // No contour: the material covers the whole grid (every edge a wall), and then the field is
     // inside at every node along the grid edge; otherwise a contour was missed.

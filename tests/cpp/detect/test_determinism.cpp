@@ -73,7 +73,7 @@ TEST(Determinism, NarrowBandEqualsFullField) {
     }
   }
   // Blocks of 12 m x 8 m and 24 m x 16 m on grids with a 2 m margin: the band's cost follows the
-  // perimeter (x 2), the full field's the grid area (x 2.9).
+  // perimeter (x 2), the reference detector's (`narrow_band: false`) the grid area (x 2.9).
   long band_cost[2] = {0, 0}, full_cost[2] = {0, 0};
   for (const int scale : {1, 2}) {
     const auto big =
@@ -178,7 +178,7 @@ TEST(Determinism, KernelSumsGiveTheSameBoundaryOnEveryInstructionSet) {
 // particle volume. Cracks of every width from a twentieth of a cell to more than one, at 2, 3
 // and 5 points per cell direction, straight and sheared, cut into the middle of a block or
 // through it, the block clear of the grid edges or resting on three of them (mirrored): the
-// narrow band must find what the full field finds.
+// narrow band must find what the reference detector (`narrow_band: false`) finds.
 TEST(Determinism, NarrowBandEqualsFullFieldAcrossCracks) {
   DetectorConfig band, full;
   band.method = full.method = DetectorMethod::kImproved;
@@ -283,7 +283,7 @@ TEST(Determinism, PointsThatCrossedACellLineLeaveTheBandAsItWas) {
   const auto b = detect(crossed.view(), g, full, s2, &full_timings);
   std::printf(
       "%d points moved across a cell line: %ld points in the band (%ld unmoved, %ld in the "
-      "full field)\n",
+      "reference detector's field)\n",
       moved, band_timings.field_particles, unmoved.field_particles, full_timings.field_particles);
   EXPECT_GE(moved, 4);
   EXPECT_EQ(band_timings.field_particles, unmoved.field_particles);
@@ -292,7 +292,7 @@ TEST(Determinism, PointsThatCrossedACellLineLeaveTheBandAsItWas) {
 
 // One particle stretched 1e5 times reaches across the whole grid: the volume screening is
 // skipped (it would size its cell arrays by that reach) and the narrow band still equals the
-// full field.
+// reference detector.
 TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
   auto cloud = lattice_cloud(0.5, Placement::kEqualSpacing, Vec2(1, 1), Vec2(3, 3),
                              [](const Vec2&) { return true; });
