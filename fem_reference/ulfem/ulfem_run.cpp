@@ -189,24 +189,11 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
     const double end = c.time.end_time;
     const double eps = 1e-9 * solver.dt();
     double next_output = c.output.interval, next_series = c.output.timeseries_interval;
-    // The step may shrink as elements are crushed (UlFemSolver::dt), so loop on time.
-    RunProgress progress(options.progress);
-    while (solver.time() < end - eps) {
-      governor.update();
-      solver.step();
-      progress.update(solver.step_count(), solver.time(), end);
-      const double t = solver.time();
-      const bool last = t >= end - eps;
-      if (t >= next_series - eps || last) {
-        record(solver);
-        while (next_series <= t + eps) next_series += c.output.timeseries_interval;
-      }
-      if (t >= next_output - eps || last) {
-        output(t);
-        write_file_atomically(folder.file("timeseries.csv"), series.text());
-        while (next_output <= t + eps) next_output += c.output.interval;
-      }
-    }
+    // The step may shrink as elements are crushed (UlFemSolver::dt), so the run ends on time.
+    step_to_end(
+        solver, c, options, governor, folder, series, next_series, next_output,
+        [&] { return solver.time() >= end - eps; }, [&] { record(solver); },
+        [&] { output(solver.time()); }, [](bool) {});
     write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
     status = note_simulation_stop(e, dir, message);

@@ -318,11 +318,8 @@ void UlFemSolver::step() {
     const std::size_t n_nodes = nodes_.mass.size();
     const double tiny = 1e-12 * particles_.mass.front();
     for (std::size_t n = 0; n < n_nodes; ++n) {
-      Vec2 v = Vec2::Zero();
-      if (nodes_.mass[n] > tiny) v = nodes_.momentum[n] / nodes_.mass[n];
-      if (nodes_.fixed[n] & kFixX) v.x() = prescribed_.end()[n].x();
-      if (nodes_.fixed[n] & kFixY) v.y() = prescribed_.end()[n].y();
-      remapped_velocity_[n] = v;
+      remapped_velocity_[n] = node_velocity(nodes_.mass[n], nodes_.momentum[n], nodes_.fixed[n],
+                                            prescribed_.end()[n], tiny);
     }
   }
   {

@@ -83,6 +83,18 @@ struct NodeEnergy {
   }
 };
 
+/// A node's velocity p / m (zero for a node of mass <= tiny, which the grid update leaves alone)
+/// with its fixed components `prescribed`: the MUSL remap's velocity (the prescribed velocity at
+/// the step's end) and the load work's start velocity (at its start).
+inline Vec2 node_velocity(double m, const Vec2& p, unsigned fixed, const Vec2& prescribed,
+                          double tiny) {
+  Vec2 v = Vec2::Zero();
+  if (m > tiny) v = p / m;
+  if (fixed & kFixX) v.x() = prescribed.x();
+  if (fixed & kFixY) v.y() = prescribed.y();
+  return v;
+}
+
 /// The local damping's force at a node: Cundall's per axis, or along the velocity
 /// (frame-invariant); see update_node(). The case's solver.damping_form.
 enum class DampingForm { kPerAxis, kAlongVelocity };
@@ -269,9 +281,7 @@ class LoadWorkRecorder {
       for (const auto& [node, force] : forces_[k]) {
         const double m = mass[node];
         if (m <= tiny) continue;
-        Vec2 v = momentum[node] / m;
-        if (fixed[node] & kFixX) v.x() = start[node].x();
-        if (fixed[node] & kFixY) v.y() = start[node].y();
+        const Vec2 v = node_velocity(m, momentum[node], fixed[node], start[node], tiny);
         w += force.dot(0.5 * (v + velocity[node])) * dt;
       }
       work[k] += w;

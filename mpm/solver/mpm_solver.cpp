@@ -799,11 +799,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
       for (std::size_t node = 0; node < n_nodes; ++node) {
         const Vec2 p = remapped_momentum[node];
         momentum[node] = p;  // the grid state shows the remapped momentum
-        Vec2 v = Vec2::Zero();
-        if (mass[node] > tiny) v = p / mass[node];
-        if (fixed[node] & kFixX) v.x() = end[node].x();
-        if (fixed[node] & kFixY) v.y() = end[node].y();
-        remapped[node] = v;
+        remapped[node] = pfm::node_velocity(mass[node], p, fixed[node], end[node], tiny);
       }
 #pragma omp master
       remap_seconds_ = seconds_since(start);

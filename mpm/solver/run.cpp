@@ -18,6 +18,7 @@
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
+#include "mpm/solver/stage_timer.hpp"
 #include "mpm/solver/vtk_output.hpp"
 
 namespace pfm {
@@ -295,36 +296,21 @@ int run_case(const Case& c, const RunOptions& options) {
       record(solver);
     }
     initial_steps = solver.initial_stress_steps();
-    ParticleSeriesWriter& writer = *writer_owner;
-    const double end = c.time.end_time;
-    const double eps = 1e-9 * solver.dt();
-    RunProgress progress(options.progress);
     auto last_checkpoint = std::chrono::steady_clock::now();
-    for (long k = solver.step_count(); k < n_steps; ++k) {
-      governor.update();
-      solver.step();
-      const double t = solver.time();
-      if (t >= next_series - eps || k + 1 == n_steps) {
-        record(solver);
-        while (next_series <= t + eps) next_series += c.output.timeseries_interval;
-      }
-      if (t >= next_output - eps || k + 1 == n_steps) {
-        write_output(writer);
-        write_file_atomically(folder.file("timeseries.csv"), series.text());
-        while (next_output <= t + eps) next_output += c.output.interval;
-      }
-      const bool by_steps =
-          options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
-      const bool by_time =
-          options.checkpoint_seconds > 0.0 &&
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint)
-                  .count() >= options.checkpoint_seconds;
-      if ((by_steps || by_time) && k + 1 < n_steps) {
-        save_checkpoint();
-        last_checkpoint = std::chrono::steady_clock::now();
-      }
-      progress.update(solver.step_count(), t, end);
-    }
+    step_to_end(
+        solver, c, options, governor, folder, series, next_series, next_output,
+        [&] { return solver.step_count() >= n_steps; }, [&] { record(solver); },
+        [&] { write_output(*writer_owner); },
+        [&](bool last) {
+          const bool by_steps =
+              options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
+          const bool by_time = options.checkpoint_seconds > 0.0 &&
+                               seconds_since(last_checkpoint) >= options.checkpoint_seconds;
+          if ((by_steps || by_time) && !last) {
+            save_checkpoint();
+            last_checkpoint = std::chrono::steady_clock::now();
+          }
+        });
     write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
   } catch (const SimulationError& e) {
     status = note_simulation_stop(e, dir, message);
