@@ -371,27 +371,26 @@ void UlFemSolver::particles_to_nodes(bool momentum_only) {
         }
         continue;
       }
-      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
-      const Vec2 mb = case_.manufactured
-                          ? Vec2(m * case_.manufactured->body_force(
-                                         particles_.reference_position[p], counters_.time))
-                          : Vec2::Zero();
-      const double v = particles_.volume[p];
       const Stress sig = case_.solver.mean_dilatation
                              ? mean_dilatation_stress(particles_.stress[p], mean_trace)
                              : particles_.stress[p];
+      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
+      const PointShare q{m,
+                         mv,
+                         particles_.volume[p],
+                         Vec2(sig[kXX], sig[kXY]),
+                         Vec2(sig[kXY], sig[kYY]),
+                         case_.manufactured
+                             ? Vec2(m * case_.manufactured->body_force(
+                                            particles_.reference_position[p], counters_.time))
+                             : Vec2::Zero()};
       const Eigen::Matrix<double, 4, 2>& grad = gradient_[p];
       for (std::size_t a = 0; a < 4; ++a) {
         const auto node = static_cast<std::size_t>(element[a]);
-        const double weight = shape[static_cast<Eigen::Index>(a)];
-        const double gx = grad(static_cast<Eigen::Index>(a), 0);
-        const double gy = grad(static_cast<Eigen::Index>(a), 1);
-        nodes_.mass[node] += weight * m;
-        nodes_.momentum[node] += weight * mv;
-        if (case_.manufactured) nodes_.body_force[node] += weight * mb;
-        // f_int = - integral sigma . grad N dV (tension positive), thesis eq. 3.24.
-        nodes_.internal_force[node] -=
-            v * Vec2(sig[kXX] * gx + sig[kXY] * gy, sig[kXY] * gx + sig[kYY] * gy);
+        add_to_node(q, shape[static_cast<Eigen::Index>(a)], grad(static_cast<Eigen::Index>(a), 0),
+                    grad(static_cast<Eigen::Index>(a), 1), case_.manufactured.has_value(),
+                    nodes_.mass[node], nodes_.momentum[node], nodes_.internal_force[node],
+                    nodes_.body_force[node]);
       }
     }
   }
@@ -530,25 +529,13 @@ void UlFemSolver::apply_loads() {
 }
 
 void UlFemSolver::update_nodes() {
-  // The node update of the MPM's grid (energy_ledger.hpp), in node order.
+  // The node update the MPM's grid takes too (grid_stages.hpp), in node order.
   prescribed_.update(counters_.time, counters_.dt);
   const std::size_t n_nodes = nodes_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
   NodeEnergy step;
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    const double m = nodes_.mass[n];
-    if (m <= tiny) {
-      nodes_.velocity[n] = Vec2::Zero();
-      nodes_.acceleration[n] = Vec2::Zero();
-      nodes_.reaction[n] = Vec2::Zero();
-      continue;
-    }
-    update_node(m, nodes_.momentum[n], nodes_.internal_force[n], nodes_.external_force[n],
-                nodes_.body_force[n], nodes_.fixed[n] & kFixX, nodes_.fixed[n] & kFixY,
-                counters_.damping, case_.solver.damping_form, counters_.dt, prescribed_.start()[n],
-                prescribed_.end()[n], nodes_.velocity[n], nodes_.acceleration[n],
-                nodes_.reaction[n], step);
-  }
+  pfm::update_nodes(nodes_, 0, n_nodes, prescribed_.start(), prescribed_.end(), tiny,
+                    counters_.damping, case_.solver.damping_form, counters_.dt, step);
   counters_.energy.add_grid_update(step);
   grid_kinetic_after_ = step.kinetic_after;
   load_work_recorder_.book(counters_.dt, tiny, nodes_.mass, nodes_.momentum, nodes_.velocity,
@@ -569,10 +556,8 @@ void UlFemSolver::nodes_to_particles() {
         a += weight * nodes_.acceleration[node];
         v += weight * nodes_.velocity[node];
       }
-      // FLIP, blended with PIC by pic_fraction, as the MPM.
       Vec2& vp = particles_.velocity[4 * e + k];
-      const Vec2 flip = vp + dt * a;
-      vp = pic_fraction == 0.0 ? flip : (1.0 - pic_fraction) * flip + pic_fraction * v;
+      vp = flip_pic_velocity(vp, a, v, dt, pic_fraction);
     }
   }
 }

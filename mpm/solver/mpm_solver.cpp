@@ -524,28 +524,28 @@ void MpmSolver::particles_to_grid() {
       const auto p = static_cast<std::size_t>(sorted[q]);
       const Shape<W> f = stencil(p);
       const double m = particle_mass[p];
-      const Vec2 mv = m * particle_velocity[p];
-      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
-      const Vec2 mb = manufactured ? Vec2(m * manufactured->body_force(reference_position[p], time))
-                                   : Vec2::Zero();
-      // -v sigma . grad N = -v (sxx gx + sxy gy, sxy gx + syy gy) (tension positive).
-      const double v = particle_volume[p];
       Stress sig = particle_stress[p];
       if (mean_dilatation) {
         const auto c = static_cast<std::size_t>(particle_cell[p]);
         sig = mean_dilatation_stress(sig, cell_trace[c] / cell_volume[c]);
       }
-      const Vec2 s_x(sig[kXX], sig[kXY]), s_y(sig[kXY], sig[kYY]);
+      // A manufactured solution's body force m_p b(X_p, t) at the start of the step.
+      const PointShare share{m,
+                             m * particle_velocity[p],
+                             particle_volume[p],
+                             Vec2(sig[kXX], sig[kXY]),
+                             Vec2(sig[kXY], sig[kYY]),
+                             manufactured
+                                 ? Vec2(m * manufactured->body_force(reference_position[p], time))
+                                 : Vec2::Zero()};
       for (int b = 0; b < W; ++b) {
         for (int a = 0; a < W; ++a) {
           const double weight = f.nx[a] * f.ny[b];
           const double gx = f.dx[a] * f.ny[b], gy = f.nx[a] * f.dy[b];
           if (W > 2 && weight == 0.0 && gx == 0.0 && gy == 0.0) continue;
           const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a;
-          mass[node] += weight * m;
-          momentum[node] += weight * mv;
-          force[node] -= v * (gx * s_x + gy * s_y);
-          if (manufactured) body[node] += weight * mb;
+          add_to_node(share, weight, gx, gy, manufactured != nullptr, mass[node], momentum[node],
+                      force[node], body[node]);
         }
       }
     }
@@ -604,35 +604,14 @@ void MpmSolver::update_grid() {
   const double tiny = 1e-12 * particles_.mass.front();
   const double alpha = counters_.damping;
   const double dt = counters_.dt;
-  const double* mass = grid_.mass.data();
-  const Vec2* body_force = grid_.body_force.data();
-  const Vec2* momentum = grid_.momentum.data();
-  const Vec2* internal = grid_.internal_force.data();
-  const Vec2* external = grid_.external_force.data();
-  const unsigned* fixed = grid_.fixed.data();
-  const Vec2* start = prescribed_.start().data();
-  const Vec2* end = prescribed_.end().data();
-  Vec2* velocity = grid_.velocity.data();
-  Vec2* acceleration = grid_.acceleration.data();
-  Vec2* reaction = grid_.reaction.data();
   NodeEnergy* node_energy = node_energy_.data();
   const std::size_t n_blocks = node_energy_.size();
 #pragma omp parallel for schedule(dynamic, 1) if (parallel_)
   for (std::size_t k = 0; k < n_blocks; ++k) {
     // The ledger terms of the grid update, per block of nodes (energy_ledger.hpp).
     NodeEnergy block;
-    for (std::size_t n = k * kSumBlock; n < std::min(n_nodes, (k + 1) * kSumBlock); ++n) {
-      const double m = mass[n];
-      if (m <= tiny) {
-        velocity[n].setZero();
-        acceleration[n].setZero();
-        reaction[n].setZero();
-        continue;
-      }
-      update_node(m, momentum[n], internal[n], external[n], body_force[n], fixed[n] & kFixX,
-                  fixed[n] & kFixY, alpha, case_.solver.damping_form, dt, start[n], end[n],
-                  velocity[n], acceleration[n], reaction[n], block);
-    }
+    update_nodes(grid_, k * kSumBlock, std::min(n_nodes, (k + 1) * kSumBlock), prescribed_.start(),
+                 prescribed_.end(), tiny, alpha, case_.solver.damping_form, dt, block);
     node_energy[k] = block;
   }
   NodeEnergy step;
@@ -686,9 +665,7 @@ void MpmSolver::grid_to_particles() {
         v += weight * velocity[node];
       }
     }
-    // FLIP, blended with PIC by pic_fraction.
-    const Vec2 flip = particle_velocity[p] + dt * a;
-    const Vec2 vp = pic_fraction == 0.0 ? flip : (1.0 - pic_fraction) * flip + pic_fraction * v;
+    const Vec2 vp = flip_pic_velocity(particle_velocity[p], a, v, dt, pic_fraction);
     const Vec2 xp = particle_position[p] + dt * v;
     particle_velocity[p] = vp;
     particle_position[p] = xp;

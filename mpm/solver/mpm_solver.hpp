@@ -40,6 +40,7 @@
 
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/energy_ledger.hpp"
+#include "mpm/solver/grid_stages.hpp"
 #include "mpm/solver/initial_stress.hpp"
 #include "mpm/solver/particles.hpp"
 #include "mpm/solver/prescribed_velocity.hpp"
@@ -50,23 +51,6 @@ namespace pfm {
 class SimulationError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
-};
-
-/// Nodal arrays of the background grid, indexed by Grid::node_index.
-struct GridState {
-  std::vector<double> mass;          ///< t
-  std::vector<Vec2> momentum;        ///< t m/s
-  std::vector<Vec2> internal_force;  ///< kN
-  std::vector<Vec2> external_force;  ///< kN (surface loads and body forces)
-  /// kN, the body-force part of external_force: gravity m_I g, or a manufactured solution's
-  /// sum_p N_Ip m_p b(X_p, t) (the ledger's gravity_work).
-  std::vector<Vec2> body_force;
-  std::vector<Vec2> velocity;      ///< m/s, after the grid update
-  std::vector<Vec2> acceleration;  ///< m/s^2
-  std::vector<unsigned> fixed;     ///< FixMask per node
-  /// kN, the force holding the fixed components of each node in the last grid update
-  /// (update_node; zero on free components).
-  std::vector<Vec2> reaction;
 };
 
 /// Wall-clock seconds spent per stage, accumulated over the run. With MUSL, grid_to_particles
