@@ -592,14 +592,12 @@ void UlFemSolver::update_stress(const std::vector<Vec2>& node_velocity) {
       const Mat2 l = case_.solver.mean_dilatation
                          ? mean_dilatation_gradient(gradients[k], trace / element_volume)
                          : gradients[k];
-      const Strain de = strain_increment(l, dt);
       Stress& sig = particles_.stress[p];
       const Stress before = sig;
-      jaumann_rotate(l, dt, sig);
-      const Stress rotated = sig;
+      Stress rotated;
       const auto mi = static_cast<std::size_t>(particles_.material[p]);
-      std::visit([&](const auto& model) { model.update(de, sig, particles_.state[p]); },
-                 materials[mi].model);
+      const Strain de = update_point_stress(l, dt, materials[mi].model, material_constants_[mi],
+                                            sig, particles_.state[p], rotated);
       particles_.deformation_gradient[p] =
           update_deformation_gradient(l, dt, particles_.deformation_gradient[p]);
       // At the volume of the start of the step: the mesh moves after this (move_mesh, whose

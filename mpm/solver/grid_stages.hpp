@@ -1,6 +1,7 @@
 // What the MPM's background grid and the UL-FEM's Q4 mesh share of the explicit step (thesis
 // 3.3, eq. 3.24): the nodal arrays, what a material point adds to a node in the particle-to-grid
-// map, the update of the nodes, and a point's velocity in the grid-to-particle map. Each solver
+// map, the update of the nodes, a point's velocity in the grid-to-particle map and its stress
+// update. Each solver
 // keeps its own loops (the MPM over its particles by bands of grid rows on the threads, with
 // their stencils; the UL-FEM over its elements) and calls these for the arithmetic, so that the
 // two do the same operations in the same order. Units: kN, m, s, t, kPa.
@@ -8,8 +9,11 @@
 
 #include <cstddef>
 #include <span>
+#include <variant>
 #include <vector>
 
+#include "mpm/core/kinematics.hpp"
+#include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
 #include "mpm/solver/energy_ledger.hpp"
 
@@ -80,6 +84,25 @@ inline Vec2 flip_pic_velocity(const Vec2& vp, const Vec2& a, const Vec2& v, doub
                               double pic_fraction) {
   const Vec2 flip = vp + dt * a;
   return pic_fraction == 0.0 ? flip : Vec2((1.0 - pic_fraction) * flip + pic_fraction * v);
+}
+
+/// The stress update of a material point with velocity gradient l over dt: the strain increment
+/// (returned), the Jaumann rotation of `stress` (`rotated` takes the stress after it, for the
+/// ledger's rotation work), then the material's update with its constants.
+inline Strain update_point_stress(const Mat2& l, double dt, const Material& model,
+                                  const MaterialConstants& constants, Stress& stress,
+                                  PointState& state, Stress& rotated) {
+  const Strain de = strain_increment(l, dt);
+  jaumann_rotate(l, dt, stress);
+  rotated = stress;
+  if (const auto* elastic = std::get_if<LinearElastic>(&model)) {
+    elastic->update(de, stress, state, constants);
+  } else if (const auto* tresca = std::get_if<Tresca>(&model)) {
+    tresca->update(de, stress, state, constants);
+  } else {
+    std::get<MohrCoulomb>(model).update(de, stress, state, constants);
+  }
+  return de;
 }
 
 }  // namespace pfm

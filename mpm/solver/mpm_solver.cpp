@@ -811,20 +811,11 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
         } else {
           l = velocity_gradient(p);
         }
-        const Strain de = strain_increment(l, dt);
         const Stress before = particle_stress[p];
-        Stress sig = before;  // a local copy: no store-to-load stalls
-        jaumann_rotate(l, dt, sig);
-        const Stress rotated = sig;
+        Stress sig = before, rotated;  // a local copy: no store-to-load stalls
         const auto mi = static_cast<std::size_t>(particle_material[p]);
-        const Material& model = materials[mi].model;
-        if (const auto* elastic = std::get_if<LinearElastic>(&model)) {
-          elastic->update(de, sig, particle_state[p], constants[mi]);
-        } else if (const auto* tresca = std::get_if<Tresca>(&model)) {
-          tresca->update(de, sig, particle_state[p], constants[mi]);
-        } else {
-          std::get<MohrCoulomb>(model).update(de, sig, particle_state[p], constants[mi]);
-        }
+        const Strain de = update_point_stress(l, dt, materials[mi].model, constants[mi], sig,
+                                              particle_state[p], rotated);
         particle_stress[p] = sig;
         const double volume_before = particle_volume[p];
         const Mat2 deformation = update_deformation_gradient(l, dt, particle_deformation[p]);
