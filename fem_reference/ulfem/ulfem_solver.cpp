@@ -296,37 +296,19 @@ void UlFemSolver::step() {
   // is smaller (explicit FE practice; the MPM keeps its cells and needs no such reduction).
   counters_.dt = std::min(
       base_dt_, case_.time.cfl * min_element_length_ / (max_wave_speed_ + max_particle_speed_));
-  {
-    StageTimer timer(times_.particles_to_grid);
-    particles_to_nodes(false);
-  }
-  {
-    StageTimer timer(times_.external_forces);
-    external_forces();
-  }
-  {
-    StageTimer timer(times_.update_grid);
-    update_nodes();
-  }
-  {
-    StageTimer timer(times_.grid_to_particles);
-    nodes_to_particles();
-  }
-  if (case_.solver.scheme == Scheme::kMUSL) {
-    StageTimer timer(times_.remap);
-    particles_to_nodes(true);
-    const std::size_t n_nodes = nodes_.mass.size();
-    const double tiny = 1e-12 * particles_.mass.front();
-    for (std::size_t n = 0; n < n_nodes; ++n) {
-      remapped_velocity_[n] = node_velocity(nodes_.mass[n], nodes_.momentum[n], nodes_.fixed[n],
-                                            prescribed_.end()[n], tiny);
+  // The stages in the scheme's order (step_scheme.hpp); the mesh moves after them.
+  struct Stages {
+    UlFemSolver& s;
+    void particles_to_grid() { s.particles_to_nodes(false); }
+    void external_forces() { s.external_forces(); }
+    void update_grid() { s.update_nodes(); }
+    void grid_to_particles(bool) { s.nodes_to_particles(); }
+    void remap() { s.remap(); }
+    void update_stress(bool musl) {
+      s.update_stress(musl ? s.remapped_velocity_ : s.nodes_.velocity);
     }
-  }
-  {
-    StageTimer timer(times_.stress);
-    update_stress(case_.solver.scheme == Scheme::kMUSL ? remapped_velocity_ : nodes_.velocity);
-  }
-
+  };
+  run_stages(case_.solver.scheme, Stages{*this}, times_);
   counters_.time += counters_.dt;
   ++counters_.step;
   {
@@ -334,6 +316,16 @@ void UlFemSolver::step() {
     move_mesh();
   }
   check_particles();
+}
+
+void UlFemSolver::remap() {
+  particles_to_nodes(true);
+  const std::size_t n_nodes = nodes_.mass.size();
+  const double tiny = 1e-12 * particles_.mass.front();
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    remapped_velocity_[n] = node_velocity(nodes_.mass[n], nodes_.momentum[n], nodes_.fixed[n],
+                                          prescribed_.end()[n], tiny);
+  }
 }
 
 void UlFemSolver::particles_to_nodes(bool momentum_only) {

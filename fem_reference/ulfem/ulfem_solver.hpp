@@ -170,6 +170,8 @@ class UlFemSolver {
   void external_forces();
   void update_nodes();
   void nodes_to_particles();
+  /// MUSL: the updated points' momentum to the nodes, and the nodes' velocity from it.
+  void remap();
   void update_stress(const std::vector<Vec2>& node_velocity);
   void move_mesh();
   void check_particles();

@@ -262,37 +262,29 @@ void MpmSolver::run_step() {
     StageTimer timer(times_.locate);
     locate_particles<W>(true);
   }
-  {
-    StageTimer timer(times_.particles_to_grid);
-    particles_to_grid<W>();
-  }
-  {
-    StageTimer timer(times_.external_forces);
-    external_forces();
-  }
-  {
-    StageTimer timer(times_.update_grid);
-    update_grid();
-  }
-  if (velocity_hook_) velocity_hook_(step_view(), grid_);
-
-  const bool musl = case_.solver.scheme == Scheme::kMUSL;
-  {
-    StageTimer timer(times_.grid_to_particles);
-    if (musl) {
-      grid_to_particles<W, true>();
-    } else {
-      grid_to_particles<W, false>();
+  // The stages in the scheme's order (step_scheme.hpp). The grid-velocity hook (the surface
+  // markers' advection) runs within the grid update's time.
+  struct Stages {
+    MpmSolver& s;
+    void particles_to_grid() { s.particles_to_grid<W>(); }
+    void external_forces() { s.external_forces(); }
+    void update_grid() {
+      s.update_grid();
+      if (s.velocity_hook_) s.velocity_hook_(s.step_view(), s.grid_);
     }
-  }
-  {
-    // MUSL: the remap runs inside the stress update's parallel region, which times it.
-    StageTimer timer(times_.stress);
-    update_stress<W>(musl ? remapped_velocity_ : grid_.velocity, musl);
-    times_.remap += remap_seconds_;
-    times_.stress -= remap_seconds_;
-  }
-
+    void grid_to_particles(bool musl) {
+      if (musl) {
+        s.grid_to_particles<W, true>();
+      } else {
+        s.grid_to_particles<W, false>();
+      }
+    }
+    void remap() { s.remap(); }
+    void update_stress(bool musl) {
+      s.update_stress<W>(musl ? s.remapped_velocity_ : s.grid_.velocity);
+    }
+  };
+  run_stages(case_.solver.scheme, Stages{*this}, times_);
   counters_.time += counters_.dt;
   ++counters_.step;
   check_particles();
@@ -710,19 +702,21 @@ void MpmSolver::grid_to_particles() {
   max_speed_ = max_speed;
 }
 
-template <int W>
-void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap) {
-  const auto start = Clock::now();
-  // MUSL remap (remap = true, node_velocity = remapped_velocity_): nodal velocity from the
-  // momentum of the updated particles, in the same parallel region as the stress update.
+void MpmSolver::remap() {
   const std::size_t n_nodes = grid_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
-  const double* mass = grid_.mass.data();
-  const Vec2* remapped_momentum = remapped_momentum_.data();
-  Vec2* momentum = grid_.momentum.data();
-  const unsigned* fixed = grid_.fixed.data();
   const Vec2* end = prescribed_.end().data();
-  Vec2* remapped = remapped_velocity_.data();
+#pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
+  for (std::size_t node = 0; node < n_nodes; ++node) {
+    const Vec2 p = remapped_momentum_[node];
+    grid_.momentum[node] = p;  // the grid state shows the remapped momentum
+    remapped_velocity_[node] =
+        node_velocity(grid_.mass[node], p, grid_.fixed[node], end[node], tiny);
+  }
+}
+
+template <int W>
+void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
   const double dt = counters_.dt;
@@ -768,19 +762,8 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity, bool remap
     l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
     return l;
   };
-  remap_seconds_ = 0.0;
 #pragma omp parallel reduction(max : bad) if (parallel_)
   {
-    if (remap) {
-#pragma omp for schedule(dynamic, kNodeChunk)
-      for (std::size_t node = 0; node < n_nodes; ++node) {
-        const Vec2 p = remapped_momentum[node];
-        momentum[node] = p;  // the grid state shows the remapped momentum
-        remapped[node] = pfm::node_velocity(mass[node], p, fixed[node], end[node], tiny);
-      }
-#pragma omp master
-      remap_seconds_ = seconds_since(start);
-    }
     if (mean_dilatation) {
       // Every particle's L, and each cell's volume-weighted sum of tr L, band by band (a band
       // owns the cells of its rows).
@@ -907,15 +890,15 @@ void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_v
   switch (stencil_width(case_.solver.shape_function)) {
     case 2:
       locate_particles<2>(false);
-      update_stress<2>(node_velocity, false);
+      update_stress<2>(node_velocity);
       break;
     case 3:
       locate_particles<3>(false);
-      update_stress<3>(node_velocity, false);
+      update_stress<3>(node_velocity);
       break;
     default:
       locate_particles<4>(false);
-      update_stress<4>(node_velocity, false);
+      update_stress<4>(node_velocity);
   }
 }
 

@@ -1,13 +1,15 @@
 // Explicit 2D plane-strain MPM (thesis 3.2, eq. 3.24), MUSL by default, USL as an option.
 //
-// One step reads as its stages, in order (the hook points of Karamelo / cb-geo):
+// One step reads as its stages, in order (the hook points of Karamelo / cb-geo; after
+// locate_particles, run_stages of step_scheme.hpp calls them in the scheme's order, as the
+// UL-FEM's):
 //   locate_particles      shape functions at the particles, particles binned by band
 //   particles_to_grid     nodal mass, momentum and internal force  (+ body force)
 //   external_forces       surface loads on the grid (grid-aligned, or on the detected boundary)
 //   update_grid           local damping, acceleration, velocity, velocity constraints
 //   grid_to_particles     particle velocity (FLIP, blended with PIC by solver.pic_fraction)
 //                         and position
-//   remap_momentum        MUSL only: nodal velocity from the updated particle momentum
+//   remap                 MUSL only: nodal velocity from the updated particle momentum
 //   update_stress         velocity gradient, Jaumann rotation, constitutive update, F, volume
 //
 // With solver.anti_locking "bbar" (mean dilatation, mpm/core/kinematics.hpp) each particle
@@ -44,6 +46,7 @@
 #include "mpm/solver/initial_stress.hpp"
 #include "mpm/solver/particles.hpp"
 #include "mpm/solver/prescribed_velocity.hpp"
+#include "mpm/solver/step_scheme.hpp"
 
 namespace pfm {
 
@@ -51,18 +54,6 @@ namespace pfm {
 class SimulationError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
-};
-
-/// Wall-clock seconds spent per stage, accumulated over the run. With MUSL, grid_to_particles
-/// includes the scatter of the updated particle momentum (done in the same pass) and remap the
-/// nodal velocities computed from it.
-struct StageTimes {
-  double locate = 0, particles_to_grid = 0, external_forces = 0, update_grid = 0,
-         grid_to_particles = 0, remap = 0, stress = 0;
-  double total() const {
-    return locate + particles_to_grid + external_forces + update_grid + grid_to_particles + remap +
-           stress;
-  }
 };
 
 /// What a hook sees of the step it is called in: the time at the step's start, its size and
@@ -171,8 +162,11 @@ class MpmSolver {
   void update_grid();
   template <int W, bool kScatterMomentum>
   void grid_to_particles();
+  // MUSL: the nodes' momentum and velocity from the updated particles' momentum, which
+  // grid_to_particles<W, true> scattered.
+  void remap();
   template <int W>
-  void update_stress(const std::vector<Vec2>& node_velocity, bool remap);
+  void update_stress(const std::vector<Vec2>& node_velocity);
   template <int W>
   struct Shape;
   template <int W>
@@ -239,7 +233,6 @@ class MpmSolver {
   bool kinetic_stale_ = true;            ///< the ledger's particle_kinetic is to be taken anew
   std::vector<Vec2> remapped_velocity_;  ///< MUSL: nodal velocity from updated particles
   std::vector<Vec2> remapped_momentum_;  ///< MUSL: nodal momentum of updated particles
-  double remap_seconds_ = 0.0;           ///< MUSL: time of the remap in update_stress
   bool parallel_ = true;    ///< run the stages on all threads (false for tiny problems)
   long bad_particle_ = -1;  ///< a particle with a non-finite value in this step, or -1
   double max_speed_ = 0.0;  ///< largest particle speed after this step, m/s
