@@ -65,8 +65,6 @@ MeshSeriesWriter::~MeshSeriesWriter() {
 void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& position,
                              const std::vector<Vec2>& displacement,
                              const std::vector<Vec2>& velocity, const Particles& points) {
-  char name[32];
-  std::snprintf(name, sizeof name, "step_%08ld", step);
   const H5Handle group(create_step_group(static_cast<hid_t>(file_), h5_path_, step, time),
                        H5Gclose);
   std::vector<double> buffer(3 * n_nodes_, 0.0);
@@ -94,44 +92,29 @@ void MeshSeriesWriter::write(double time, long step, const std::vector<Vec2>& po
     }
     write_h5_dataset(group.get(), h5_path_, kCellFields[k], mean, n_elements_, 1, compress_);
   }
-  if (H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL) < 0)
-    throw_io_error(std::string("HDF5 cannot write ") + name + " in", h5_path_, errno);
-  times_.push_back(time);
-  groups_.push_back(name);
+  end_series_step(static_cast<hid_t>(file_), h5_path_, step, time, times_, groups_);
   write_xdmf();
 }
 
 void MeshSeriesWriter::write_xdmf() const {
-  std::ostringstream x;
-  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
-    << "<Grid Name=\"mesh\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  std::string x = xdmf::open("mesh");
   for (std::size_t s = 0; s < times_.size(); ++s) {
-    const std::string& g = groups_[s];
-    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
-      << "<Time Value=\"" << format_exact(times_[s]) << "\"/>\n"
-      << "<Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << n_elements_
-      << "\"><DataItem Dimensions=\"" << n_elements_
-      << " 4\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">mesh.h5:/topology</DataItem>"
-      << "</Topology>\n"
-      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n_nodes_
-      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g
-      << "/geometry</DataItem></Geometry>\n";
+    const std::string at = "mesh.h5:/" + groups_[s] + "/";
+    x += xdmf::step(groups_[s], times_[s]);
+    x += xdmf::topology(
+        "Quadrilateral", n_elements_, 0,
+        xdmf::data_item(std::to_string(n_elements_) + " 4", true, "mesh.h5:/topology"));
+    x += xdmf::geometry(n_nodes_, at + "geometry");
     for (const char* name : kCellFields) {
-      x << "<Attribute Name=\"" << name
-        << "\" AttributeType=\"Scalar\" Center=\"Cell\"><DataItem Dimensions=\"" << n_elements_
-        << "\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g << "/" << name
-        << "</DataItem></Attribute>\n";
+      x += xdmf::attribute(name, false, true, n_elements_, false, at + name);
     }
     for (const char* vector_name : {"displacement", "velocity"}) {
-      x << "<Attribute Name=\"" << vector_name
-        << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n_nodes_
-        << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">mesh.h5:/" << g << "/"
-        << vector_name << "</DataItem></Attribute>\n";
+      x += xdmf::attribute(vector_name, true, false, n_nodes_, false, at + vector_name);
     }
-    x << "</Grid>\n";
+    x += xdmf::kEndStep;
   }
-  x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(xdmf_path_, x.str());
+  x += xdmf::kClose;
+  write_file_atomically(xdmf_path_, x);
 }
 
 int run_ulfem_case(const Case& c, const RunOptions& options) {

@@ -84,4 +84,9 @@ class H5Handle {
 /// IoError naming the file when HDF5 fails.
 hid_t create_step_group(hid_t file, const std::string& path, long step, double time);
 
+/// Ends an output step of a series: flushes `file` (IoError naming the step's group and the
+/// file when HDF5 fails) and appends the step's time (s) and group name to `times` and `groups`.
+void end_series_step(hid_t file, const std::string& path, long step, double time,
+                     std::vector<double>& times, std::vector<std::string>& groups);
+
 }  // namespace pfm

@@ -22,6 +22,47 @@ std::string format_exact(double v) {
   return buffer;
 }
 
+namespace xdmf {
+
+std::string open(const std::string& name) {
+  return "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n<Grid Name=\"" + name +
+         "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+}
+
+std::string step(const std::string& group, double time) {
+  return "<Grid Name=\"" + group + "\" GridType=\"Uniform\">\n<Time Value=\"" + format_exact(time) +
+         "\"/>\n";
+}
+
+std::string data_item(const std::string& dimensions, bool integer, const std::string& path) {
+  return "<DataItem Dimensions=\"" + dimensions + "\" Format=\"HDF\" NumberType=\"" +
+         (integer ? "Int" : "Float") + "\" Precision=\"8\">" + path + "</DataItem>";
+}
+
+std::string topology(const char* type, std::size_t elements, int nodes_per_element,
+                     const std::string& item) {
+  std::string text = std::string("<Topology TopologyType=\"") + type + "\" NumberOfElements=\"" +
+                     std::to_string(elements) + "\"";
+  if (nodes_per_element > 0) {
+    text += " NodesPerElement=\"" + std::to_string(nodes_per_element) + "\"";
+  }
+  return text + ">" + item + "</Topology>\n";
+}
+
+std::string geometry(std::size_t n, const std::string& path) {
+  return "<Geometry GeometryType=\"XYZ\">" + data_item(std::to_string(n) + " 3", false, path) +
+         "</Geometry>\n";
+}
+
+std::string attribute(const char* name, bool vector, bool cell, std::size_t n, bool integer,
+                      const std::string& path) {
+  return std::string("<Attribute Name=\"") + name + "\" AttributeType=\"" +
+         (vector ? "Vector" : "Scalar") + "\" Center=\"" + (cell ? "Cell" : "Node") + "\">" +
+         data_item(std::to_string(n) + (vector ? " 3" : ""), integer, path) + "</Attribute>\n";
+}
+
+}  // namespace xdmf
+
 TimeSeriesTable::TimeSeriesTable(bool with_loads, std::size_t n_loads,
                                  const std::vector<std::string>& reactions,
                                  std::size_t n_constraints)
@@ -155,12 +196,6 @@ constexpr const char* kParticleUnits =
     "sxx, syy, sxy, szz kPa; eps_p, F11..F22 -; volume m^2 per m; id, material, body integers; "
     "group attributes time s, step";
 
-std::string fmt(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
-
 std::string step_group(long step) {
   char name[32];
   std::snprintf(name, sizeof name, "step_%08ld", step);
@@ -210,6 +245,14 @@ std::size_t dataset_rows(hid_t file, const std::string& name) {
 }
 
 }  // namespace
+
+void end_series_step(hid_t file, const std::string& path, long step, double time,
+                     std::vector<double>& times, std::vector<std::string>& groups) {
+  const std::string name = step_group(step);
+  check(H5Fflush(file, H5F_SCOPE_GLOBAL), path, name);
+  times.push_back(time);
+  groups.push_back(name);
+}
 
 ParticleSeriesWriter::ParticleSeriesWriter(OutputFolder& folder, bool compress)
     : h5_path_(folder.file("particles.h5")),
@@ -298,51 +341,35 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
     write_h5_dataset(group.get(), h5_path_, gradient_names[k], buffer, n, 1, compress_);
   }
-  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
-  times_.push_back(time);
-  groups_.push_back(name);
+  end_series_step(static_cast<hid_t>(file_), h5_path_, step, time, times_, groups_);
   counts_.push_back(n);
   write_xdmf();
 }
 
 void ParticleSeriesWriter::write_xdmf() const {
-  std::ostringstream x;
-  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
-    << "<Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  std::string x = xdmf::open("particles");
   for (std::size_t s = 0; s < times_.size(); ++s) {
     const std::size_t n = counts_[s];
-    const std::string& g = groups_[s];
-    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
-      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
-      << "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
-      << "\" NodesPerElement=\"1\"><DataItem Dimensions=\"" << n
-      << "\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">particles.h5:/connectivity"
-      << "</DataItem></Topology>\n"
-      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << n
-      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g
-      << "/position</DataItem></Geometry>\n";
+    const std::string at = "particles.h5:/" + groups_[s] + "/";
+    x += xdmf::step(groups_[s], times_[s]);
+    x += xdmf::topology("Polyvertex", n, 1,
+                        xdmf::data_item(std::to_string(n), true, "particles.h5:/connectivity"));
+    x += xdmf::geometry(n, at + "position");
     // position again as an attribute: readers that keep the first step's geometry for the
     // whole series (meshio's TimeSeriesReader) get each step's positions from it.
     for (const char* vector_name : {"position", "displacement", "velocity"}) {
-      x << "<Attribute Name=\"" << vector_name
-        << "\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" << n
-        << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">particles.h5:/" << g << "/"
-        << vector_name << "</DataItem></Attribute>\n";
+      x += xdmf::attribute(vector_name, true, false, n, false, at + vector_name);
     }
     for (const char* scalar_name : {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material",
                                     "body", "F11", "F12", "F21", "F22"}) {
       const std::string name = scalar_name;
       const bool integer = name == "id" || name == "material" || name == "body";
-      x << "<Attribute Name=\"" << scalar_name
-        << "\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" << n
-        << "\" Format=\"HDF\" NumberType=\"" << (integer ? "Int" : "Float")
-        << "\" Precision=\"8\">particles.h5:/" << g << "/" << scalar_name
-        << "</DataItem></Attribute>\n";
+      x += xdmf::attribute(scalar_name, false, false, n, integer, at + name);
     }
-    x << "</Grid>\n";
+    x += xdmf::kEndStep;
   }
-  x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(xdmf_path_, x.str());
+  x += xdmf::kClose;
+  write_file_atomically(xdmf_path_, x);
 }
 
 BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder, bool compress)
@@ -399,41 +426,28 @@ void BoundarySeriesWriter::write(double time, long step,
   write_h5_dataset(group.get(), h5_path_, "position", position, n_points, 3, compress_);
   write_h5_dataset(group.get(), h5_path_, "loop", loop_of_point, n_points, 1, compress_);
   write_h5_dataset(group.get(), h5_path_, "segments", segments, n_segments, 2, compress_);
-  check(H5Fflush(static_cast<hid_t>(file_), H5F_SCOPE_GLOBAL), h5_path_, name);
-  times_.push_back(time);
-  groups_.push_back(name);
+  end_series_step(static_cast<hid_t>(file_), h5_path_, step, time, times_, groups_);
   points_.push_back(n_points);
   segments_.push_back(n_segments);
   write_xdmf();
 }
 
 void BoundarySeriesWriter::write_xdmf() const {
-  std::ostringstream x;
-  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n<Domain>\n"
-    << "<Grid Name=\"boundary\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  std::string x = xdmf::open("boundary");
   for (std::size_t s = 0; s < times_.size(); ++s) {
     if (segments_[s] == 0) continue;  // no boundary at this step: nothing to draw
-    const std::string& g = groups_[s];
-    x << "<Grid Name=\"" << g << "\" GridType=\"Uniform\">\n"
-      << "<Time Value=\"" << fmt(times_[s]) << "\"/>\n"
-      << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << segments_[s]
-      << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << segments_[s]
-      << " 2\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">boundary.h5:/" << g
-      << "/segments</DataItem></Topology>\n"
-      << "<Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" << points_[s]
-      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
-      << "/position</DataItem></Geometry>\n"
-      << "<Attribute Name=\"position\" AttributeType=\"Vector\" Center=\"Node\"><DataItem "
-      << "Dimensions=\"" << points_[s]
-      << " 3\" Format=\"HDF\" NumberType=\"Float\" Precision=\"8\">boundary.h5:/" << g
-      << "/position</DataItem></Attribute>\n"
-      << "<Attribute Name=\"loop\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem "
-      << "Dimensions=\"" << points_[s]
-      << "\" Format=\"HDF\" NumberType=\"Int\" Precision=\"8\">boundary.h5:/" << g
-      << "/loop</DataItem></Attribute>\n</Grid>\n";
+    const std::string at = "boundary.h5:/" + groups_[s] + "/";
+    x += xdmf::step(groups_[s], times_[s]);
+    x +=
+        xdmf::topology("Polyline", segments_[s], 2,
+                       xdmf::data_item(std::to_string(segments_[s]) + " 2", true, at + "segments"));
+    x += xdmf::geometry(points_[s], at + "position");
+    x += xdmf::attribute("position", true, false, points_[s], false, at + "position");
+    x += xdmf::attribute("loop", false, false, points_[s], true, at + "loop");
+    x += xdmf::kEndStep;
   }
-  x << "</Grid>\n</Domain>\n</Xdmf>\n";
-  write_file_atomically(xdmf_path_, x.str());
+  x += xdmf::kClose;
+  write_file_atomically(xdmf_path_, x);
 }
 
 std::string particles_csv(const Particles& particles) {
@@ -444,14 +458,15 @@ std::string particles_csv(const Particles& particles) {
     const Vec2& v = particles.velocity[p];
     const Stress& s = particles.stress[p];
     const Vec2 u = x - particles.reference_position[p];
-    out << p << ',' << fmt(x.x()) << ',' << fmt(x.y()) << ',' << fmt(v.x()) << ',' << fmt(v.y())
-        << ',' << fmt(s[0]) << ',' << fmt(s[1]) << ',' << fmt(s[2]) << ',' << fmt(s[3]) << ','
-        << fmt(particles.state[p].plastic_strain) << ',' << fmt(particles.volume[p]) << ','
-        << fmt(u.x()) << ',' << fmt(u.y()) << ',' << particles.material[p] << ','
-        << particles.body[p];
+    out << p << ',' << format_exact(x.x()) << ',' << format_exact(x.y()) << ','
+        << format_exact(v.x()) << ',' << format_exact(v.y()) << ',' << format_exact(s[0]) << ','
+        << format_exact(s[1]) << ',' << format_exact(s[2]) << ',' << format_exact(s[3]) << ','
+        << format_exact(particles.state[p].plastic_strain) << ','
+        << format_exact(particles.volume[p]) << ',' << format_exact(u.x()) << ','
+        << format_exact(u.y()) << ',' << particles.material[p] << ',' << particles.body[p];
     const Mat2& f = particles.deformation_gradient[p];
-    out << ',' << fmt(f(0, 0)) << ',' << fmt(f(0, 1)) << ',' << fmt(f(1, 0)) << ',' << fmt(f(1, 1))
-        << '\n';
+    out << ',' << format_exact(f(0, 0)) << ',' << format_exact(f(0, 1)) << ','
+        << format_exact(f(1, 0)) << ',' << format_exact(f(1, 1)) << '\n';
   }
   return out.str();
 }

@@ -18,6 +18,30 @@ namespace pfm {
 /// `v` with 17 significant digits (reads back to the same double).
 std::string format_exact(double v);
 
+/// Pieces of the XDMF 3 files that index a time series of HDF5 groups (ParaView, meshio): a
+/// temporal collection of one uniform grid per output step. `path`: "FILE.h5:/GROUP/DATASET".
+namespace xdmf {
+/// The file's head, up to the opening of the collection `name`.
+std::string open(const std::string& name);
+/// The opening of a step's grid: its group name and time (s).
+std::string step(const std::string& group, double time);
+/// A dataset of `dimensions` ("N" or "N 3") 8-byte integers or floats.
+std::string data_item(const std::string& dimensions, bool integer, const std::string& path);
+/// The step's topology: `type` (Polyvertex, Polyline, Quadrilateral), its element count and,
+/// when > 0, the nodes per element, with the connectivity `item` (data_item()).
+std::string topology(const char* type, std::size_t elements, int nodes_per_element,
+                     const std::string& item);
+/// The step's geometry: n points (x, y, z) at `path`.
+std::string geometry(std::size_t n, const std::string& path);
+/// An attribute of n values (`vector`: n x 3) on the nodes or, with `cell`, the cells.
+std::string attribute(const char* name, bool vector, bool cell, std::size_t n, bool integer,
+                      const std::string& path);
+/// The closing of a step's grid.
+inline constexpr const char* kEndStep = "</Grid>\n";
+/// The file's tail: the closing of the collection, the domain and the file.
+inline constexpr const char* kClose = "</Grid>\n</Domain>\n</Xdmf>\n";
+}  // namespace xdmf
+
 /// timeseries.csv, held in memory: time, kinetic_energy, external_work, internal_work,
 /// damping_work, momentum_x, momentum_y; with surface loads the resultants of the loads
 /// (load_target, load_applied, load_lost, load_off_grid, each _fx and _fy), the numbers of
