@@ -15,6 +15,7 @@
 #include "mpm/core/provenance.hpp"
 #include "mpm/solver/hdf5_untimed.hpp"
 #include "mpm/solver/output.hpp"
+#include "mpm/solver/run_driver.hpp"
 #include "mpm/solver/vtk_output.hpp"
 
 namespace pfm::ulfem {
@@ -123,77 +124,62 @@ int run_ulfem_case(const Case& c, const RunOptions& options) {
   UlFemSolver solver(c);  // may throw InputError: nothing created yet
   check_run_length(c, solver.dt());
   OutputFolder folder(options.out_dir, output_folder_mode(options));
-  const std::string dir = options.out_dir;
 
   nlohmann::json run;
   run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
   run["provenance"]["solver"] = "ulfem";
   run["case"] = c.source;
   run["status"] = "running";
-  try {
-    const std::string text = run.dump(2) + "\n";
-    write_file_atomically(folder.file("run.json"), text);
-    folder.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
-
   // The MPM's columns (mpm/solver/run.cpp); with loads also its load diagnostics, summed over
   // every load of the case (the UL-FEM applies them all on the mesh edges, nothing is lost).
   TimeSeriesTable series(!c.loads.empty(), c.loads.size(), reaction_names(c.boundary_conditions));
-  auto record = [&](const UlFemSolver& s) {
-    series.record(s.time(), s.energy(), s.load_diagnostics());
-  };
   nlohmann::json outputs = nlohmann::json::array();
+  std::unique_ptr<ParticleSeriesWriter> particle_writer;
+  std::unique_ptr<MeshSeriesWriter> mesh_writer;
+  std::unique_ptr<VtkSeriesWriter> vtk_writer;
+  double next_output = c.output.interval, next_series = c.output.timeseries_interval;
+  // The step may shrink as elements are crushed (UlFemSolver::dt), so the run ends on time,
+  // to 1e-9 of the step after the initial stress.
+  const double end = c.time.end_time;
+  double eps = 0.0;
 
-  const auto wall_start = std::chrono::steady_clock::now();
-  long initial_steps = 0;
-  int status = kExitOk;
-  std::string message;
-  try {
+  RunHooks hooks;
+  hooks.record = [&] { series.record(solver.time(), solver.energy(), solver.load_diagnostics()); };
+  hooks.output = [&] {
+    const double t = solver.time();
+    particle_writer->write(t, solver.step_count(), solver.particles());
+    if (vtk_writer) vtk_writer->write(t, solver.step_count(), particles_vtu(solver.particles()));
+    mesh_writer->write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
+                       solver.node_state().velocity, solver.particles());
+    char name[48];
+    std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
+    write_file_atomically(folder.file(name), boundary_csv(solver.mesh(), solver.node_position()));
+    outputs.push_back({{"step", solver.step_count()}, {"time", t}, {"boundary", name}});
+  };
+  hooks.start = [&] {
     solver.initialise_stress();
-    initial_steps = solver.initial_stress_steps();
-    ParticleSeriesWriter particle_writer(folder, c.output.compress);
-    MeshSeriesWriter mesh_writer(folder, solver.mesh(), c.output.compress);
-    std::unique_ptr<VtkSeriesWriter> vtk_writer;
+    eps = 1e-9 * solver.dt();
+    particle_writer = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
+    mesh_writer = std::make_unique<MeshSeriesWriter>(folder, solver.mesh(), c.output.compress);
     if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles");
-    auto output = [&](double t) {
-      particle_writer.write(t, solver.step_count(), solver.particles());
-      if (vtk_writer) vtk_writer->write(t, solver.step_count(), particles_vtu(solver.particles()));
-      mesh_writer.write(t, solver.step_count(), solver.node_position(), solver.node_displacement(),
-                        solver.node_state().velocity, solver.particles());
-      char name[48];
-      std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
-      write_file_atomically(folder.file(name), boundary_csv(solver.mesh(), solver.node_position()));
-      outputs.push_back({{"step", solver.step_count()}, {"time", t}, {"boundary", name}});
-    };
-    output(solver.time());
-    record(solver);
-    const double end = c.time.end_time;
-    const double eps = 1e-9 * solver.dt();
-    double next_output = c.output.interval, next_series = c.output.timeseries_interval;
-    // The step may shrink as elements are crushed (UlFemSolver::dt), so the run ends on time.
-    step_to_end(
-        solver, c, options, governor, folder, series, next_series, next_output,
-        [&] { return solver.time() >= end - eps; }, [&] { record(solver); },
-        [&] { output(solver.time()); }, [](bool) {});
-    write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
-  } catch (const SimulationError& e) {
-    status = note_simulation_stop(e, dir, message);
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
-    mark_failed(folder, run, e.what());
-    throw;
-  }
-
-  record_run_end(run, solver, initial_steps, wall_start, status, message, governor.summary());
-  run["summary"]["solver"] = "ulfem";
-  run["summary"]["mesh"] = {{"generator", solver.mesh().generator},
-                            {"n_elements", solver.mesh().n_elements()},
-                            {"n_nodes", solver.mesh().n_nodes()}};
-  run["outputs"] = outputs;
-  return finish_run(folder, run, series.text(), options, status);
+    hooks.output();
+    hooks.record();
+  };
+  hooks.finished = [&] { return solver.time() >= end - eps; };
+  hooks.close_writers = [&] {
+    particle_writer.reset();  // closes the HDF5 files before run.json is marked
+    mesh_writer.reset();
+    vtk_writer.reset();
+  };
+  hooks.summarise = [&](nlohmann::json& ended) {
+    ended["summary"]["solver"] = "ulfem";
+    ended["summary"]["mesh"] = {{"generator", solver.mesh().generator},
+                                {"n_elements", solver.mesh().n_elements()},
+                                {"n_nodes", solver.mesh().n_nodes()}};
+    ended["outputs"] = outputs;
+  };
+  return drive_run(solver, hooks, c, options, governor, folder, run, series, next_series,
+                   next_output);
 }
 
 }  // namespace pfm::ulfem

@@ -18,6 +18,7 @@
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/output.hpp"
+#include "mpm/solver/run_driver.hpp"
 #include "mpm/solver/stage_timer.hpp"
 #include "mpm/solver/vtk_output.hpp"
 
@@ -261,32 +262,24 @@ int run_case(const Case& c, const RunOptions& options) {
                                {"command", options.command_line},
                                {"threads", threads}});
   }
-  try {
-    if (options.restart) {
-      std::vector<std::pair<double, long>> keep;
-      for (const auto& entry : outputs)
-        keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
-      writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
-      if (c.output.vtk) {
-        vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles", keep);
-        if (coupling.detection_enabled())
-          boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary", keep);
-      }
+  auto last_checkpoint = std::chrono::steady_clock::now();
+  RunHooks hooks;
+  hooks.prepare_outputs = [&] {
+    if (!options.restart) return;
+    // The series of the restarted run, rebuilt with its output steps up to the checkpoint.
+    std::vector<std::pair<double, long>> keep;
+    for (const auto& entry : outputs)
+      keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
+    writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
+    if (c.output.vtk) {
+      vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles", keep);
       if (coupling.detection_enabled())
-        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
+        boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary", keep);
     }
-    const std::string text = run.dump(2) + "\n";
-    write_file_atomically(folder.file("run.json"), text);
-    folder.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
-  } catch (const IoError& e) {
-    return fail_on_write_fault(folder, run, e);
-  }
-
-  const auto wall_start = std::chrono::steady_clock::now();
-  long initial_steps = 0;
-  int status = kExitOk;
-  std::string message;
-  try {
+    if (coupling.detection_enabled())
+      boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
+  };
+  hooks.start = [&] {
     if (!options.restart) {
       solver.initialise_stress();
       coupling.attach(solver);
@@ -295,71 +288,62 @@ int run_case(const Case& c, const RunOptions& options) {
       write_output(*writer_owner);
       record(solver);
     }
-    initial_steps = solver.initial_stress_steps();
-    auto last_checkpoint = std::chrono::steady_clock::now();
-    step_to_end(
-        solver, c, options, governor, folder, series, next_series, next_output,
-        [&] { return solver.step_count() >= n_steps; }, [&] { record(solver); },
-        [&] { write_output(*writer_owner); },
-        [&](bool last) {
-          const bool by_steps =
-              options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
-          const bool by_time = options.checkpoint_seconds > 0.0 &&
-                               seconds_since(last_checkpoint) >= options.checkpoint_seconds;
-          if ((by_steps || by_time) && !last) {
-            save_checkpoint();
-            last_checkpoint = std::chrono::steady_clock::now();
-          }
-        });
-    write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
-  } catch (const SimulationError& e) {
-    status = note_simulation_stop(e, dir, message);
-  } catch (const IoError& e) {
+    last_checkpoint = std::chrono::steady_clock::now();
+  };
+  hooks.finished = [&] { return solver.step_count() >= n_steps; };
+  hooks.record = [&] { record(solver); };
+  hooks.output = [&] { write_output(*writer_owner); };
+  hooks.after_step = [&](bool last) {
+    const bool by_steps =
+        options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
+    const bool by_time = options.checkpoint_seconds > 0.0 &&
+                         seconds_since(last_checkpoint) >= options.checkpoint_seconds;
+    if ((by_steps || by_time) && !last) {
+      save_checkpoint();
+      last_checkpoint = std::chrono::steady_clock::now();
+    }
+  };
+  hooks.close_writers = [&] {
     writer_owner.reset();  // closes the HDF5 files before run.json is marked
     boundary_writer.reset();
-    return fail_on_write_fault(folder, run, e);
-  } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
-    writer_owner.reset();
-    boundary_writer.reset();
-    mark_failed(folder, run, e.what());
-    throw;
-  }
-
-  record_run_end(run, solver, initial_steps, wall_start, status, message, governor.summary());
-  if (coupling.detection_enabled()) {
-    // The in-step parts of these run inside external_forces (the hook); detections for output
-    // steps run outside the step.
-    const CouplingTimes& ct = coupling.times();
-    run["summary"]["stage_seconds"]["detect"] = ct.detect;
-    run["summary"]["stage_seconds"]["bezier"] = ct.bezier;
-    run["summary"]["stage_seconds"]["traction"] = ct.traction;
-    if (!c.constraints.empty()) run["summary"]["stage_seconds"]["constraints"] = ct.constraint;
-    run["summary"]["detection"] = {
-        {"calls", ct.detections},
-        {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
-        {"every_steps", c.detection->every_steps},
-        {"max_motion", c.detection->max_motion},
-        {"kept_calls", ct.kept},
-        {"most_loops", ct.most_loops},
-        {"bridged_calls", ct.bridged_detections},
-        {"bridges", ct.bridges},
-        {"spurious_loops_removed", ct.spurious_loops_removed},
-        {"guard_refinement_passes", ct.guard_refinement_passes}};
-    // The loops' classes at the output steps, summed.
-    nlohmann::json totals = nlohmann::json::object();
-    for (const auto& entry : outputs) {
-      if (!entry.contains("loop_classes")) continue;
-      for (const auto& [kind, count] : entry["loop_classes"].items()) {
-        totals[kind] = totals.value(kind, 0L) + count.get<long>();
+  };
+  hooks.summarise = [&](nlohmann::json& ended) {
+    if (coupling.detection_enabled()) {
+      // The in-step parts of these run inside external_forces (the hook); detections for output
+      // steps run outside the step.
+      const CouplingTimes& ct = coupling.times();
+      ended["summary"]["stage_seconds"]["detect"] = ct.detect;
+      ended["summary"]["stage_seconds"]["bezier"] = ct.bezier;
+      ended["summary"]["stage_seconds"]["traction"] = ct.traction;
+      if (!c.constraints.empty()) ended["summary"]["stage_seconds"]["constraints"] = ct.constraint;
+      ended["summary"]["detection"] = {
+          {"calls", ct.detections},
+          {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
+          {"every_steps", c.detection->every_steps},
+          {"max_motion", c.detection->max_motion},
+          {"kept_calls", ct.kept},
+          {"most_loops", ct.most_loops},
+          {"bridged_calls", ct.bridged_detections},
+          {"bridges", ct.bridges},
+          {"spurious_loops_removed", ct.spurious_loops_removed},
+          {"guard_refinement_passes", ct.guard_refinement_passes}};
+      // The loops' classes at the output steps, summed.
+      nlohmann::json totals = nlohmann::json::object();
+      for (const auto& entry : outputs) {
+        if (!entry.contains("loop_classes")) continue;
+        for (const auto& [kind, count] : entry["loop_classes"].items()) {
+          totals[kind] = totals.value(kind, 0L) + count.get<long>();
+        }
       }
+      ended["summary"]["detection"]["loop_classes_at_outputs"] = totals;
+      nlohmann::json ends = nlohmann::json::array();
+      for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
+      if (coupling.has_surface_loads()) ended["summary"]["load_interval_particles"] = ends;
     }
-    run["summary"]["detection"]["loop_classes_at_outputs"] = totals;
-    nlohmann::json ends = nlohmann::json::array();
-    for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
-    if (coupling.has_surface_loads()) run["summary"]["load_interval_particles"] = ends;
-  }
-  run["outputs"] = outputs;
-  return finish_run(folder, run, series.text(), options, status);
+    ended["outputs"] = outputs;
+  };
+  return drive_run(solver, hooks, c, options, governor, folder, run, series, next_series,
+                   next_output);
 }
 
 }  // namespace pfm

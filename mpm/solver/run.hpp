@@ -106,38 +106,6 @@ void record_run_end(nlohmann::json& run, const Solver& solver, long initial_step
 int finish_run(OutputFolder& folder, nlohmann::json& run, const std::string& timeseries,
                const RunOptions& options, int status);
 
-/// The time loop of both run drivers (run_case, ulfem::run_ulfem_case): steps `solver` until
-/// finished(); after each step, every c.output.timeseries_interval and after the last step,
-/// record() (a row of the time series); every c.output.interval and after the last step,
-/// output() and timeseries.csv from `series`; then after_step(last) (checkpoints) and the
-/// progress line. next_series and next_output (s) are the next times due (a restart carries
-/// them over); the tolerance is 1e-9 of the time step solver.dt() at the start.
-template <class Solver, class Finished, class Record, class Output, class AfterStep>
-void step_to_end(Solver& solver, const Case& c, const RunOptions& options, ThreadGovernor& governor,
-                 OutputFolder& folder, const TimeSeriesTable& series, double& next_series,
-                 double& next_output, Finished finished, Record record, Output output,
-                 AfterStep after_step) {
-  const double eps = 1e-9 * solver.dt();
-  RunProgress progress(options.progress);
-  while (!finished()) {
-    governor.update();
-    solver.step();
-    const double t = solver.time();
-    const bool last = finished();
-    if (t >= next_series - eps || last) {
-      record();
-      while (next_series <= t + eps) next_series += c.output.timeseries_interval;
-    }
-    if (t >= next_output - eps || last) {
-      output();
-      write_file_atomically(folder.file("timeseries.csv"), series.text());
-      while (next_output <= t + eps) next_output += c.output.interval;
-    }
-    after_step(last);
-    progress.update(solver.step_count(), t, c.time.end_time);
-  }
-}
-
 /// Run a validated case. Returns kExitOk, kExitSimulationError after writing run.json with
 /// status "failed" and keeping the outputs written so far, or kExitIoError after a write fault
 /// (fail_on_write_fault). InputError propagates (nothing is created when the case or options
