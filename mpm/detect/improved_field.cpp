@@ -5,7 +5,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
-#include <numbers>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>

@@ -9,10 +9,10 @@
 // (tests/cpp/detect, Determinism.* and Invariants.*). detect() runs this file for
 // `narrow_band: false`. The pieces that are definitions, not accelerations, are here and the
 // fast path calls them: the refinement of a pass, what the contours of a pass call for next, the
-// containment check. The kernel is kernel.hpp's, the wall rule ImprovedField's
-// (find_wall_contacts(), mirror_sides()), the loops' classes, the bridges' pairs and the removal
-// of spurious loops loop_classes.cpp's, the optional curvature correction, a filter on the
-// contours, improved_detector.cpp's.
+// containment check. Defined elsewhere: the kernel in kernel.hpp; the wall rule in ImprovedField
+// (find_wall_contacts(), mirror_sides()); the loops' classes, the bridges' pairs and the removal
+// of spurious loops in loop_classes.cpp; the optional curvature correction (a filter on the
+// contours) in improved_detector.cpp.
 #include <algorithm>
 #include <array>
 #include <chrono>
