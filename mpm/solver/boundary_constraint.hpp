@@ -61,14 +61,15 @@
 // the footing, a rigid block a cell deep under it, wider at its base than the material under
 // the footing's edge that moves with it. A moving support on the top two node rows over x <= b
 // gives the same plateau (8 cells under b: 1.07-1.13 against the constraint's 1.04-1.11 over
-// 0.01-0.12 b; 16 cells: 1.02-1.06 against 1.01-1.07), on the top row alone 1.01-1.04 and
-// 0.98-1.01: an excess of first order in h. Shortening the part by h / 2 at the edge changes
-// nothing (1.10 over 0.03-0.09 b), lengthening it by h / 2 adds 11 % (a node more along x);
-// a normal window of 10 or 25 degrees instead of 45, no damping, or linear functions leave it at
-// +10 %. A consistent (sparse) stiffness held by the velocity gave (2 + pi) c within 1 % early,
-// but grew unstable from 0.04-0.1 b (not measured, a likely cause: as the top approaches the
-// next node row, the light row above it keeps a vanishing share of the part and is asked for
-// ever larger velocities).
+// 0.01-0.09 b; 16 cells: 1.02-1.06 against 1.01-1.07), on the top row alone 1.01-1.04 and
+// 0.92-1.01 (falling as the top leaves the node row): an excess that shrinks with h (two rows less
+// one, over 0.01-0.03 b: +0.06-0.08 at 8 cells, +0.04-0.05 at 16). Shortening the part by h / 2 at
+// the edge changes nothing (1.10 over 0.03-0.09 b), lengthening it by h / 2 adds 11 % (a node more
+// along x); a normal window of 10 or 25 degrees instead of 45, no damping, or linear functions
+// leave it at +10 %. A consistent (sparse) stiffness held by the velocity gave (2 + pi) c
+// within 1 % early, but grew unstable from 0.04-0.1 b (not measured, a likely cause: as the top
+// approaches the next node row, the light row above it keeps a vanishing share of the part and
+// is asked for ever larger velocities).
 // Past 0.09 b (0.7 h) of settlement the particles under the footing cross a cell row together
 // and every MPM variant, the node support too, turns noisy (the cells' mean dilatation changes
 // its points at once).
