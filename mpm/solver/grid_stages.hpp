@@ -1,10 +1,9 @@
 // What the MPM's background grid and the UL-FEM's Q4 mesh share of the explicit step (thesis
 // 3.3, eq. 3.24): the nodal arrays, what a material point adds to a node in the particle-to-grid
 // map, the update of the nodes, a point's velocity in the grid-to-particle map and its stress
-// update. Each solver
-// keeps its own loops (the MPM over its particles by bands of grid rows on the threads, with
-// their stencils; the UL-FEM over its elements) and calls these for the arithmetic, so that the
-// two do the same operations in the same order. Units: kN, m, s, t, kPa.
+// update. Each solver keeps its own loops (the MPM over its particles by bands of grid rows on
+// the threads, with their stencils; the UL-FEM over its elements) and calls these for the
+// arithmetic, so that the two do the same operations in the same order. Units: kN, m, s, t, kPa.
 #pragma once
 
 #include <cstddef>
