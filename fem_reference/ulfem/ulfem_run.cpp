@@ -3,13 +3,9 @@
 #include <hdf5.h>
 
 #include <cerrno>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <iostream>
 #include <memory>
 #include <sstream>
-#include <stdexcept>
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/provenance.hpp"

@@ -17,7 +17,6 @@
 #include <unordered_map>
 #include <vector>
 
-#include "mpm/core/polygon.hpp"
 #include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/marching_squares.hpp"

@@ -164,17 +164,17 @@ class Field {
     // One kernel per particle; the particle's largest and smallest stretch, and the rows' norms
     // of F (the half widths of the box around the ellipse F disk(1)).
     std::vector<Vec2> stretch(n, Vec2(1.0, 1.0)), widths(n, Vec2(1.0, 1.0));
+    smallest_stretch_.assign(n, 1.0);
     for (std::size_t p = 0; p < n; ++p) {
       const Mat2* f = deformed ? &cloud.deformation_gradient[p] : nullptr;
       kernels_.push_back(kernel_slot(position_[p], cloud.volume[p], f, a0, config.profile));
       if (f == nullptr) continue;
       const Mat2& m = *f;
       singular_values(m, stretch[p].x(), stretch[p].y());
+      smallest_stretch_[p] = stretch[p].y();
       widths[p] = Vec2(std::sqrt(m(0, 0) * m(0, 0) + m(0, 1) * m(0, 1)),
                        std::sqrt(m(1, 0) * m(1, 0) + m(1, 1) * m(1, 1)));
     }
-    smallest_stretch_.resize(n);
-    for (std::size_t p = 0; p < n; ++p) smallest_stretch_[p] = stretch[p].y();
     // Mirror images across the grid edges the body rests on (ImprovedConfig::mirror_grid_edges),
     // for a particle whose kernel or guard reaches the edge where the body touches it: the
     // position reflected, S^-1's off-diagonal terms negated once per reflection.
@@ -284,8 +284,7 @@ class Field {
     double value = phi(x);
     if (!bridge_a_.empty()) value = std::max(value, bridge_value(x));
     const double scale_squared = guard_scale_ * guard_scale_;
-    for (std::size_t p = 0; p < position_.size(); ++p) {
-      if (!guarded_[p]) continue;
+    for (const std::size_t p : guard_list_) {
       const KernelSlot& k = kernels_[p];
       const double dx = x.x() - k.x, dy = x.y() - k.y;
       const double ux = k.k00 * dx + k.k01 * dy, uy = k.k10 * dx + k.k11 * dy;
@@ -297,18 +296,20 @@ class Field {
 
   // Guards `particles` (none without guards); returns how many were not guarded before.
   std::size_t add_guards(std::span<const std::size_t> particles) {
-    std::size_t added = 0;
+    if (!(guard_scale_ > 0.0)) return 0;
+    const std::size_t before = guard_list_.size();
     for (const std::size_t p : particles) {
-      added += guard_scale_ > 0.0 && !guarded_[p] ? 1 : 0;
-      guarded_[p] = guard_scale_ > 0.0 ? 1 : 0;
+      if (guarded_[p]) continue;
+      guarded_[p] = 1;
+      guard_list_.push_back(p);
     }
-    return added;
+    return guard_list_.size() - before;
   }
   // Smallest semi-axis of an active guard, m (infinity without one).
   double smallest_guard_axis() const {
     double axis = std::numeric_limits<double>::infinity();
-    for (std::size_t p = 0; p < position_.size(); ++p) {
-      if (guarded_[p]) axis = std::min(axis, guard_radius_ * smallest_stretch_[p]);
+    for (const std::size_t p : guard_list_) {
+      axis = std::min(axis, guard_radius_ * smallest_stretch_[p]);
     }
     return axis;
   }
@@ -357,7 +358,8 @@ class Field {
   std::vector<std::vector<std::size_t>> by_cell_;
   std::vector<std::size_t> every_;
   std::vector<Vec2> position_;
-  std::vector<char> guarded_;
+  std::vector<char> guarded_;            ///< per particle
+  std::vector<std::size_t> guard_list_;  ///< the guarded particles
   std::vector<double> smallest_stretch_;
   std::vector<Vec2> bridge_a_, bridge_b_;
   double bridge_half_ = 0.0;

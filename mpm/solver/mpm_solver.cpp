@@ -1,7 +1,6 @@
 #include "mpm/solver/mpm_solver.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <sstream>
 
