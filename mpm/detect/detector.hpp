@@ -438,6 +438,9 @@ class ImprovedField {
                              double largest_volume, double smallest_det);
   /// s of the fixed-point unit 2^-s of the kernel sums (detail::kernel_sum()).
   int fixed_point_bits() const { return fixed_point_bits_; }
+  /// max(guards, bridges) at x (0 without them): operator() is max(phi, this), so a value of
+  /// operator() taken before guards or bridges were added becomes today's by a maximum with it.
+  double guards_and_bridges(const Vec2& x) const;
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;
   /// Whether volume_fraction(x) > threshold: the same answer, found from the bin rows nearest x
@@ -469,6 +472,9 @@ class ImprovedField {
   // converted back) and, with `guard`, max(phi, guard).
   double sum_ranges(const KernelArrays& kernels, const int* begin, const int* end, int n_ranges,
                     const Vec2& x, bool guard) const;
+  // max(bridges, guards) at x (0 without them), the guards among the slots of those ranges.
+  double raised_by(const KernelArrays& kernels, const int* begin, const int* end, int n_ranges,
+                   const Vec2& x) const;
   double sum_at(const Vec2& x, bool guard) const;
 
   // The bridges of add_bridges(): segments a-b (a point: a == b), binned in squares of side bin

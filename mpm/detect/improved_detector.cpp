@@ -125,11 +125,16 @@ class BlockStore {
   }
   /// Whether fine index k lies on a coarse grid line (a multiple of r).
   bool on_grid_line(int k) const { return within_[static_cast<std::size_t>(k)] == 0; }
-  /// Sets every value of block (bi, bj) back to the fill, if the block is allocated.
-  void reset_block(int bi, int bj) {
+  /// Calls visit(i, j, value) for every fine node (i, j) of block (bi, bj), if the block is
+  /// allocated.
+  template <class Visitor>
+  void for_each_in_block(int bi, int bj, Visitor&& visit) {
     const long offset = offset_[static_cast<std::size_t>(bj) * n_x_ + bi];
     if (offset < 0) return;
-    std::fill_n(pool_.begin() + offset, static_cast<long>(r_) * r_, fill_);
+    T* block = pool_.data() + offset;
+    for (int b = 0; b < r_; ++b) {
+      for (int a = 0; a < r_; ++a) visit(bi * r_ + a, bj * r_ + b, block[b * r_ + a]);
+    }
   }
 
  private:
@@ -670,21 +675,71 @@ std::vector<char> guard_candidates(std::span<const Vec2> positions, const Grid& 
   return candidate;
 }
 
+// The slots reaching one gather square (FineNodes::square_box()), gathered on first use: a sum
+// over them is bitwise the field's own (ImprovedField::slots_reaching()).
+struct GatheredSquare {
+  long key = -1;
+  ImprovedField::KernelArrays slots;
+};
+
 // The field max(phi, guard) on the nodes of the grid refined r times, each evaluated on first use
-// and kept (the narrow band touches few blocks of a large refined grid).
+// and kept (the narrow band touches few blocks of a large refined grid). A node's sum runs over
+// the slots gathered for its gather square, a square of `square` x `square` fine cells no wider
+// than a kernel radius: in a failing body the bins around a point hold four times the slots
+// that reach it (the bins are sized by the widest kernel, the cap's 2 a0), a square's gather
+// about 1.3 times.
 class FineNodes {
  public:
-  FineNodes(const Grid& grid, int r, const ImprovedField& field, double level, long& evaluations)
+  /// Nodes of one gather square from which evaluate() gathers its slots: a gather costs about
+  /// ten sums over the bins of an intact body.
+  static constexpr std::size_t kGatherFrom = 8;
+  FineNodes(const Grid& grid, int r, int square, const ImprovedField& field, double level,
+            long& evaluations)
       : grid_(grid),
         field_(field),
         level_(level),
         evaluations_(evaluations),
         r_(r),
+        square_(square),
         cache_(grid.n_cells_x, grid.n_cells_y, r, std::numeric_limits<double>::quiet_NaN()) {
     geometry_.origin = grid.origin;
     geometry_.spacing = grid.cell_size / r;
     geometry_.n_x = grid.n_cells_x * r + 1;
     geometry_.n_y = grid.n_cells_y * r + 1;
+    n_squares_x_ = grid.n_cells_x * r / square;
+    n_squares_y_ = grid.n_cells_y * r / square;
+  }
+  /// The largest divisor of r whose square of fine cells is no wider than `radius` (m; at least
+  /// one fine cell): a whole grid cell at 2 or 3 points per cell, half of one at 5.
+  static int gather_square(int r, double cell_size, double radius) {
+    int square = 1;
+    for (int d = 1; d <= r; ++d) {
+      if (r % d == 0 && d * cell_size / r <= radius) square = d;
+    }
+    return square;
+  }
+  /// The gather square of fine node (i, j): the closed square of square x square fine cells
+  /// from fine node (square si, square sj) that holds it (a node on the grid's upper or right
+  /// edge in the last one).
+  long square_key(int i, int j) const {
+    const int si = std::min(i / square_, n_squares_x_ - 1);
+    const int sj = std::min(j / square_, n_squares_y_ - 1);
+    return static_cast<long>(sj) * n_squares_x_ + si;
+  }
+  /// The lower and upper corners of gather square `key` (m), bitwise the positions of its
+  /// corner nodes.
+  std::pair<Vec2, Vec2> square_box(long key) const {
+    const int si = static_cast<int>(key % n_squares_x_), sj = static_cast<int>(key / n_squares_x_);
+    return {position(si * square_, sj * square_), position((si + 1) * square_, (sj + 1) * square_)};
+  }
+  /// The slots of gather square `key` in `g`, gathered unless `g` holds them already.
+  const ImprovedField::KernelArrays& gathered(long key, GatheredSquare& g) const {
+    if (g.key != key) {
+      g.key = key;
+      const auto [lo, hi] = square_box(key);
+      field_.slots_reaching(lo, hi, g.slots);
+    }
+    return g.slots;
   }
   /// Origin, spacing and node counts (no values).
   const NodalField& geometry() const { return geometry_; }
@@ -711,32 +766,64 @@ class FineNodes {
   void evaluate(std::span<const std::array<int, 2>> wanted) {
     // Unknown nodes are marked, so each is listed once; the marks are overwritten below.
     constexpr double kListed = std::numeric_limits<double>::infinity();
-    std::vector<std::size_t> listed;
-    std::vector<Vec2> x;
+    struct Listed {
+      long square;
+      std::size_t index;  // in cache_ (its block made here, on the calling thread)
+      int i, j;
+    };
+    std::vector<Listed> listed;
     for (const auto& [i, j] : wanted) {
       const std::size_t k = cache_.index(i, j);
       double& slot = cache_[k];
       if (std::isnan(slot) && !from_grid_node(i, j, slot)) {
         slot = kListed;
-        listed.push_back(k);
-        x.push_back(position(i, j));
+        listed.push_back({square_key(i, j), k, i, j});
       }
     }
-    const std::size_t n = listed.size();
-    for_each_on_threads(n, kEvaluationChunk,
-                        [&](std::size_t k) { cache_[listed[k]] = field_(x[k]); });
+    // Square by square: a square with kGatherFrom nodes or more is gathered (once per chunk),
+    // the others sum over their bins.
+    std::stable_sort(listed.begin(), listed.end(),
+                     [](const Listed& a, const Listed& b) { return a.square < b.square; });
+    const std::size_t n = listed.size(), n_chunks = (n + kEvaluationChunk - 1) / kEvaluationChunk;
+    std::vector<char> gather(n, 0);
+    for (std::size_t k = 0, end = 0; k < n; k = end) {
+      while (end < n && listed[end].square == listed[k].square) ++end;
+      if (end - k >= kGatherFrom) std::fill(gather.begin() + k, gather.begin() + end, 1);
+    }
+    for_each_on_threads(n_chunks, 1, [&](std::size_t c) {
+      GatheredSquare g;
+      for (std::size_t k = c * kEvaluationChunk; k < std::min(n, (c + 1) * kEvaluationChunk); ++k) {
+        const Listed& l = listed[k];
+        const Vec2 x = position(l.i, l.j);
+        cache_[l.index] = gather[k] ? field_(x, gathered(l.square, g)) : field_(x);
+      }
+    });
     evaluations_ += static_cast<long>(n);
   }
   bool inside(int i, int j) { return value(i, j) > level_; }
-  /// Forgets the values of every fine node in the closed square of each grid cell set in
-  /// `changed` (n_cells_x x n_cells_y), to be evaluated anew: the field changed there.
-  void forget(const std::vector<char>& changed) {
+  /// Takes in the guards and bridges added since the values were found: every known fine node
+  /// in the closed square of each grid cell set in `changed` (n_cells_x x n_cells_y) becomes
+  /// max(value, guards and bridges there), which is bitwise the field's value now (the field
+  /// is max(phi, guards, bridges), and the added terms only raise the maxima).
+  void raise(const std::vector<char>& changed) {
     const int ncx = grid_.n_cells_x, ncy = grid_.n_cells_y;
+    // The square's upper and right node lines belong to the next blocks.
+    std::vector<char> block(static_cast<std::size_t>(ncx + 1) * (ncy + 1), 0);
     for (int cj = 0; cj < ncy; ++cj) {
       for (int ci = 0; ci < ncx; ++ci) {
         if (!changed[static_cast<std::size_t>(cj) * ncx + ci]) continue;
-        // The square's upper and right node lines belong to the next blocks.
-        for (int b = 0; b < 4; ++b) cache_.reset_block(ci + (b & 1), cj + (b >> 1));
+        for (int b = 0; b < 4; ++b) {
+          block[static_cast<std::size_t>(cj + (b >> 1)) * (ncx + 1) + ci + (b & 1)] = 1;
+        }
+      }
+    }
+    for (int bj = 0; bj <= ncy; ++bj) {
+      for (int bi = 0; bi <= ncx; ++bi) {
+        if (!block[static_cast<std::size_t>(bj) * (ncx + 1) + bi]) continue;
+        cache_.for_each_in_block(bi, bj, [&](int i, int j, double& value) {
+          if (!std::isnan(value))
+            value = std::max(value, field_.guards_and_bridges(position(i, j)));
+        });
       }
     }
   }
@@ -763,7 +850,8 @@ class FineNodes {
   const ImprovedField& field_;
   double level_;
   long& evaluations_;
-  int r_;
+  int r_, square_;
+  int n_squares_x_ = 0, n_squares_y_ = 0;
   NodalField geometry_;
   BlockStore<double> cache_;
   std::span<const double> coarse_;
@@ -857,17 +945,14 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
       }
     }
   };
-  // With threads to share them, their lattice nodes first, all at once (on one thread the list
-  // would cost more than the scan's own first reads).
-  if (omp_get_max_threads() > 1) {
-    std::vector<std::array<int, 2>> lattice;
-    for_each_run([&](int i, int end, int j, int stride) {
-      for (int fj = j * r; fj <= (j + 1) * r; fj += stride) {
-        for (int fi = i * r; fi <= end * r; fi += stride) lattice.push_back({fi, fj});
-      }
-    });
-    nodes.evaluate(lattice);
-  }
+  // Their lattice nodes first, all at once: square by square, on the threads.
+  std::vector<std::array<int, 2>> lattice;
+  for_each_run([&](int i, int end, int j, int stride) {
+    for (int fj = j * r; fj <= (j + 1) * r; fj += stride) {
+      for (int fi = i * r; fi <= end * r; fi += stride) lattice.push_back({fi, fj});
+    }
+  });
+  nodes.evaluate(lattice);
   for_each_run([&](int i, int end, int j, int stride) {
     // The lattice segments of the run (every fine node near guards): along its rows and up its
     // columns.
@@ -999,29 +1084,30 @@ class EdgeRoots {
         nodes_(nodes),
         level_(level),
         tolerance_t_(root_tolerance * nodes.refinement()),  // fraction of the fine edge
-        square_(std::max(1, nodes.refinement() / 2)),
         memo_(memo),
         changed_(changed) {}
   void operator()(std::span<const EdgeCrossing> crossing, std::span<Vec2> point) {
     const auto start = std::chrono::steady_clock::now();
     // The crossings whose root is known from the earlier pass, then the others on the threads.
-    std::vector<std::size_t> open;
+    // Square by square (FineNodes::gathered()), each gathered once per chunk.
+    std::vector<std::pair<long, std::size_t>> open;  // gather square, crossing
     open.reserve(crossing.size());
     for (std::size_t c = 0; c < crossing.size(); ++c) {
-      if (!known(crossing[c], point[c])) open.push_back(c);
+      if (!known(crossing[c], point[c])) open.emplace_back(square_of(crossing[c]), c);
     }
+    std::stable_sort(open.begin(), open.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
     const std::size_t n = open.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
     std::vector<long> evaluations(n_chunks, 0);
     for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
-      ImprovedField::KernelArrays slots;
-      int slots_square = -1;  // the square whose slots `slots` holds (-1: none)
+      GatheredSquare g;
       for (std::size_t o = k * kCrossingChunk; o < std::min(n, (k + 1) * kCrossingChunk); ++o) {
-        const std::size_t c = open[o];
-        point[c] = root(crossing[c], slots, slots_square, evaluations[k]);
+        const auto [square, c] = open[o];
+        point[c] = root(crossing[c], nodes_.gathered(square, g), evaluations[k]);
       }
     });
     if (memo_ != nullptr) {
-      for (const std::size_t c : open) memo_->add(key(crossing[c]), point[c]);
+      for (const auto& [square, c] : open) memo_->add(key(crossing[c]), point[c]);
     }
     count_ += static_cast<long>(crossing.size());
     for (const long e : evaluations) evaluations_ += e;
@@ -1053,21 +1139,17 @@ class EdgeRoots {
     return true;
   }
 
-  Vec2 root(const EdgeCrossing& c, ImprovedField::KernelArrays& slots, int& slots_square,
-            long& evaluations) const {
-    const Vec2 d = c.b - c.a;
+  // The gather square of the fine cell holding the crossing's middle: its closed square holds
+  // the edge, whose ends are fine nodes.
+  long square_of(const EdgeCrossing& c) const {
     int fi = 0, fj = 0;
     nodes_.cell_of(0.5 * (c.a + c.b), fi, fj);
-    const int si = fi / square_, sj = fj / square_;
-    const int key = sj * (nodes_.n_cells_x() / square_ + 1) + si;
-    if (key != slots_square) {
-      slots_square = key;
-      const NodalField& geometry = nodes_.geometry();
-      const Vec2 corner = geometry.origin + Vec2(si, sj) * (square_ * geometry.spacing);
-      const Vec2 upper = corner + Vec2::Constant(square_ * geometry.spacing);
-      field_.slots_reaching(corner.cwiseMin(c.a.cwiseMin(c.b)), upper.cwiseMax(c.a.cwiseMax(c.b)),
-                            slots);
-    }
+    return nodes_.square_key(fi, fj);
+  }
+
+  Vec2 root(const EdgeCrossing& c, const ImprovedField::KernelArrays& slots,
+            long& evaluations) const {
+    const Vec2 d = c.b - c.a;
     const double t = brent_root([&](double s) { return field_(c.a + s * d, slots) - level_; },
                                 c.value_a, c.value_b, tolerance_t_, &evaluations);
     return Vec2(c.a + t * d);
@@ -1076,7 +1158,6 @@ class EdgeRoots {
   const ImprovedField& field_;
   const FineNodes& nodes_;
   double level_, tolerance_t_;
-  int square_;
   Memo* memo_;
   const std::vector<char>* changed_;
   long count_ = 0, evaluations_ = 0;
@@ -1315,9 +1396,10 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
   DetectedBoundary boundary;
-  // A pass at the refinement of the pass before keeps that pass's fine nodes and edge roots
-  // outside the grid cells where the field changed (`changed`: the supports of the guards and
-  // bridges added); the contours are bitwise those of a pass that evaluates everything anew.
+  // A pass at the refinement of the pass before keeps that pass's fine nodes, raised by the
+  // guards and bridges added where the field changed (`changed`: their supports), and its edge
+  // roots outside those cells; the contours are bitwise those of a pass that evaluates
+  // everything anew.
   std::optional<FineNodes> kept_nodes;
   EdgeRoots::Memo memo;
   std::vector<char> changed;
@@ -1329,10 +1411,12 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h);
     timings.refinement = r;
     if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
-      kept_nodes->forget(changed);
+      kept_nodes->raise(changed);
       memo.index();
     } else {
-      kept_nodes.emplace(grid, r, field, config.level, field_evaluations);
+      kept_nodes.emplace(
+          grid, r, FineNodes::gather_square(r, h, config.radius_factor * cloud.initial_spacing),
+          field, config.level, field_evaluations);
       memo.clear();
     }
     FineNodes& nodes = *kept_nodes;

@@ -359,8 +359,13 @@ double ImprovedField::sum_ranges(const KernelArrays& kernels, const int* begin, 
   const double px = x.x(), py = x.y();
   const std::uint64_t units = detail::kernel_sum(exponent_, columns, begin, end, n_ranges, px, py);
   const double phi = static_cast<double>(units) * fixed_point_unit_;
-  if (!guard) return phi;
-  const double bridged = bridges_.a.empty() ? phi : std::max(phi, bridges_.value(x, level_));
+  return guard ? std::max(phi, raised_by(kernels, begin, end, n_ranges, x)) : phi;
+}
+
+double ImprovedField::raised_by(const KernelArrays& kernels, const int* begin, const int* end,
+                                int n_ranges, const Vec2& x) const {
+  const double px = x.x(), py = x.y();
+  const double bridged = bridges_.a.empty() ? 0.0 : bridges_.value(x, level_);
   if (n_guarded_ == 0) return bridged;
   // The guards (few): 0.5 + 0.5 (1 - |G^-1 d|^2), > 0.5 inside the guard ellipse, continuous,
   // 0 at q = 2; G = F rho0 = S rho0 / a0, so |G^-1 d|^2 = (a0 / rho0)^2 q. A maximum, so in any
@@ -386,6 +391,12 @@ double ImprovedField::sum_at(const Vec2& x, bool guard) const {
   int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
   const int rows = bins_.slot_rows_near(x, rings_, begin, end);
   return sum_ranges(slot_, begin, end, rows, x, guard);
+}
+
+double ImprovedField::guards_and_bridges(const Vec2& x) const {
+  int begin[2 * kBinRings + 1], end[2 * kBinRings + 1];
+  const int rows = bins_.slot_rows_near(x, rings_, begin, end);
+  return raised_by(slot_, begin, end, rows, x);
 }
 
 double ImprovedField::volume_fraction(const Vec2& x) const {
