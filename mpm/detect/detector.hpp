@@ -390,9 +390,12 @@ class ImprovedField {
   static double reference_reach(const ImprovedConfig& config, double initial_spacing);
   /// Reach of an undeformed particle's guard, m: sqrt 2 guard radius (0 without guards).
   static double reference_guard_reach(const ImprovedConfig& config, double initial_spacing);
-  /// The contacts of the particles at `positions` (bounding box lo, hi) with the edges of `walls`.
+  /// The contacts of the particles at `positions` (bounding box lo, hi) with the edges of `walls`:
+  /// the bins of one `spacing` along each edge holding a particle closer to it than `distance`
+  /// (m; 0: one spacing, the field's mirrors).
   static WallContacts find_wall_contacts(std::span<const Vec2> positions, const Vec2& lo,
-                                         const Vec2& hi, const Grid& walls, double spacing);
+                                         const Vec2& hi, const Grid& walls, double spacing,
+                                         double distance = 0.0);
   /// Across which edges of `walls` a particle at x whose kernel and guard reach half_x, half_y
   /// (m) is mirrored: {0 left, 1 right or -1 none; 0 bottom, 1 top or -1 none}. Across a wall
   /// that the particle reaches, where the body touches it within half_along along it.

@@ -383,33 +383,71 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   const int kernel_rings = std::max(1, static_cast<int>(std::ceil(kernel_reach / h)));
   const int particle_rings = std::max(1, static_cast<int>(std::ceil(particle_reach / h)));
   Band band;
-  // Where the body rests on a grid edge the field mirrors the particles across it: beyond such a
-  // wall the cells are the mirror images of those inside (for the erosion, and for the dilation,
-  // since a particle whose image reaches an open cell reaches that cell's image). Elsewhere the
-  // outside is void. The padding holds both operations' reach; the erosion's artefacts at its
-  // outer rim stay more than particle_rings away from the grid. (Which edges are walls follows
-  // from the box; where they are touched is found below.)
+  // The particles that may touch a grid edge: those in the cells along it or outside the grid
+  // (closer to the edge than one initial spacing <= h; a larger spacing takes every particle).
+  const bool every_particle_may_touch = cloud.initial_spacing > h;
+  const auto on_rim = [&](int c) {
+    return every_particle_may_touch || c < 0 || c % ncx == 0 || c / ncx == 0 ||
+           c % ncx == ncx - 1 || c / ncx == ncy - 1;
+  };
+  std::vector<Vec2> touching;
   if (config.mirror_grid_edges) {
-    band.contacts =
-        ImprovedField::find_wall_contacts({}, survey.lo, survey.hi, grid, cloud.initial_spacing);
+    for (const Runs& runs : survey.runs) {
+      for (std::size_t r = 0; r < runs.cell.size(); ++r) {
+        if (!on_rim(runs.cell[r])) continue;
+        for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) {
+          touching.push_back(cloud.position[p]);
+        }
+      }
+    }
+    band.contacts = ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid,
+                                                      cloud.initial_spacing);
   }
-  const bool mirror_x[2] = {band.contacts.wall[0], band.contacts.wall[1]};
-  const bool mirror_y[2] = {band.contacts.wall[2], band.contacts.wall[3]};
+  // Where the body rests on a grid edge the field mirrors each particle across it if the edge is
+  // touched within the particle's reach along it (ImprovedField::mirror_sides()). Beyond such a
+  // wall a cell is the mirror image of the cell inside where the wall is touched all along that
+  // cell (every bin of one spacing it spans: then every particle of the cell is mirrored), for
+  // the erosion and for the dilation (a particle whose image reaches an open cell reaches that
+  // cell's image). Elsewhere the outside is void, which errs on the side of a wider band. The
+  // padding holds both operations' reach; the erosion's artefacts at its outer rim stay more
+  // than particle_rings away from the grid.
+  std::array<std::vector<char>, 4> mirrored_along;  // by row (walls 0, 1) or column (2, 3)
+  // The bins touched closely enough for the image cell to be as full as its source: a particle
+  // within half a spacing + 0.075 a0 of the wall (its image lies within one spacing + 0.15 a0 of
+  // it, the slack the solid test leaves). A body that left the wall by more keeps its mirror in
+  // the field, where the gaps along two walls meeting at a corner open a hole the volumes do
+  // not show (a failing body cut by the grid edge 0.8 spacings from its points).
+  const ImprovedField::WallContacts close =
+      ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid, cloud.initial_spacing,
+                                        0.5 * cloud.initial_spacing + 0.075 * a0);
+  for (int w = 0; w < 4; ++w) {
+    const int n = w < 2 ? ncy : ncx;
+    mirrored_along[w].assign(static_cast<std::size_t>(n), 0);
+    const std::vector<char>& bins = close.touched[w];
+    if (!band.contacts.wall[w] || bins.empty()) continue;
+    // Cell k spans [k h, (k + 1) h) along the wall: bins floor(k h / s) .. ceil((k + 1) h / s) - 1
+    // (a point at the wall's far end is in the last bin of the last cell).
+    const long last = static_cast<long>(bins.size()) - 1;
+    const double s = cloud.initial_spacing;
+    for (int k = 0; k < n; ++k) {
+      const long b0 = std::min(last, static_cast<long>(std::floor(k * h / s)));
+      const long b1 = std::min(last, static_cast<long>(std::ceil((k + 1) * h / s)) - 1);
+      bool all = true;
+      for (long b = b0; b <= std::max(b0, b1); ++b) all = all && bins[b] != 0;
+      mirrored_along[w][static_cast<std::size_t>(k)] = all ? 1 : 0;
+    }
+  }
   const int pad = kernel_rings + particle_rings;
   const int px = ncx + 2 * pad, py = ncy + 2 * pad;
   // Index of the grid cell that padded cell (a, b) images, or -1 for the void.
-  const auto source = [=](int a, int b) {
+  const auto source = [&](int a, int b) {
     int i = a - pad, j = b - pad;
-    if (i < 0 || i >= ncx) {
-      if (!mirror_x[i < 0 ? 0 : 1]) return -1;
-      i = i < 0 ? -1 - i : 2 * ncx - 1 - i;
-      if (i < 0 || i >= ncx) return -1;
-    }
-    if (j < 0 || j >= ncy) {
-      if (!mirror_y[j < 0 ? 0 : 1]) return -1;
-      j = j < 0 ? -1 - j : 2 * ncy - 1 - j;
-      if (j < 0 || j >= ncy) return -1;
-    }
+    const int wall_x = i < 0 ? 0 : (i >= ncx ? 1 : -1), wall_y = j < 0 ? 2 : (j >= ncy ? 3 : -1);
+    if (wall_x >= 0) i = i < 0 ? -1 - i : 2 * ncx - 1 - i;
+    if (wall_y >= 0) j = j < 0 ? -1 - j : 2 * ncy - 1 - j;
+    if (i < 0 || i >= ncx || j < 0 || j >= ncy) return -1;
+    if (wall_x >= 0 && !mirrored_along[wall_x][static_cast<std::size_t>(j)]) return -1;
+    if (wall_y >= 0 && !mirrored_along[wall_y][static_cast<std::size_t>(i)]) return -1;
     return j * ncx + i;
   };
   std::vector<double> padded_volume(static_cast<std::size_t>(px) * py, 0.0);
@@ -417,7 +455,7 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   const std::size_t padded_rows = rows_per_chunk(px);
   double* const volume = padded_volume.data();
   const double* const cell_volume = survey.cell_volume.data();
-  for_each_on_threads(static_cast<std::size_t>(py), padded_rows, [=](std::size_t row) {
+  for_each_on_threads(static_cast<std::size_t>(py), padded_rows, [&](std::size_t row) {
     const int b = static_cast<int>(row);
     for (int a = 0; a < px; ++a) {
       const int c = source(a, b);
@@ -450,38 +488,25 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
   std::vector<char> padded_open(padded_interior.size());
   for (std::size_t c = 0; c < padded_open.size(); ++c) padded_open[c] = !padded_interior[c];
   const std::vector<char> padded_needed = dilate(padded_open, px, py, particle_rings);
-  // The grid's cells out of the padded ones: interior by volume, and the code of each cell, by
-  // which one sweep over the runs selects: code[c + 1] of the particle's cell c (c = -1 outside
-  // the grid) has bit 0 set where the particle enters the field (a needed cell), bit 1 where it
-  // may touch a grid edge (in a cell along the edges or outside the grid: closer to the edge than
-  // one initial spacing <= h; a larger spacing takes every particle). (Raw pointers: a char store
-  // could alias a vector's own pointer, which would then be read again at every cell.)
-  const bool every_particle_may_touch = cloud.initial_spacing > h;
+  // The grid's cells out of the padded ones: interior by volume, and whether the particles of
+  // each cell enter the field (needed[c + 1] of the particle's cell c; c = -1 outside the grid,
+  // always). (Raw pointers: a char store could alias a vector's own pointer, which would then be
+  // read again at every cell.)
   band.interior_by_volume.assign(static_cast<std::size_t>(ncx) * ncy, 0);
   band.needed.assign(band.interior_by_volume.size(), 0);
-  std::vector<char> code(band.interior_by_volume.size() + 1, 3);
   char* const interior_out = band.interior_by_volume.data();
   char* const needed_out = band.needed.data();
-  char* const code_out = code.data() + 1;
   const char* const interior_in = padded_interior.data();
   const char* const needed_in = padded_needed.data();
   for_each_on_threads(static_cast<std::size_t>(ncy), rows_per_chunk(ncx), [=](std::size_t row) {
-    const int j = static_cast<int>(row);
     const std::size_t padded = (row + pad) * px + pad;
     std::copy_n(interior_in + padded, ncx, interior_out + row * ncx);
     std::copy_n(needed_in + padded, ncx, needed_out + row * ncx);
-    for (int i = 0; i < ncx; ++i) {
-      const bool edge =
-          every_particle_may_touch || i == 0 || j == 0 || i == ncx - 1 || j == ncy - 1;
-      code_out[row * ncx + i] =
-          static_cast<char>((needed_in[padded + i] != 0 ? 1 : 0) | (edge ? 2 : 0));
-    }
   });
   const bool deformed = !cloud.deformation_gradient.empty();
   // Selected indices first, then the copies; the selection run by run, each chunk of the survey's
   // runs on its own, joined in order.
   std::vector<std::vector<std::uint32_t>> chunk_selected(survey.runs.size());
-  std::vector<std::vector<Vec2>> chunk_touching(survey.runs.size());
   for_each_on_threads(survey.runs.size(), 1, [&](std::size_t chunk) {
     const Runs& runs = survey.runs[chunk];
     if (runs.cell.empty()) return;
@@ -489,30 +514,17 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     chosen.resize(runs.start.back() - runs.start.front());
     std::size_t m = 0;
     for (std::size_t r = 0; r < runs.cell.size(); ++r) {
-      const char k = code[static_cast<std::size_t>(runs.cell[r] + 1)];
-      const std::uint32_t first = runs.start[r], end = runs.start[r + 1];
-      if (k & 1) {
-        for (std::uint32_t p = first; p < end; ++p) chosen[m++] = p;
-      }
-      if (k & 2) {
-        for (std::uint32_t p = first; p < end; ++p) {
-          chunk_touching[chunk].push_back(cloud.position[p]);
-        }
-      }
+      const int c = runs.cell[r];
+      if (c >= 0 && !band.needed[static_cast<std::size_t>(c)]) continue;
+      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) chosen[m++] = p;
     }
     chosen.resize(m);
   });
   std::vector<std::uint32_t> selected;
-  std::vector<Vec2> touching;
   for (std::size_t chunk = 0; chunk < survey.runs.size(); ++chunk) {
     selected.insert(selected.end(), chunk_selected[chunk].begin(), chunk_selected[chunk].end());
-    touching.insert(touching.end(), chunk_touching[chunk].begin(), chunk_touching[chunk].end());
   }
   const std::size_t m = selected.size();
-  if (config.mirror_grid_edges) {
-    band.contacts = ImprovedField::find_wall_contacts(touching, survey.lo, survey.hi, grid,
-                                                      cloud.initial_spacing);
-  }
   band.position.resize(m);
   band.volume.resize(m);
   if (deformed) band.deformation.resize(m);

@@ -273,7 +273,9 @@ std::array<int, 2> ImprovedField::mirror_sides(const WallContacts& contacts, con
 
 ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Vec2> positions,
                                                               const Vec2& lo, const Vec2& hi,
-                                                              const Grid& walls, double spacing) {
+                                                              const Grid& walls, double spacing,
+                                                              double distance) {
+  if (!(distance > 0.0)) distance = spacing;
   // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle closer
   // to it than one initial spacing "touches" it; the touched stretches of the wall are kept in
   // bins of one spacing along it, and a particle is mirrored across the wall only if the wall is
@@ -291,7 +293,7 @@ ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Ve
     auto& bins = c.touched[w];
     bins.assign(static_cast<std::size_t>(wall_length[w / 2] / spacing) + 2, 0);
     for (const Vec2& x : positions) {
-      if (wall_distance(w, x, g0, g1) >= spacing) continue;
+      if (wall_distance(w, x, g0, g1) >= distance) continue;
       const double t = std::clamp(wall_along(w, x, g0) / spacing, 0.0, bins.size() - 1.0);
       bins[static_cast<std::size_t>(t)] = 1;
     }
