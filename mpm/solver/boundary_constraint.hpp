@@ -66,10 +66,13 @@
 // one, over 0.01-0.03 b: +0.06-0.08 at 8 cells, +0.04-0.05 at 16). Shortening the part by h / 2 at
 // the edge changes nothing (1.10 over 0.03-0.09 b), lengthening it by h / 2 adds 11 % (a node more
 // along x); a normal window of 10 or 25 degrees instead of 45, no damping, or linear functions
-// leave it at +10 %. A consistent (sparse) stiffness held by the velocity gave (2 + pi) c
-// within 1 % early, but grew unstable from 0.04-0.1 b (not measured, a likely cause: as the top
+// leave it at +10 %. A consistent stiffness, K_IJ = beta int N_I N_J P solved with the nodes'
+// masses as one system, gives 1.05, 1.05 and 1.10 over 0.01-0.03, 0.03-0.06 and 0.06-0.09 b at 8
+// cells (the lumped 1.07, 1.11, 1.11) and swings by +-10 past 0.09 b (a likely cause: as the top
 // approaches the next node row, the light row above it keeps a vanishing share of the part and
-// is asked for ever larger velocities).
+// is asked for ever larger velocities); with 0.1 or 0.3 of the lumped stiffness added, 1.05-1.11.
+// Sharing each point's force on the node row nearest to it (linear functions along the row)
+// gives 1.03 over 0.01-0.03 b, then swings between -4.6 and +6.2 as the nearest row changes.
 // Past 0.09 b (0.7 h) of settlement the particles under the footing cross a cell row together
 // and every MPM variant, the node support too, turns noisy (the cells' mean dilatation changes
 // its points at once).
