@@ -442,7 +442,8 @@ class ImprovedField {
   /// s of the fixed-point unit 2^-s of the kernel sums (detail::kernel_sum()).
   int fixed_point_bits() const { return fixed_point_bits_; }
   /// max(guards, bridges) at x (0 without them): operator() is max(phi, this), so a value of
-  /// operator() taken before guards or bridges were added becomes today's by a maximum with it.
+  /// operator() taken before guards or bridges were added becomes its value now by a maximum
+  /// with it.
   double guards_and_bridges(const Vec2& x) const;
   /// phi alone (no guard), for studies.
   double volume_fraction(const Vec2& x) const;

@@ -697,9 +697,9 @@ struct GatheredSquare {
 // The field max(phi, guard) on the nodes of the grid refined r times, each evaluated on first use
 // and kept (the narrow band touches few blocks of a large refined grid). A node's sum runs over
 // the slots gathered for its gather square, a square of `square` x `square` fine cells no wider
-// than a kernel radius: in a failing body the bins around a point hold four times the slots
-// that reach it (the bins are sized by the widest kernel, the cap's 2 a0), a square's gather
-// about 1.3 times.
+// than a kernel radius, or over the bins around it: the bins are sized by the widest kernel,
+// which in a failing body is at the stretch cap (2 a0), and at the boundary of the 150 kPa
+// collapse they hold 157 slots per point, of which 36 have a box that meets the point.
 class FineNodes {
  public:
   /// Nodes of one gather square from which evaluate() gathers its slots: a gather costs about

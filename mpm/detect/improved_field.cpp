@@ -277,10 +277,10 @@ ImprovedField::WallContacts ImprovedField::find_wall_contacts(std::span<const Ve
                                                               double distance) {
   if (!(distance > 0.0)) distance = spacing;
   // Wall w: 0 left, 1 right, 2 bottom, 3 top. Where the body rests on a wall: a particle closer
-  // to it than one initial spacing "touches" it; the touched stretches of the wall are kept in
-  // bins of one spacing along it, and a particle is mirrored across the wall only if the wall is
-  // touched within its reach along the wall (a body near a wall but clear of it keeps its own
-  // boundary there).
+  // to it than `distance` (one initial spacing for the field) "touches" it; the touched stretches
+  // of the wall are kept in bins of one spacing along it, and a particle is mirrored across the
+  // wall only if the wall is touched within its reach along the wall (a body near a wall but clear
+  // of it keeps its own boundary there).
   WallContacts c;
   const Vec2 g0 = walls.origin, g1 = walls.upper_corner();
   c.wall[0] = lo.x() >= g0.x();

@@ -105,6 +105,8 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
     bounding_box(p, lo, hi);
     const bool first = body == n_loops;
     bool found = false;
+    // A copy of the binding for the lambda (clang 14, which make fuzz uses, cannot capture one).
+    const auto loop = c;
     bins.for_each_slot_in_box(lo, hi, [&](int k) {
       if (first && found) return;
       const int q = bins.particle_at(k);
@@ -112,7 +114,7 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
       if (x.x() >= lo.x() && x.x() <= hi.x() && x.y() >= lo.y() && x.y() <= hi.y() &&
           point_in_polygon(p, x)) {
         found = true;
-        if (!first) held[c].push_back(q);
+        if (!first) held[loop].push_back(q);
       }
     });
     if (!found) {
