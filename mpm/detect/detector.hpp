@@ -527,7 +527,8 @@ class ImprovedField {
 std::vector<double> thesis_gaussian_weights(double sigma, int size);
 
 /// Brent's method on [a, b] for a sign change of g (g(a) = value_a, g(b) = value_b); returns the
-/// root parameter t in [0, 1] of x = a + t (b - a) to |dt| <= tolerance_t. Counts evaluations.
+/// root parameter t in [0, 1] of x = a + t (b - a) to |dt| <= tolerance_t (an end where g is 0:
+/// tolerance_t from it). Counts evaluations.
 double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
                   double tolerance_t, long* evaluations);
 

@@ -528,8 +528,11 @@ void ImprovedField::slots_reaching(const Vec2& lo, const Vec2& hi, KernelArrays&
 
 double brent_root(const std::function<double(double)>& g, double value_a, double value_b,
                   double tolerance_t, long* evaluations) {
-  if (value_a == 0.0) return 0.0;
-  if (value_b == 0.0) return 1.0;
+  // An end exactly at the level (outside: inside is above it) is the root; it is put a
+  // tolerance towards the other end, so that two contours that meet at a fine node (a saddle of
+  // the field exactly at the level there) do not share the node as a point.
+  if (value_a == 0.0) return std::min(tolerance_t, 0.5);
+  if (value_b == 0.0) return 1.0 - std::min(tolerance_t, 0.5);
   double a = 0.0, b = 1.0, fa = value_a, fb = value_b;
   if (std::abs(fa) < std::abs(fb)) {
     std::swap(a, b);
