@@ -17,7 +17,11 @@ thesis PFM plain and as run and the improved PFM. The slope
 is also timed through its failure and run-out (``slope_runout``: 2.5 s = 270 steps, the boundary
 study's last time, improved and thesis PFM): the body then lies spread and sheared, its points
 no longer 2 x 2 per cell, and both the step (plastic points) and the detection (a wider band)
-cost more than in the first 0.5 s. Runs are
+cost more than in the first 0.5 s. Every detector is also timed on each particle state of
+tests/data/failure_states (the thesis bearing block collapsing at 100 and 150 kPa, the slope's
+run-out, the quasi-static default case; issue 19): one ``pfm-mpm detect`` call per process, the
+sum of its summary.json timings, against one MPM step of the state's case (0.5 s from its start,
+without its loads on the detected boundary). Runs are
 never cached (every repetition is a fresh process) and run one at a time (parallel runs would
 time each other). The library baseline (scikit-image) does not run inside pfm-mpm: its cost is
 the ``summary.json`` timing of ``studies.detectors.skimage_detector`` on the slope's points.
@@ -29,8 +33,9 @@ scaling with N and threads decide whether detecting the boundary at every step i
 Reproduce: ``make study-timing`` = ``/usr/bin/python3 -m studies timing [--quick]``
 (quick: N = 1k and 4k, 1 thread, 10 steps; slope with the thesis and improved PFM). Writes
 ``stages.csv/.md`` (one row per case, N, threads, detector, stage), ``ratios.csv/.md``
-(detection per call, MPM step, their ratio, particle-steps per second), ``raw_timings.csv``
-and ``scaling.png``.
+(detection per call, MPM step, their ratio, particle-steps per second),
+``failure_states.csv/.md`` (per state and detector: detection per call, the case's step, their
+ratio; quick: two states, the improved detector), ``raw_timings.csv`` and ``scaling.png``.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -46,7 +52,7 @@ from studies.common import detectors as det
 from studies.common.cases import base_case, derive
 from studies.common.outcome import Headline, Metric, StudyOutcome
 from studies.common.outputs import final_particles, read_summary, write_detect_input
-from studies.common.paths import PrerequisiteMissing, tool_path
+from studies.common.paths import PrerequisiteMissing, repo_root, tool_path
 from studies.common.runner import RunFailed, run_detect, run_mpm
 from studies.common.study import missing_reason
 from studies.common.tables import save_figure, write_table
@@ -69,6 +75,14 @@ RUNOUT_DETECTORS = ("pfm_improved", "pfm_thesis")
 # The slope from zero stress (the thesis's start), beside the K0 start of every detector.
 ZERO_START_DETECTORS = ("pfm_thesis", "pfm_thesis_final", "pfm_improved")
 QUICK_RUNOUT_DETECTORS = ("pfm_improved",)
+# The particle states of failing bodies (tests/data/failure_states, issue 19): every detector
+# times one call on each through ``pfm-mpm detect`` (a fresh process per call), against one MPM
+# step of the state's case at its start (elastic; a plastic step of the state costs up to
+# twice as much). Quick: two states, the improved detector, one call.
+FAILURE_STATES_FOLDER = ("tests", "data", "failure_states")
+QUICK_FAILURE_STATES = ("bearing_150kPa_k0_t2.5", "bearing_quasi_static_t5")
+QUICK_FAILURE_DETECTORS = ("pfm_improved",)
+FAILURE_STEP_TIME = 0.5  # s of each case run for its MPM step (about 120-170 steps)
 BOUNDARY_STAGES = ("detect", "bezier", "traction")
 THESIS_DETECT_S, THESIS_STEP_S, THESIS_POINTS = 0.047, 0.048, 3368
 CELL_SIZE = 0.5  # m
@@ -226,6 +240,101 @@ def library_timings(slope: dict, repetitions: int) -> list[dict]:
     return rows
 
 
+def state_case(state: dict) -> tuple[dict, Path]:
+    """The case a failure state came from, with its overrides (loads by index, the other
+    blocks merged key by key: tests/data/failure_states/generate.py), run for
+    FAILURE_STEP_TIME with no output but at its end."""
+    case, path = base_case(state["case"])
+    for key, value in state["overrides"].items():
+        if key == "loads":
+            for index, load in value.items():
+                case["loads"][int(index)].update(load)
+        else:
+            case = derive(case, {key: value})
+    case = derive(
+        case,
+        {
+            "time": {"end_time": FAILURE_STEP_TIME},
+            "output": {"interval": FAILURE_STEP_TIME},
+        },
+    )
+    case.pop("detection", None)
+    case["loads"] = [l for l in case.get("loads", []) if l.get("apply_on") == "grid"]
+    return case, path
+
+
+def failure_state_timings(
+    detectors, names, repetitions: int
+) -> tuple[list[dict], list[Path]]:
+    """Seconds per detection call of each detector on each failure state (the sum of the
+    timings in its summary.json: reading and writing left out) and the MPM step of each
+    state's case; and the case files used."""
+    folder = repo_root().joinpath(*FAILURE_STATES_FOLDER)
+    states = json.loads((folder / "states.json").read_text())
+    rows, steps, case_files = [], {}, []
+    for state in states:
+        if names is not None and state["name"] not in names:
+            continue
+        case, path = state_case(state)
+        key = json.dumps(case, sort_keys=True)
+        if key not in steps:
+            stages = stage_rows(timed_run(case, 1), {})
+            steps[key] = next(
+                r["seconds_per_step"] for r in stages if r["stage"] == "mpm_step"
+            )
+            case_files.append(path)
+        particles = folder / f"{state['name']}.csv"
+        for detector in detectors:
+            config = det.detect_config(
+                detector, state["grid"], state["initial_spacing"]
+            )
+            for repetition in range(repetitions):
+                result = run_detect(
+                    particles,
+                    config,
+                    library=not det.in_run(detector),
+                    use_cache=False,
+                )
+                try:
+                    summary = json.loads((result.out / "summary.json").read_text())
+                finally:
+                    shutil.rmtree(result.folder, ignore_errors=True)
+                timings = summary.get("timings_s", {})
+                rows.append(
+                    {
+                        "state": state["name"],
+                        "n_particles": int(state["points"]),
+                        "detector": detector,
+                        "repetition": repetition,
+                        "detect_s": float(
+                            sum(
+                                v
+                                for v in timings.values()
+                                if isinstance(v, (int, float))
+                            )
+                        ),
+                        "mpm_step_s": steps[key],
+                    }
+                )
+    return rows, case_files
+
+
+def failure_state_table(rows: list[dict]) -> pd.DataFrame:
+    """Median seconds per call of each detector on each state, against the step."""
+    frame = pd.DataFrame(rows)
+    table = (
+        frame.groupby(["state", "n_particles", "detector"], sort=False)
+        .agg(
+            detect_s=("detect_s", "median"),
+            mpm_step_s=("mpm_step_s", "first"),
+            calls=("detect_s", "count"),
+        )
+        .reset_index()
+    )
+    table["detect_to_step_ratio"] = table["detect_s"] / table["mpm_step_s"]
+    return table
+
+
 def run(context) -> StudyOutcome:
     context.tools.append(tool_path("pfm-mpm"))
     quick = context.quick
@@ -323,6 +432,14 @@ def run(context) -> StudyOutcome:
     )
     for name in QUICK_RUNOUT_DETECTORS if quick else RUNOUT_DETECTORS:
         raw += slope_rows(runout, "slope_runout", name)
+    failure = attempt(
+        "failure states",
+        lambda: failure_state_timings(
+            QUICK_FAILURE_DETECTORS if quick else tuple(d for d, _ in DETECTORS),
+            QUICK_FAILURE_STATES if quick else None,
+            1 if quick else REPETITIONS,
+        ),
+    )
     if not any(r["case"] == "slope" and r["detector"] != det.LIBRARY for r in raw):
         raw += slope_rows(slope, "slope", None)  # at least the MPM step of the slope
     raw = pd.DataFrame(raw)
@@ -404,6 +521,30 @@ def run(context) -> StudyOutcome:
                 "median over the slope runs",
             )
         )
+    if failure is not None and failure[0]:
+        failure_rows, failure_cases = failure
+        context.case_files += [p for p in failure_cases if p not in context.case_files]
+        states = failure_state_table(failure_rows)
+        outcome.tables.append(
+            write_table(
+                context.folder,
+                states,
+                "failure_states",
+                "Detection per call on the failure states (tests/data/failure_states; "
+                "pfm-mpm detect, a fresh process per call, median) against one MPM step of "
+                "the state's case at its start",
+            )
+        )
+        for detector, group in states.groupby("detector", sort=False):
+            outcome.metrics.append(
+                Metric(
+                    f"timing.failure_states.{detector}.worst_detect_to_step_ratio",
+                    float(group["detect_to_step_ratio"].max()),
+                    "1",
+                    f"over {len(group)} states, at "
+                    f"{group.loc[group['detect_to_step_ratio'].idxmax(), 'state']}",
+                )
+            )
     single = ratios[(ratios["case"] == "block") & (ratios["threads"] == 1)]
     if len(single):
         row = single.loc[(single["n_particles"] - 100_000).abs().idxmin()]
