@@ -258,8 +258,18 @@ def state_case(state: dict) -> tuple[dict, Path]:
             "output": {"interval": FAILURE_STEP_TIME},
         },
     )
+    # Without detection, so without what acts on the detected boundary.
     case.pop("detection", None)
-    case["loads"] = [l for l in case.get("loads", []) if l.get("apply_on") == "grid"]
+    for block in ("loads", "constraints"):
+        kept = [
+            entry
+            for entry in case.get(block, [])
+            if entry.get("apply_on") != "detected_boundary"
+        ]
+        if kept:
+            case[block] = kept
+        else:
+            case.pop(block, None)
     return case, path
 
 

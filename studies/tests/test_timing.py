@@ -80,3 +80,47 @@ def test_block_case_has_the_requested_number_of_points():
         )
         assert abs(points - n) / n <= 0.02
         assert abs(case["time"]["end_time"] / case["time"]["dt"] - 10) <= 1e-9
+
+
+def test_failure_state_case_is_the_state_case_without_its_detected_boundary():
+    # The 150 kPa collapse from K0: its K0 start and CFL 0.2, run 0.5 s; its load on the
+    # detected boundary goes with the detection it needs.
+    state = {
+        "name": "bearing_150kPa_k0_t2.5",
+        "case": "thesis62_bearing_dynamic_zero_start",
+        "overrides": {
+            "loads": {"0": {"pressure": 150.0}},
+            "initial_stress": {"method": "k0"},
+            "time": {"cfl": 0.2},
+        },
+    }
+    case, path = timing.state_case(state)
+    assert path.name == "thesis62_bearing_dynamic_zero_start.json"
+    assert case["initial_stress"]["method"] == "k0"
+    assert case["time"]["cfl"] == 0.2
+    assert case["time"]["end_time"] == timing.FAILURE_STEP_TIME
+    assert "detection" not in case
+    assert all(
+        entry.get("apply_on") != "detected_boundary"
+        for block in ("loads", "constraints")
+        for entry in case.get(block, [])
+    )
+
+
+def test_failure_state_table_takes_the_median_call_against_the_step():
+    rows = [
+        {
+            "state": "s",
+            "n_particles": 10,
+            "detector": "d",
+            "repetition": k,
+            "detect_s": t,
+        }
+        | {"mpm_step_s": 0.5}
+        for k, t in enumerate((3.0, 1.0, 2.0))
+    ]
+    table = timing.failure_state_table(rows)
+    assert len(table) == 1
+    row = table.iloc[0]
+    assert row["detect_s"] == 2.0 and row["calls"] == 3
+    assert row["detect_to_step_ratio"] == 4.0
