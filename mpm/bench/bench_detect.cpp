@@ -432,6 +432,32 @@ BENCHMARK(BM_DetectFailureState)
     ->UseManualTime()
     ->MinTime(0.3);
 
+// Every detector but SMM on the failure states (1,200-3,384 points), one thread, against one
+// step of each state's case (as BM_DetectFailureState): range(0) the state's index in
+// states.json, range(1) the DetectorMethod. SMM is left out: its cost per step is the advection
+// of its markers by the grid's velocities, which a state file does not hold (its placement is an
+// improved detection).
+void BM_DetectFailureStateEach(benchmark::State& state) {
+  const FailureState& f = failure_state(static_cast<std::size_t>(state.range(0)), 1);
+  omp_set_num_threads(1);
+  const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
+                                 f.particles.deformation_gradient, f.spacing};
+  pfm::DetectorConfig config;
+  config.method = static_cast<pfm::DetectorMethod>(state.range(1));
+  pfm::DetectorState detector_state;
+  pfm::DetectionTimings timings;
+  long points = 0;
+  time_detections(
+      state, cloud, f.grid, f.step_seconds, config, detector_state, thread_seconds, [] {}, points,
+      timings);
+  state.SetLabel(f.name + ", " + pfm::detector_method_name(config.method));
+}
+BENCHMARK(BM_DetectFailureStateEach)
+    ->ArgsProduct({benchmark::CreateDenseRange(0, 13, 1), {0, 1, 3, 4}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->MinTime(0.1);
+
 void BM_Step(benchmark::State& state) {
   const int scale = static_cast<int>(state.range(0));
   Fixture& f = fixture(scale);
