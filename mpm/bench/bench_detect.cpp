@@ -159,13 +159,14 @@ void time_detections(benchmark::State& state, const pfm::ParticleCloud& cloud,
   state.counters["ratio_to_step"] = per_detection / step_seconds;
 }
 
-// time_detections() of the improved detector with its defaults; the last detection's timings.
-pfm::DetectionTimings time_improved_detections(benchmark::State& state,
-                                               const pfm::ParticleCloud& cloud,
-                                               const pfm::Grid& grid, double step_seconds,
-                                               double (*clock)()) {
+// time_detections() of `method` (default: the improved detector) with its defaults; the last
+// detection's timings.
+pfm::DetectionTimings time_detections_of(
+    benchmark::State& state, const pfm::ParticleCloud& cloud, const pfm::Grid& grid,
+    double step_seconds, double (*clock)(),
+    pfm::DetectorMethod method = pfm::DetectorMethod::kImproved) {
   pfm::DetectorConfig config;
-  config.method = pfm::DetectorMethod::kImproved;
+  config.method = method;
   pfm::DetectorState detector_state;
   pfm::DetectionTimings timings;
   long points = 0;
@@ -283,7 +284,7 @@ void BM_DetectThreads(benchmark::State& state) {
   const double step = step_wall_seconds(scale, threads);
   Fixture& f = fixture(scale);
   omp_set_num_threads(threads);
-  time_improved_detections(state, cloud_of(f), f.solver->grid(), step, wall_seconds);
+  time_detections_of(state, cloud_of(f), f.solver->grid(), step, wall_seconds);
   state.counters["threads"] = threads;
   state.SetLabel("improved, " + std::to_string(f.particles.size()) + " points, " +
                  std::to_string(threads) + " thread(s), wall clock");
@@ -415,7 +416,7 @@ void BM_DetectFailureState(benchmark::State& state) {
   const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
                                  f.particles.deformation_gradient, f.spacing};
   const pfm::DetectionTimings timings =
-      time_improved_detections(state, cloud, f.grid, f.step_seconds, thread_seconds);
+      time_detections_of(state, cloud, f.grid, f.step_seconds, thread_seconds);
   const double per_detection = 1e-3 * state.counters["detect_ms"];
   state.counters["detect_t0_ms"] = 1e3 * f.detect_at_start_seconds;
   state.counters["ratio_to_t0"] = per_detection / f.detect_at_start_seconds;
@@ -442,15 +443,9 @@ void BM_DetectFailureStateEach(benchmark::State& state) {
   omp_set_num_threads(1);
   const pfm::ParticleCloud cloud{f.particles.position, f.particles.volume,
                                  f.particles.deformation_gradient, f.spacing};
-  pfm::DetectorConfig config;
-  config.method = static_cast<pfm::DetectorMethod>(state.range(1));
-  pfm::DetectorState detector_state;
-  pfm::DetectionTimings timings;
-  long points = 0;
-  time_detections(
-      state, cloud, f.grid, f.step_seconds, config, detector_state, thread_seconds, [] {}, points,
-      timings);
-  state.SetLabel(f.name + ", " + pfm::detector_method_name(config.method));
+  const auto method = static_cast<pfm::DetectorMethod>(state.range(1));
+  time_detections_of(state, cloud, f.grid, f.step_seconds, thread_seconds, method);
+  state.SetLabel(f.name + ", " + pfm::detector_method_name(method));
 }
 BENCHMARK(BM_DetectFailureStateEach)
     ->ArgsProduct({benchmark::CreateDenseRange(0, 13, 1), {0, 1, 3, 4}})

@@ -71,11 +71,11 @@ int drive_run(Solver& solver, const RunHooks& hooks, const Case& c, const RunOpt
     initial_steps = solver.initial_stress_steps();
     const double eps = 1e-9 * solver.dt();
     RunProgress progress(options.progress);
-    while (!hooks.finished()) {
+    for (bool last = hooks.finished(); !last;) {
       governor.update();
       solver.step();
       const double t = solver.time();
-      const bool last = hooks.finished();
+      last = hooks.finished();
       if (t >= next_series - eps || last) {
         call(hooks.record);
         while (next_series <= t + eps) next_series += c.output.timeseries_interval;
