@@ -32,14 +32,16 @@ What it measures:
 * ``constraint``: a 1 m square block turned 30 degrees to the grid (a lattice of 2 x 2 points
   per cell area, turned with it), 0.01 m of normal displacement on one face and zero on the
   three others through constraints on the detected boundary (``constraints[]``, the penalty
-  method): uniaxial strain, sigma_nn = (lambda + 2 mu) ln(0.99) (the solver's rate form
+  method and Nitsche's): uniaxial strain, sigma_nn = (lambda + 2 mu) ln(0.99) (the solver's rate form
   integrates the stretching; small strain's -0.01 is 0.5 % less). The interior's mean sigma_nn and
-  the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 (the
-  penalty's error, about h / (factor L), falling as the penalty grows) and for h = L / 8, L / 16,
-  L / 32 at the default factor 100, with the constraints' cost per step;
+  the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 with each
+  method (the penalty method's error, about h / (factor L), falling as the penalty grows;
+  Nitsche's, consistent, flat from factor 4) and for h = L / 8, L / 16, L / 32 with the penalty
+  method at the default factor 100, with the constraints' cost per step;
 * ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
   into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
-  constraint on the detected top under it (normal velocity; penalty factors 16 and 100), as a
+  constraint on the detected top under it (normal velocity; the penalty method at factors 16
+  and 100, Nitsche's at 16), as a
   moving support on the grid's top nodes, on the UL-FEM (its mesh nodes) and on the dolfinx
   model (static): the reaction pressure against (2 + pi) c along the settlement, and its
   plateau's mean over s / b in [0.03, 0.12] (issue 25 must-show 2);
@@ -163,6 +165,7 @@ FOOTING = {
     "pic_fraction": 0.05,
     "window_angle": 45.0,  # degrees
     "penalty_factors": (16.0, 100.0),
+    "nitsche_factors": (16.0,),
     "plateau": (0.03, 0.12),  # s / b
     "dolfinx_steps": 80,
     "samples": 400,  # time-series rows
@@ -174,7 +177,7 @@ CONSTRAINT = {
     "displacement": -0.01,  # m, along the loaded face's outward normal
     "youngs_modulus": 1.0e4,  # kPa
     "poisson_ratio": 0.3,
-    "factors": (1.0, 4.0, 16.0, 100.0, 1000.0),
+    "factors": (1.0, 4.0, 16.0, 100.0, 1000.0),  # each method's
     "cells_per_side": (8, 16, 32),
     "default_factor": 100.0,
     "default_cells": 16,
@@ -430,9 +433,11 @@ def prandtl_curve(out: Path, case: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def footing_case(how: str, penalty_factor: float | None = None) -> dict:
+def footing_case(
+    how: str, penalty_factor: float | None = None, method: str = "penalty"
+) -> dict:
     """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
-    `penalty_factor`) or "support" (the grid's or the mesh's top nodes over x <= b: MPM, UL-FEM
+    `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over x <= b: MPM, UL-FEM
     and dolfinx). The support is the fourth boundary condition (reaction_3_*), the constraint
     the first (constraint_0_*)."""
     f = FOOTING
@@ -462,7 +467,7 @@ def footing_case(how: str, penalty_factor: float | None = None) -> dict:
         shape_function="gimp",
     )
     case["title"] = f"benchmark footing: {how}" + (
-        f", penalty factor {penalty_factor:g}" if penalty_factor else ""
+        f", {method}, penalty factor {penalty_factor:g}" if penalty_factor else ""
     )
     case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
     case["output"]["timeseries_interval"] = duration / f["samples"]
@@ -476,6 +481,7 @@ def footing_case(how: str, penalty_factor: float | None = None) -> dict:
                 "normal": {"direction": [0.0, 1.0], "max_angle": f["window_angle"]},
                 "normal_velocity": -f["speed"],
                 "time_function": ramp,
+                "method": method,
                 "penalty_factor": penalty_factor,
             }
         ]
@@ -509,6 +515,11 @@ def footing_jobs() -> dict:
         f"footing/constraint/f{k:g}": (footing_case("constraint", k), "mpm")
         for k in f["penalty_factors"]
     }
+    for k in f["nitsche_factors"]:
+        jobs[f"footing/constraint/nitsche_f{k:g}"] = (
+            footing_case("constraint", k, "nitsche"),
+            "mpm",
+        )
     jobs["footing/support/mpm"] = (footing_case("support"), "mpm")
     jobs["footing/support/ulfem"] = (footing_case("support"), "ulfem")
     jobs["footing/support/dolfinx"] = (
@@ -604,8 +615,10 @@ def constraint_lattice(cells_per_side: int) -> Path:
     return path
 
 
-def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
-    """cases/constraint_inclined_block.json at another penalty factor and cell size."""
+def constraint_case(
+    penalty_factor: float, cells_per_side: int, method: str = "penalty"
+) -> dict:
+    """cases/constraint_inclined_block.json at another penalty factor, cell size and method."""
     c = CONSTRAINT
     h = c["side"] / cells_per_side
     a = np.radians(c["angle"])
@@ -616,6 +629,7 @@ def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
             "apply_on": "detected_boundary",
             "normal": {"direction": direction, "max_angle": 45.0},
             "normal_displacement": value,
+            "method": method,
             "penalty_factor": penalty_factor,
         }
         if value:
@@ -623,7 +637,7 @@ def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
         return entry
 
     return {
-        "title": f"benchmark constraint: factor {penalty_factor:g}, h = {h:g} m",
+        "title": f"benchmark constraint: {method}, factor {penalty_factor:g}, h = {h:g} m",
         "grid": {
             "origin": [0.0, 0.0],
             "cell_size": h,
@@ -664,13 +678,14 @@ def constraint_case(penalty_factor: float, cells_per_side: int) -> dict:
 
 def constraint_jobs(quick: bool) -> dict:
     c = CONSTRAINT
-    pairs = {(c["default_factor"], c["default_cells"])}
+    runs = {("penalty", c["default_factor"], c["default_cells"])}
     if not quick:
-        pairs |= {(f, c["default_cells"]) for f in c["factors"]}
-        pairs |= {(c["default_factor"], n) for n in c["cells_per_side"]}
+        for method in ("penalty", "nitsche"):
+            runs |= {(method, f, c["default_cells"]) for f in c["factors"]}
+        runs |= {("penalty", c["default_factor"], n) for n in c["cells_per_side"]}
     return {
-        f"constraint/{f:g}/{n}": (constraint_case(f, n), "mpm")
-        for f, n in sorted(pairs)
+        f"constraint/{m}/{f:g}/{n}": (constraint_case(f, n, m), "mpm")
+        for m, f, n in sorted(runs)
     }
 
 
@@ -1080,8 +1095,9 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
     """The rigid footing on every code: the table footing.md (the plateau's mean, least and
     largest q / (2 + pi) c over FOOTING's plateau window, the last settlement reached), the
     curves footing.png, and per run the plateau's mean |q / (2 + pi) c - 1| as a metric
-    (benchmarks.footing.<how>_plateau_rel_error: constraint_f<factor>, support_mpm,
-    support_ulfem, support_dolfinx). A run that stopped is read up to its stop."""
+    (benchmarks.footing.<how>_plateau_rel_error: constraint_f<factor>,
+    constraint_nitsche_f<factor>, support_mpm, support_ulfem, support_dolfinx). A run that
+    stopped is read up to its stop."""
     import matplotlib.pyplot as plt
 
     f = FOOTING
@@ -1129,7 +1145,7 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             f"{f['cells_under_half_width']} cells under b): the reaction pressure over "
             f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest; "
             "NaN mean: the run stopped before its end), through a constraint on the detected "
-            "top (MPM, per penalty factor) and as a moving support on the grid's or mesh's "
+            "top (MPM, per method and penalty factor) and as a moving support on the grid's or mesh's "
             "top nodes (MPM, UL-FEM, dolfinx static)",
         )
     )
@@ -1507,15 +1523,18 @@ def _constraint(outs, jobs, add, outcome, folder):
     for key in jobs:
         if not key.startswith("constraint/"):
             continue
-        _, factor, cells = key.split("/")
+        _, method, factor, cells = key.split("/")
         rows.append(
             {
+                "method": method,
                 "penalty_factor": float(factor),
                 "cells_per_side": int(cells),
                 **constraint_measures(_out(outs[key])),
             }
         )
-    table = pd.DataFrame(rows).sort_values(["cells_per_side", "penalty_factor"])
+    table = pd.DataFrame(rows).sort_values(
+        ["method", "cells_per_side", "penalty_factor"]
+    )
     outcome.tables.append(
         write_table(
             folder,
@@ -1525,9 +1544,10 @@ def _constraint(outs, jobs, add, outcome, folder):
             "strain",
         )
     )
-    default = table[
-        (table.penalty_factor == c["default_factor"])
-        & (table.cells_per_side == c["default_cells"])
+    penalty = table[table.method == "penalty"]
+    default = penalty[
+        (penalty.penalty_factor == c["default_factor"])
+        & (penalty.cells_per_side == c["default_cells"])
     ].iloc[0]
     add(
         "constraint",
@@ -1546,18 +1566,27 @@ def _constraint(outs, jobs, add, outcome, folder):
         "reaction_rel_error",
     )
     figure, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    sweep = table[table.cells_per_side == c["default_cells"]]
     for column, label in (
         ("reaction_rel_error", "reaction"),
         ("sigma_nn_rel_error", "interior sigma_nn"),
     ):
-        axes[0].semilogx(sweep.penalty_factor, 100 * sweep[column], "o-", label=label)
-        refined = table[table.penalty_factor == c["default_factor"]]
+        for method, style in (("penalty", "o-"), ("nitsche", "s--")):
+            sweep = table[
+                (table.method == method) & (table.cells_per_side == c["default_cells"])
+            ]
+            if not sweep.empty:
+                axes[0].semilogx(
+                    sweep.penalty_factor,
+                    100 * sweep[column],
+                    style,
+                    label=f"{label}, {method}",
+                )
+        refined = penalty[penalty.penalty_factor == c["default_factor"]]
         axes[1].semilogx(
             c["side"] / refined.cells_per_side, 100 * refined[column], "o-", label=label
         )
     axes[0].set_xlabel("penalty factor (beta = factor M / h)")
-    axes[1].set_xlabel("h (m), factor 100")
+    axes[1].set_xlabel("h (m), penalty factor 100")
     for axis in axes:
         axis.axhline(0.0, color="grey", lw=0.8)
         axis.set_ylabel("error (%)")

@@ -73,7 +73,9 @@ void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, co
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     if (!in_box(x, lo, hi, margin)) continue;
-    const Vec2 u = x - particles.reference_position[p];
+    const Stress& sigma = particles.stress[p];
+    Fitted f;
+    f << x - particles.reference_position[p], sigma[kXX], sigma[kYY], sigma[kXY];
     const double m = particles.mass[p];
     functions_at(x);
     for_each_node([&](std::size_t node, double value, int i, int j) {
@@ -83,19 +85,21 @@ void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, co
       moments.mass += w;
       moments.first += w * d;
       moments.second += w * d * d.transpose();
-      moments.displacement += w * u;
-      moments.cross += w * d * u.transpose();
+      moments.value += w * f;
+      moments.cross += w * d * f.transpose();
       mark(moments_flag_, moments_list_, node);
     });
   }
 }
 
-Vec2 BoundaryConstraints::material_displacement(const Vec2& x, double& mass) const {
-  // The weighted least-squares fit u(x_p) ~ a + B (x_p - x) over the particles, weights
+BoundaryConstraints::Fitted BoundaryConstraints::material_state(const Vec2& x, double& mass) const {
+  // The weighted least-squares fit f(x_p) ~ a + B (x_p - x) over the particles, weights
   // w_p = m_p sum_J N_J(x) N_J(x_p), from the nodes' moments shifted to x (e = x_J - x).
   double w = 0.0;
-  Vec2 d = Vec2::Zero(), u = Vec2::Zero();
-  Mat2 q = Mat2::Zero(), c = Mat2::Zero();
+  Vec2 d = Vec2::Zero();
+  Mat2 q = Mat2::Zero();
+  Fitted f = Fitted::Zero();
+  Eigen::Matrix<double, 2, 5> c = Eigen::Matrix<double, 2, 5>::Zero();
   for_each_node([&](std::size_t node, double value, int i, int j) {
     const NodeMoments& m = moments_[node];
     if (!(m.mass > 0.0)) return;
@@ -104,19 +108,19 @@ Vec2 BoundaryConstraints::material_displacement(const Vec2& x, double& mass) con
     d += value * (m.first + m.mass * e);
     q += value * (m.second + m.first * e.transpose() + e * m.first.transpose() +
                   m.mass * e * e.transpose());
-    u += value * m.displacement;
-    c += value * (m.cross + e * m.displacement.transpose());
+    f += value * m.value;
+    c += value * (m.cross + e * m.value.transpose());
   });
   mass = w;
-  if (!(w > 0.0)) return Vec2::Zero();
+  if (!(w > 0.0)) return Fitted::Zero();
   // The spread of the points about their centroid; too thin a spread (points on a line) leaves
   // the gradient undetermined: the weighted mean then.
   const Mat2 spread = q - d * d.transpose() / w;
   const double h2 = grid_.cell_size * grid_.cell_size;
-  if (!(spread.determinant() > 1e-6 * (w * h2) * (w * h2))) return u / w;
-  // [w d^T; d q] [a^T; B^T] = [u^T; c]: eliminate B^T = spread^-1 (c - d u^T / w).
-  const Mat2 gradient_t = spread.inverse() * (c - d * u.transpose() / w);
-  return (u - gradient_t.transpose() * d) / w;
+  if (!(spread.determinant() > 1e-6 * (w * h2) * (w * h2))) return f / w;
+  // [w d^T; d q] [a^T; B^T] = [f^T; c]: eliminate B^T = spread^-1 (c - d f^T / w).
+  const Eigen::Matrix<double, 2, 5> gradient_t = spread.inverse() * (c - d * f.transpose() / w);
+  return (f - gradient_t.transpose() * d) / w;
 }
 
 void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
@@ -124,13 +128,15 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
   ConstraintReport& report = reports_[k];
   const Vec2 u_bar = target_[k];
   const double beta = spec.penalty;
+  const bool nitsche = spec.method == ConstraintMethod::kNitsche;
   double gap_squared = 0.0;
   for (const boundary::CurvePoint& q : points_[k]) {
     if (!grid_.contains(q.x)) continue;
     functions_at(q.x);
     double mass = 0.0;
-    const Vec2 u = material_displacement(q.x, mass);
+    const Fitted state = material_state(q.x, mass);
     if (!(mass > 0.0)) continue;  // no material here
+    const Vec2 u = state.head<2>();
     Mat2 projector = Mat2::Identity();
     Vec2 target = u_bar, velocity = rate;
     if (spec.normal_only) {
@@ -143,8 +149,15 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
     const Vec2 gap = projector * (u - target);
     gap_squared += q.weight * gap.squaredNorm();
     report.length += q.weight;
-    // The traction -beta g at the point, shared by the nodes with mass in proportion to
-    // N_I(x) (header comment).
+    // Nitsche's consistency term: the material's own traction on the constrained directions,
+    // P sigma n (header comment).
+    Vec2 traction = Vec2::Zero();
+    if (nitsche) {
+      const Mat2 sigma = (Mat2() << state[2], state[4], state[4], state[3]).finished();
+      traction = projector * (sigma * q.normal);
+    }
+    // The traction -beta g at the point (with Nitsche's, + P sigma n), shared by the nodes with
+    // mass in proportion to N_I(x) (header comment).
     double sum = 0.0;
     for_each_node([&](std::size_t node, double value, int, int) {
       if (node_mass_[node] > tiny_mass_) sum += value;
@@ -155,6 +168,7 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
       const double share = beta * q.weight * value / sum;
       NodeTerm& term = terms_dense_[node];
       term.force -= share * gap;
+      if (nitsche) term.force += (q.weight * value / sum) * traction;
       term.stiffness += share * projector;
       term.rate += share * (projector * velocity);
       mark(terms_flag_, terms_list_, node);

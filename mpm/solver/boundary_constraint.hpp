@@ -11,13 +11,13 @@
 // particles' F are (the fit uses positions only: a first version extrapolated each particle's
 // field with G_p = I - F_p^-1 and was as accurate on the turned block, but its gaps under a
 // footing's edge were 15 times larger). The fit's sums are per-node moments (the mass and the
-// moments of x_p - x_J and u_p), taken once a step over the particles near the parts, and
-// shifted to x; where the points within reach lie on a line, the weighted mean is taken.
-// N_J are the loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise).
-// The gap is g = P (u - u_bar): P = n n^T with n the part's normal-window direction (a face:
-// the corners of two constrained faces then hold both) or the curve's normal, for normal_only;
-// else the identity. u_bar is the prescribed displacement (value x time function), or for a
-// velocity its integral over the steps taken (midpoint rule; kept in the checkpoint).
+// moments of x_p - x_J, u_p and the stress, for Nitsche's method), taken once a step over the
+// particles near the parts, and shifted to x; where the points within reach lie on a line, the
+// weighted mean is taken. N_J are the loads' grid functions (bilinear for linear and uGIMP, the
+// B-splines otherwise). The gap is g = P (u - u_bar): P = n n^T with n the part's normal-window
+// direction (a face: the corners of two constrained faces then hold both) or the curve's normal,
+// for normal_only; else the identity. u_bar is the prescribed displacement (value x time function),
+// or for a velocity its integral over the steps taken (midpoint rule; kept in the checkpoint).
 //
 // The penalty method. A traction t = -beta g acts on the part, integrated with the loads' rule
 // (BoundaryLoadIntegrator::quadrature_points, exact on the pieces between cell edges); each
@@ -38,6 +38,21 @@
 // form's, ln 0.99 for 1 % of shortening) within 0.7 % in the interior and its reactions within
 // 0.6 %, at rest (test_boundary_constraint; penalty factor 1, 16, 100, 1000: -13.1, -1.2, -0.5,
 // +0.1 %).
+//
+// Nitsche's method (method "nitsche"). The penalty's traction gains the material's own traction
+// on the constrained directions, t = P sigma n - beta g, with n the curve's outward normal and
+// sigma the same weighted least-squares linear fit as the displacement, to the particles' stresses
+// (the in-plane components). The internal force of the particles next to the part already holds
+// -int N_I sigma n along their edge (the divergence theorem), which this term cancels: what is
+// left drives the gap to zero whatever beta, so the method is consistent and beta is only its
+// stabilisation (the non-symmetric, "incomplete" form: no term in the test functions' stress).
+// The term is explicit; the penalty's stiffness stays implicit as above. The turned block
+// (test_boundary_constraint, 5 % PIC): reaction -0.28, -0.34, -0.39, +0.11 % at factors 4, 16, 100,
+// 1000, against the penalty's -3.8, -1.2, -0.53, +0.10 %; at factor 1 the interior is right
+// (-0.13 %) but the block does not come to rest (kinetic / elastic 0.04) and at 0.25 it blows
+// up: beta must dominate the explicit term, factor 4 or more. On the footing below it changes
+// nothing (1.09-1.10 at factors 2, 4 and 16; at 1 the reaction swings by +-40): the excess there
+// is not the penalty's compliance.
 //
 // FLIP. The particles next to a constraint pick up velocities the grid does not see (FLIP keeps
 // them), which the constraint's stiff nodes feed back: a few per cent of PIC
@@ -118,14 +133,17 @@ class BoundaryConstraints {
   void set_target(const std::vector<Vec2>& target) { target_ = target; }
 
  private:
+  /// What the fit carries per particle: the displacement (x, y) and the in-plane stress
+  /// (xx, yy, xy).
+  using Fitted = Eigen::Matrix<double, 5, 1>;
   /// Per node J, over the particles with weights m_p N_J(x_p): the mass, the moments of
-  /// d_p = x_p - x_J (first, second) and of the displacement u_p (displacement, d_p u_p^T).
+  /// d_p = x_p - x_J (first, second) and of the fitted values f_p (value, d_p f_p^T).
   struct NodeMoments {
     double mass = 0.0;
     Vec2 first = Vec2::Zero();
     Mat2 second = Mat2::Zero();
-    Vec2 displacement = Vec2::Zero();
-    Mat2 cross = Mat2::Zero();
+    Fitted value = Fitted::Zero();
+    Eigen::Matrix<double, 2, 5> cross = Eigen::Matrix<double, 2, 5>::Zero();
   };
   /// A force (or a force per unit mass), its stiffness and the stiffness times the
   /// prescribed velocity.
@@ -136,9 +154,9 @@ class BoundaryConstraints {
   };
 
   void apply_all(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
-  /// The material's displacement at x (header comment); `mass`: the weights' sum (0: no
-  /// material within reach).
-  Vec2 material_displacement(const Vec2& x, double& mass) const;
+  /// The material's displacement and stress at x (header comment); `mass`: the weights' sum
+  /// (0: no material within reach).
+  Fitted material_state(const Vec2& x, double& mass) const;
   /// The moments of the particles within reach of the box [lo, hi].
   void project(const Particles& particles, const Vec2& lo, const Vec2& hi);
   /// Constraint k's nodal terms (terms_dense_) and its report's gap; `rate`: the prescribed

@@ -793,7 +793,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
           constraint.normal_only ? Vec2(v.at(key).as_number(), 0.0) : v.at(key).as_vec2();
       if (v.has("time_function"))
         constraint.time_function = parse_time_function(v.at("time_function"));
-      constraint.method = v.choice_or("method", {"penalty"}, "penalty") == "penalty"
+      constraint.method = v.choice_or("method", {"penalty", "nitsche"}, "penalty") == "penalty"
                               ? ConstraintMethod::kPenalty
                               : ConstraintMethod::kNitsche;
       v.require(!(v.has("penalty") && v.has("penalty_factor")),
