@@ -41,10 +41,10 @@ What it measures:
 * ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
   into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
   constraint on the detected top under it (normal velocity; the penalty method at factors 16
-  and 100, Nitsche's at 16), as a
-  moving support on the grid's top nodes, on the UL-FEM (its mesh nodes) and on the dolfinx
-  model (static): the reaction pressure against (2 + pi) c along the settlement, and its
-  plateau's mean over s / b in [0.03, 0.12] (issue 25 must-show 2);
+  and 100, Nitsche's at 16; the first again at 1/2, 1/4 and 1/8 of the speed), as a moving
+  support on the grid's top nodes, on the UL-FEM (its mesh nodes) and on the dolfinx model
+  (static): the reaction pressure against (2 + pi) c along the settlement, and its plateau's
+  mean over s / b in [0.03, 0.12] (issue 25 must-show 2);
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -150,14 +150,18 @@ SOFTENING = {
 # b, uGIMP, B-bar): through a constraint on the detected top under it (normal velocity, a face
 # window of window_angle about the vertical) at each penalty factor, as a moving support on the
 # grid's top nodes over it, on the UL-FEM (its mesh nodes) and on the dolfinx model (static,
-# `dolfinx_steps` increments). The reaction pressure (the force on the body over b) against
-# (2 + pi) c; its plateau the mean over the settlements s / b in `plateau`.
+# `dolfinx_steps` increments); the constraint at the first penalty factor again at each of the
+# `rate_check` fractions of the speed, to the same settlement. The reaction pressure (the force on the body
+# over b) against (2 + pi) c; its plateau the mean over the settlements s / b in `plateau`.
 FOOTING = {
     "cohesion": 10.0,  # kPa
     "half_width": 1.0,  # m
     "cells_under_half_width": 8,
     "speed": 0.0375,  # m/s
     "duration": 4.0,  # s: a settlement of 0.1425 b
+    # The constraint at the first penalty factor again at these fractions of the speed: its
+    # plateau depends on the speed (boundary_constraint.hpp)
+    "rate_check": (0.5, 0.25, 0.125),
     "ramp_fraction": 0.1,
     "damping": 0.05,
     # FLIP's particle velocities pick up the constraint's band of nodes and grow (the run
@@ -434,11 +438,15 @@ def prandtl_curve(out: Path, case: dict) -> pd.DataFrame:
 
 
 def footing_case(
-    how: str, penalty_factor: float | None = None, method: str = "penalty"
+    how: str,
+    penalty_factor: float | None = None,
+    method: str = "penalty",
+    speedup: float = 1.0,
 ) -> dict:
     """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
-    `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over x <= b: MPM, UL-FEM
-    and dolfinx). The support is the fourth boundary condition (reaction_3_*), the constraint
+    `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over
+    x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than 1:
+    slower) to the same settlement. The support is the fourth boundary condition (reaction_3_*), the constraint
     the first (constraint_0_*)."""
     f = FOOTING
     b = f["half_width"]
@@ -452,7 +460,7 @@ def footing_case(
         "unit_weight": 20.0,
         "cohesion": f["cohesion"],
     }
-    duration = f["duration"]
+    duration = f["duration"] / speedup
     case = _block(
         extent,
         extent,
@@ -469,9 +477,12 @@ def footing_case(
     case["title"] = f"benchmark footing: {how}" + (
         f", {method}, penalty factor {penalty_factor:g}" if penalty_factor else ""
     )
+    if speedup != 1.0:
+        case["title"] += f", {speedup:g} times the speed"
     case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
     case["output"]["timeseries_interval"] = duration / f["samples"]
-    ramp = footing_ramp()
+    ramp = footing_ramp(speedup)
+    speed = f["speed"] * speedup
     if how == "constraint":
         case["constraints"] = [
             {
@@ -479,7 +490,7 @@ def footing_case(
                 "x_range": [-b, b],
                 "faces": "top",
                 "normal": {"direction": [0.0, 1.0], "max_angle": f["window_angle"]},
-                "normal_velocity": -f["speed"],
+                "normal_velocity": -speed,
                 "time_function": ramp,
                 "method": method,
                 "penalty_factor": penalty_factor,
@@ -496,17 +507,21 @@ def footing_case(
             {
                 "where": "footing",
                 "fix": "y",
-                "velocity": [0.0, -f["speed"]],
+                "velocity": [0.0, -speed],
                 "time_function": ramp,
             }
         )
     return case
 
 
-def footing_ramp() -> dict:
-    """The time function of the footing's speed: a smooth ramp over ramp_fraction x duration."""
+def footing_ramp(speedup: float = 1.0) -> dict:
+    """The time function of the footing's speed: a smooth ramp over ramp_fraction x the
+    duration (FOOTING's over `speedup`)."""
     f = FOOTING
-    return {"type": "smooth_ramp", "ramp_time": f["ramp_fraction"] * f["duration"]}
+    return {
+        "type": "smooth_ramp",
+        "ramp_time": f["ramp_fraction"] * f["duration"] / speedup,
+    }
 
 
 def footing_jobs() -> dict:
@@ -520,6 +535,12 @@ def footing_jobs() -> dict:
             footing_case("constraint", k, "nitsche"),
             "mpm",
         )
+    k = f["penalty_factors"][0]
+    for speedup in f["rate_check"]:
+        jobs[f"footing/constraint/f{k:g}_x{speedup:g}"] = (
+            footing_case("constraint", k, speedup=speedup),
+            "mpm",
+        )
     jobs["footing/support/mpm"] = (footing_case("support"), "mpm")
     jobs["footing/support/ulfem"] = (footing_case("support"), "ulfem")
     jobs["footing/support/dolfinx"] = (
@@ -530,9 +551,12 @@ def footing_jobs() -> dict:
     return jobs
 
 
-def footing_curve(out: Path, solver: str, constraint: bool) -> pd.DataFrame:
+def footing_curve(
+    out: Path, solver: str, constraint: bool, speedup: float = 1.0
+) -> pd.DataFrame:
     """s_over_b (the footing's prescribed settlement over b) and q_over_prandtl (the force
-    the footing exerts on the body over b, against (2 + pi) c) of a footing_case run."""
+    the footing exerts on the body over b, against (2 + pi) c) of a footing_case run at
+    `speedup`."""
     from fem_reference.dolfinx_model.case import time_integral
 
     f = FOOTING
@@ -542,8 +566,10 @@ def footing_curve(out: Path, solver: str, constraint: bool) -> pd.DataFrame:
     if solver == "dolfinx":
         settlement = -series["displacement_3_y"]
     else:
-        ramp = footing_ramp()
-        settlement = f["speed"] * series["time"].map(lambda t: time_integral(ramp, t))
+        ramp = footing_ramp(speedup)
+        settlement = (
+            f["speed"] * speedup * series["time"].map(lambda t: time_integral(ramp, t))
+        )
     q_u = analytic.prandtl_bearing_capacity(f["cohesion"])
     return pd.DataFrame(
         {"s_over_b": settlement / b, "q_over_prandtl": -series[column] / b / q_u}
@@ -1109,7 +1135,8 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
         if _missing(outs[key]):
             continue
         _, how, which = key.split("/")
-        curve = footing_curve(_out(outs[key]), job[1], how == "constraint")
+        speedup = float(which.split("_x")[1]) if "_x" in which else 1.0
+        curve = footing_curve(_out(outs[key]), job[1], how == "constraint", speedup)
         curves[key] = curve
         plateau = curve[(curve["s_over_b"] >= lo) & (curve["s_over_b"] <= hi)]
         q = plateau["q_over_prandtl"]
@@ -1119,6 +1146,7 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             {
                 "run": name,
                 "solver": job[1],
+                "speed": f["speed"] * speedup,
                 "plateau_mean": float(q.mean()) if reached >= hi else float("nan"),
                 "plateau_min": float(q.min()),
                 "plateau_max": float(q.max()),
@@ -1145,8 +1173,8 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             f"{f['cells_under_half_width']} cells under b): the reaction pressure over "
             f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest; "
             "NaN mean: the run stopped before its end), through a constraint on the detected "
-            "top (MPM, per method and penalty factor) and as a moving support on the grid's or mesh's "
-            "top nodes (MPM, UL-FEM, dolfinx static)",
+            "top (MPM, per method and penalty factor; _x<k>: at k times the speed) and as a "
+            "moving support on the grid's or mesh's top nodes (MPM, UL-FEM, dolfinx static)",
         )
     )
     figure, axis = plt.subplots(figsize=(7.5, 4.5))

@@ -49,3 +49,29 @@ def test_footing_curve_is_the_prescribed_settlement_and_the_pressure(tmp_path):
     )
     assert np.allclose(curve["s_over_b"] * f["half_width"], expected, atol=1e-15)
     assert curve["q_over_prandtl"].tolist() == pytest.approx([0.0, 0.5, 0.9, 1.0, 1.1])
+
+
+def test_a_slower_footing_reaches_the_same_settlement(tmp_path):
+    """The rate check: at a fraction k of the speed the case runs 1 / k as long, ramps 1 / k as
+    long, and footing_curve at k maps the scaled times onto the same settlements (to 1e-15 m).
+    """
+    f = benchmarks.FOOTING
+    k = 0.25
+    case = benchmarks.footing_case("constraint", 16.0, speedup=k)
+    (spec,) = case["constraints"]
+    assert spec["normal_velocity"] == pytest.approx(-k * f["speed"], rel=1e-15)
+    assert case["time"]["end_time"] == pytest.approx(f["duration"] / k, rel=1e-15)
+    assert spec["time_function"]["ramp_time"] == pytest.approx(
+        f["ramp_fraction"] * f["duration"] / k, rel=1e-15
+    )
+    t = np.array([0.0, 0.2, 0.4, 2.0, f["duration"]])
+    q = np.zeros_like(t)
+    pd.DataFrame({"time": t, "reaction_3_fy": q}).to_csv(
+        tmp_path / "timeseries.csv", index=False
+    )
+    at_speed = benchmarks.footing_curve(tmp_path, "mpm", constraint=False)
+    pd.DataFrame({"time": t / k, "reaction_3_fy": q}).to_csv(
+        tmp_path / "timeseries.csv", index=False
+    )
+    slower = benchmarks.footing_curve(tmp_path, "mpm", constraint=False, speedup=k)
+    assert np.allclose(slower["s_over_b"], at_speed["s_over_b"], rtol=0, atol=1e-15)
