@@ -91,9 +91,13 @@
 // h / 4 or h / 2 outward along the normal (1.04-1.15; unstable at h / 2), a normal window of 10
 // or 25 degrees instead of 45, no damping, linear functions; lengthening the part by h / 2 adds
 // 11 % (a node more along x). Tried at 1/8 of the speed: the shares weighted by the nodes'
-// masses (factor 100 stops at 0.12 b, CFL). Not run on the footing: the force carried to the
-// nodes through the fit's own particle weights (a conservative spring), which loses Nitsche's
-// consistency and the turned block's accuracy (-2.7 % at factor 100).
+// masses (factor 100 stops at 0.12 b, CFL); the part ending h / 2 inside the footing's edge
+// (factor 16: 0.72-1.19 over 0.09-0.12 b but a plateau of 1.05; factor 100 stops at 0.11 b).
+// The first burst at factor 16 (0.072 b) is on the node column at the footing's edge: spring
+// forces of -425 kN/m against -5 to -15 on the others, a node velocity of -1.1 m/s, rebounding
+// the next step. Not run on the footing: the force carried to the nodes through the fit's own
+// particle weights (a conservative spring), which loses Nitsche's consistency and the turned
+// block's accuracy (-2.7 % at factor 100).
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);
