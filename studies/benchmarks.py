@@ -32,12 +32,13 @@ What it measures:
 * ``constraint``: a 1 m square block turned 30 degrees to the grid (a lattice of 2 x 2 points
   per cell area, turned with it), 0.01 m of normal displacement on one face and zero on the
   three others through constraints on the detected boundary (``constraints[]``, the penalty
-  method and Nitsche's): uniaxial strain, sigma_nn = (lambda + 2 mu) ln(0.99) (the solver's rate form
-  integrates the stretching; small strain's -0.01 is 0.5 % less). The interior's mean sigma_nn and
-  the loaded face's reaction against it, for penalty factors 1 to 1000 at h = L / 16 with each
-  method (the penalty method's error, about h / (factor L), falling as the penalty grows;
-  Nitsche's, consistent, flat from factor 4) and for h = L / 8, L / 16, L / 32 with the penalty
-  method at the default factor 100, with the constraints' cost per step;
+  method and Nitsche's): uniaxial strain, sigma_nn = (lambda + 2 mu) ln(0.99) (the solver's
+  rate form integrates the stretching; small strain's -0.01 is 0.5 % less). The interior's
+  mean sigma_nn and the loaded face's reaction against it, for penalty factors 1 to 1000 at
+  h = L / 16 with each method (the penalty method's error, about h / (factor L), falling as
+  the penalty grows; Nitsche's, consistent, flat from factor 4) and for h = L / 8, L / 16,
+  L / 32 with the penalty method at the default factor 100, with the constraints' cost per
+  step;
 * ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
   into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
   constraint on the detected top under it (normal velocity; the penalty method at factors 16
@@ -151,8 +152,9 @@ SOFTENING = {
 # window of window_angle about the vertical) at each penalty factor, as a moving support on the
 # grid's top nodes over it, on the UL-FEM (its mesh nodes) and on the dolfinx model (static,
 # `dolfinx_steps` increments); the constraint at the first penalty factor again at each of the
-# `rate_check` fractions of the speed, to the same settlement. The reaction pressure (the force on the body
-# over b) against (2 + pi) c; its plateau the mean over the settlements s / b in `plateau`.
+# `rate_check` fractions of the speed, to the same settlement. The reaction pressure (the force
+# on the body over b) against (2 + pi) c; its plateau the mean over the settlements s / b in
+# `plateau`.
 FOOTING = {
     "cohesion": 10.0,  # kPa
     "half_width": 1.0,  # m
@@ -445,9 +447,9 @@ def footing_case(
 ) -> dict:
     """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
     `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over
-    x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than 1:
-    slower) to the same settlement. The support is the fourth boundary condition (reaction_3_*), the constraint
-    the first (constraint_0_*)."""
+    x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than
+    1: slower) to the same settlement. The support is the fourth boundary condition
+    (reaction_3_*), the constraint the first (constraint_0_*)."""
     f = FOOTING
     b = f["half_width"]
     extent = 5.0 * b
