@@ -37,8 +37,7 @@ What it measures:
   mean sigma_nn and the loaded face's reaction against it, for penalty factors 1 to 1000 at
   h = L / 16 with each method (the penalty method's error, about h / (factor L), falling as
   the penalty grows; Nitsche's, consistent, flat from factor 4) and for h = L / 8, L / 16,
-  L / 32 with the penalty method at the default factor 100, with the constraints' cost per
-  step;
+  L / 32 with each method at the default factor 100, with the constraints' cost per step;
 * ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
   into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
   constraint on the detected top under it (normal velocity; the penalty method at factors 16
@@ -710,7 +709,8 @@ def constraint_jobs(quick: bool) -> dict:
     if not quick:
         for method in ("penalty", "nitsche"):
             runs |= {(method, f, c["default_cells"]) for f in c["factors"]}
-        runs |= {("penalty", c["default_factor"], n) for n in c["cells_per_side"]}
+        for method in ("penalty", "nitsche"):
+            runs |= {(method, c["default_factor"], n) for n in c["cells_per_side"]}
     return {
         f"constraint/{m}/{f:g}/{n}": (constraint_case(f, n, m), "mpm")
         for m, f, n in sorted(runs)
@@ -1601,20 +1601,15 @@ def _constraint(outs, jobs, add, outcome, folder):
         ("sigma_nn_rel_error", "interior sigma_nn"),
     ):
         for method, style in (("penalty", "o-"), ("nitsche", "s--")):
-            sweep = table[
-                (table.method == method) & (table.cells_per_side == c["default_cells"])
-            ]
-            if not sweep.empty:
-                axes[0].semilogx(
-                    sweep.penalty_factor,
-                    100 * sweep[column],
-                    style,
-                    label=f"{label}, {method}",
-                )
-        refined = penalty[penalty.penalty_factor == c["default_factor"]]
-        axes[1].semilogx(
-            c["side"] / refined.cells_per_side, 100 * refined[column], "o-", label=label
-        )
+            runs = table[table.method == method]
+            sweep = runs[runs.cells_per_side == c["default_cells"]]
+            refined = runs[runs.penalty_factor == c["default_factor"]]
+            for axis, x, y in (
+                (axes[0], sweep.penalty_factor, sweep[column]),
+                (axes[1], c["side"] / refined.cells_per_side, refined[column]),
+            ):
+                if not y.empty:
+                    axis.semilogx(x, 100 * y, style, label=f"{label}, {method}")
     axes[0].set_xlabel("penalty factor (beta = factor M / h)")
     axes[1].set_xlabel("h (m), penalty factor 100")
     for axis in axes:
