@@ -80,28 +80,28 @@
 // 0.125 b, CFL, where the one over x_range runs through at 1.057). Two other parts of the
 // speed's effect were measured at 0.0375 m/s. PIC's dissipation grows with the speed (1 % of PIC
 // instead of 5 %: 1.05 and 1.08 over 0.01-0.03 and 0.03-0.06 b, against 1.07 and 1.11). The lumped
-// stiffness damps each node's own velocity towards the prescribed one (a force dt K_I (v_I -
-// v_bar)), the node row under the detected top too, where the consistent matrix damps only the
-// interpolated velocity's mismatch on the curve (that mismatch taken explicitly: 1.06, 1.08
-// and 1.11 over 0.01-0.03, 0.03-0.06 and 0.06-0.09 b against 1.07, 1.11 and 1.11; at 1/8 of the
-// speed both give 1.02). Slower runs are not the way out: past 0.09 b (0.7 h) of settlement the
-// particles under the footing cross a node row together, and at 1/8 of the speed the constraint's
-// force then spikes to several times the plateau (factor 16: 0.76-2.5 over 0.09-0.12 b; factor 100:
-// -18 to +12, a plateau mean of 0.72; factor 4: -13 to +19; Nitsche's at 16: -6.3 to +2.5), in
-// bursts of work that the damping and PIC then take (the constraint's work over 0.03-0.12 b is 9
-// times the plateau force times the settlement at factor 16; 1.8 times at 0.0375 m/s). The node
-// support does not spike. Tried at 0.0375 m/s without removing the excess: Nitsche's method, a
-// consistent stiffness solved as one system (1.05-1.10, then swings of +-10 past 0.09 b), each
-// point's force on its nearest node row (1.03 over 0.01-0.03 b, then swings of -4.6 to +6.2 as that
-// row changes), the shares taken a quarter or half a cell outward along the normal (1.04-1.15;
-// unstable at half a cell), a normal window of 10 or 25 degrees instead of 45, no damping, linear
-// functions; lengthening the part by h / 2 adds 11 % (a node more along x). Tried at 1/8 of the
-// speed: the shares weighted by the nodes' masses (factor 100 stops at 0.12 b, CFL); the part
-// ending h / 2 inside the footing's edge (factor 16: 0.72-1.19 over 0.09-0.12 b but a plateau
-// of 1.05; factor 100 stops at 0.11 b). The first burst at factor 16 (0.072 b) is on the node
-// column at the footing's edge: spring forces of -425 kN/m against -5 to -15 on the others, a node
-// velocity of -1.1 m/s, rebounding the next step. Not run on the footing: the force carried to the
-// nodes through the fit's own particle weights (a conservative spring), which loses Nitsche's
+// stiffness damps each node's own velocity v_I towards the prescribed v_bar, by a force
+// dt K_I (v_I - v_bar), the node row under the detected top too, where the consistent matrix damps
+// only the interpolated velocity's mismatch on the curve (that mismatch taken
+// explicitly: 1.06, 1.08 and 1.11 over 0.01-0.03, 0.03-0.06 and 0.06-0.09 b against 1.07, 1.11
+// and 1.11; at 1/8 of the speed both give 1.02). Slower runs are not the way out: past 0.09 b (0.7
+// h) of settlement the particles under the footing cross a node row together, and at 1/8 of the
+// speed the constraint's force then spikes to several times the plateau (factor 16: 0.76-2.5 over
+// 0.09-0.12 b; factor 100: -18 to +12, a plateau mean of 0.72; factor 4: -13 to +19; Nitsche's at
+// 16: -6.3 to +2.5), in bursts of work that the damping and PIC then take (the constraint's work
+// over 0.03-0.12 b is 9 times the plateau force times the settlement at factor 16; 1.8 times at
+// 0.0375 m/s). The node support does not spike. Tried at 0.0375 m/s without removing the excess:
+// Nitsche's method, a consistent stiffness solved as one system (1.05-1.10, then swings of +-10
+// past 0.09 b), each point's force on its nearest node row (1.03 over 0.01-0.03 b, then swings of
+// -4.6 to +6.2 as that row changes), the shares taken a quarter or half a cell outward along the
+// normal (1.04-1.15; unstable at half a cell), a normal window of 10 or 25 degrees instead of 45,
+// no damping, linear functions; lengthening the part by h / 2 adds 11 % (a node more along x).
+// Tried at 1/8 of the speed: the shares weighted by the nodes' masses (factor 100 stops at 0.12 b,
+// CFL); the part ending h / 2 inside the footing's edge (factor 16: 0.72-1.19 over 0.09-0.12 b but
+// a plateau of 1.05; factor 100 stops at 0.11 b). The first burst at factor 16 (0.072 b) is on the
+// node column at the footing's edge: spring forces of -425 kN/m against -5 to -15 on the others, a
+// node velocity of -1.1 m/s, rebounding the next step. Not run on the footing: the force carried to
+// the nodes through the fit's own particle weights (a conservative spring), which loses Nitsche's
 // consistency and the turned block's accuracy (-2.7 % at factor 100).
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
