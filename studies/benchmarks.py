@@ -552,6 +552,17 @@ def footing_jobs() -> dict:
     return jobs
 
 
+def footing_speedup(case: dict) -> float:
+    """The speed a footing_case pushes at (its constraint's or its moving support's), over
+    FOOTING's."""
+    if "constraints" in case:
+        speed = -case["constraints"][0]["normal_velocity"]
+    else:
+        (footing,) = [b for b in case["boundary_conditions"] if b["where"] == "footing"]
+        speed = -footing["velocity"][1]
+    return speed / FOOTING["speed"]
+
+
 def footing_curve(
     out: Path, solver: str, constraint: bool, speedup: float = 1.0
 ) -> pd.DataFrame:
@@ -1137,7 +1148,7 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
         if _missing(outs[key]):
             continue
         _, how, which = key.split("/")
-        speedup = float(which.split("_x")[1]) if "_x" in which else 1.0
+        speedup = footing_speedup(job[0])
         curve = footing_curve(_out(outs[key]), job[1], how == "constraint", speedup)
         curves[key] = curve
         plateau = curve[(curve["s_over_b"] >= lo) & (curve["s_over_b"] <= hi)]

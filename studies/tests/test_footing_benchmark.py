@@ -75,3 +75,13 @@ def test_a_slower_footing_reaches_the_same_settlement(tmp_path):
     )
     slower = benchmarks.footing_curve(tmp_path, "mpm", constraint=False, speedup=k)
     assert np.allclose(slower["s_over_b"], at_speed["s_over_b"], rtol=0, atol=1e-15)
+
+
+def test_the_speedup_is_read_back_from_the_case():
+    """_footing takes each run's speed from its case: the constraint's and the support's."""
+    for k in (1.0, 0.5, 0.125):
+        for how in ("constraint", "support"):
+            case = benchmarks.footing_case(
+                how, 16.0 if how == "constraint" else None, speedup=k
+            )
+            assert benchmarks.footing_speedup(case) == pytest.approx(k, rel=1e-15)
