@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace pfm {
 
@@ -63,7 +64,8 @@ inline bool in_box(const Vec2& x, const Vec2& lo, const Vec2& hi, double margin)
 
 }  // namespace
 
-void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, const Vec2& hi) {
+void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, const Vec2& hi,
+                                  const std::optional<Vec2>& x_range) {
   for (const int node : moments_list_) {
     moments_[static_cast<std::size_t>(node)] = NodeMoments{};
     moments_flag_[static_cast<std::size_t>(node)] = 0;
@@ -73,6 +75,7 @@ void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, co
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     if (!in_box(x, lo, hi, margin)) continue;
+    if (x_range && (x.x() < x_range->x() || x.x() > x_range->y())) continue;
     const Stress& sigma = particles.stress[p];
     Fitted f;
     f << x - particles.reference_position[p], sigma[kXX], sigma[kYY], sigma[kXY];
@@ -198,24 +201,38 @@ void BoundaryConstraints::collect(std::size_t k) {
 void BoundaryConstraints::apply_all(const StepView& step, GridState& grid_state,
                                     std::vector<Vec2>& force) {
   const double dt = step.dt;
-  // The boxes of the parts, and the particles' displacement moments around them.
-  Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  // The box of each part's points.
+  std::vector<Vec2> part_lo(specs_.size()), part_hi(specs_.size());
   for (std::size_t k = 0; k < specs_.size(); ++k) {
-    Vec2 part_lo = Vec2::Constant(std::numeric_limits<double>::infinity()), part_hi = -part_lo;
+    part_lo[k] = Vec2::Constant(std::numeric_limits<double>::infinity());
+    part_hi[k] = -part_lo[k];
     for (const boundary::CurvePoint& q : points_[k]) {
-      part_lo = part_lo.cwiseMin(q.x);
-      part_hi = part_hi.cwiseMax(q.x);
+      part_lo[k] = part_lo[k].cwiseMin(q.x);
+      part_hi[k] = part_hi[k].cwiseMax(q.x);
     }
-    lo = lo.cwiseMin(part_lo);
-    hi = hi.cwiseMax(part_hi);
   }
-  project(step.particles, lo, hi);
   node_mass_ = grid_state.mass.data();
   tiny_mass_ = 1e-12 * step.particles.mass.front();
   std::vector<Vec2> rates(specs_.size());
+  bool projected = false;
+  std::optional<Vec2> projected_range;
   for (std::size_t k = 0; k < specs_.size(); ++k) {
     const ConstraintSpec& spec = specs_[k];
     reports_[k] = ConstraintReport{};
+    // The particles' moments for the fit: those over the part's x_range if it has one (header
+    // comment), around the parts that share this range (one projection serves them all).
+    const std::optional<Vec2>& range = spec.part.x_range;
+    if (!projected || range != projected_range) {
+      Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+      for (std::size_t other = 0; other < specs_.size(); ++other) {
+        if (specs_[other].part.x_range != range) continue;
+        lo = lo.cwiseMin(part_lo[other]);
+        hi = hi.cwiseMax(part_hi[other]);
+      }
+      project(step.particles, lo, hi, range);
+      projected = true;
+      projected_range = range;
+    }
     // The prescribed displacement's rate over the step.
     rates[k] =
         spec.velocity

@@ -6,18 +6,21 @@
 // The gap. At a point x of the part, the material's displacement is the value at x of the
 // weighted least-squares linear fit u(x_p) ~ a + B (x_p - x) to the particles' displacements
 // u_p = x_p - X_p, with weights w_p = m_p sum_J N_J(x) N_J(x_p) (the particles that share a node
-// with x): exact wherever the displacement is affine (a homogeneous strain, a translation),
-// also on a face whose particles all lie on one side of x, and blind to how distorted the
-// particles' F are (the fit uses positions only: a first version extrapolated each particle's
-// field with G_p = I - F_p^-1 and was as accurate on the turned block, but its gaps under a
-// footing's edge were 15 times larger). The fit's sums are per-node moments (the mass and the
-// moments of x_p - x_J, u_p and the stress, for Nitsche's method), taken once a step over the
-// particles near the parts, and shifted to x; where the points within reach lie on a line, the
-// weighted mean is taken. N_J are the loads' grid functions (bilinear for linear and uGIMP, the
-// B-splines otherwise). The gap is g = P (u - u_bar): P = n n^T with n the part's normal-window
-// direction (a face: the corners of two constrained faces then hold both) or the curve's normal,
-// for normal_only; else the identity. u_bar is the prescribed displacement (value x time function),
-// or for a velocity its integral over the steps taken (midpoint rule; kept in the checkpoint).
+// with x; on a part with an x_range, only those over it: the material beside a part is not
+// the part's, and under a footing's edge it heaves while the material under the footing
+// follows the footing, so a fit across the edge reads a gap neither side has): exact wherever the
+// displacement is affine (a homogeneous strain, a translation), also on a face whose particles all
+// lie on one side of x, and blind to how distorted the particles' F are (the fit uses positions
+// only: a first version extrapolated each particle's field with G_p = I - F_p^-1 and was as
+// accurate on the turned block, but its gaps under a footing's edge were 15 times larger). The
+// fit's sums are per-node moments (the mass and the moments of x_p - x_J, u_p and the stress, for
+// Nitsche's method), taken once a step over the particles near the parts, and shifted to x; where
+// the points within reach lie on a line, the weighted mean is taken. N_J are the loads' grid
+// functions (bilinear for linear and uGIMP, the B-splines otherwise). The gap is g = P (u - u_bar):
+// P = n n^T with n the part's normal-window direction (a face: the corners of two constrained faces
+// then hold both) or the curve's normal, for normal_only; else the identity. u_bar is the
+// prescribed displacement (value x time function), or for a velocity its integral over the steps
+// taken (midpoint rule; kept in the checkpoint).
 //
 // The penalty method. A traction t = -beta g acts on the part, integrated with the loads' rule
 // (BoundaryLoadIntegrator::quadrature_points, exact on the pieces between cell edges); each
@@ -66,43 +69,34 @@
 // along its faces) is right turned 0, 10, 30 and 45 degrees at h = L / 16 and 10 and 30 degrees
 // at h = L / 32: reactions within 0.8 %, interior spread below 3 %. A rigid footing pushed into
 // weightless Tresca soil (the benchmarks study's footing, 8 cells under the half-width b, uGIMP,
-// B-bar, 5 % PIC; with FLIP its particles carry 0.3-10 m/s) runs to 0.14 b, but the reaction's
-// plateau, its mean over 0.03-0.12 b, is 8-9 % above (2 + pi) c at 0.0375 m/s (penalty factor
-// 16 or 100, Nitsche's at 16; the node support on the grid's top row: -1 %, the UL-FEM: +12.5 %,
-// the dolfinx model: +2.8 %). The excess depends on the speed, though every speed here is far
-// below the waves' (c_p = 290 m/s): at 1/2, 1/4 and 1/8 of it the plateau at factor 16 is 1.08,
-// 1.03 and 1.02, where the node support moves by 2 % and the UL-FEM by 1 %. Part of that fall
-// is the fit at the footing's edge, which takes in the heaving particles beyond it: with only
-// the particles over the part's x_range in the fit the plateau is 1.10, 1.08 and 1.07 at 1,
-// 1/4 and 1/8 of the speed, and the spikes below mostly go (factor 100 at 1/8: 1.06, between
-// 0.72 and 1.76), but at full speed its largest value is 1.62 against 1.32 (not kept yet: at
-// 16 cells under b and 1/4 of the speed the fit over all particles spikes to -226 and stops at
-// 0.125 b, CFL, where the one over x_range runs through at 1.057). Two other parts of the
-// speed's effect were measured at 0.0375 m/s. PIC's dissipation grows with the speed (1 % of PIC
-// instead of 5 %: 1.05 and 1.08 over 0.01-0.03 and 0.03-0.06 b, against 1.07 and 1.11). The lumped
-// stiffness damps each node's own velocity v_I towards the prescribed v_bar, by a force
-// dt K_I (v_I - v_bar), the node row under the detected top too, where the consistent matrix damps
-// only the interpolated velocity's mismatch on the curve (that mismatch taken
-// explicitly: 1.06, 1.08 and 1.11 over 0.01-0.03, 0.03-0.06 and 0.06-0.09 b against 1.07, 1.11
-// and 1.11; at 1/8 of the speed both give 1.02). Slower runs are not the way out: past 0.09 b (0.7
-// h) of settlement the particles under the footing cross a node row together, and at 1/8 of the
-// speed the constraint's force then spikes to several times the plateau (factor 16: 0.76-2.5 over
-// 0.09-0.12 b; factor 100: -18 to +12, a plateau mean of 0.72; factor 4: -13 to +19; Nitsche's at
-// 16: -6.3 to +2.5), in bursts of work that the damping and PIC then take (the constraint's work
-// over 0.03-0.12 b is 9 times the plateau force times the settlement at factor 16; 1.8 times at
-// 0.0375 m/s). The node support does not spike. Tried at 0.0375 m/s without removing the excess:
-// Nitsche's method, a consistent stiffness solved as one system (1.05-1.10, then swings of +-10
-// past 0.09 b), each point's force on its nearest node row (1.03 over 0.01-0.03 b, then swings of
-// -4.6 to +6.2 as that row changes), the shares taken a quarter or half a cell outward along the
-// normal (1.04-1.15; unstable at half a cell), a normal window of 10 or 25 degrees instead of 45,
-// no damping, linear functions; lengthening the part by h / 2 adds 11 % (a node more along x).
-// Tried at 1/8 of the speed: the shares weighted by the nodes' masses (factor 100 stops at 0.12 b,
-// CFL); the part ending h / 2 inside the footing's edge (factor 16: 0.72-1.19 over 0.09-0.12 b but
-// a plateau of 1.05; factor 100 stops at 0.11 b). The first burst at factor 16 (0.072 b) is on the
-// node column at the footing's edge: spring forces of -425 kN/m against -5 to -15 on the others, a
-// node velocity of -1.1 m/s, rebounding the next step. Not run on the footing: the force carried to
-// the nodes through the fit's own particle weights (a conservative spring), which loses Nitsche's
-// consistency and the turned block's accuracy (-2.7 % at factor 100).
+// B-bar, 5 % PIC; with FLIP its particles carry 0.3-10 m/s) runs to 0.14 b. Its reaction rises
+// along the settlement as the UL-FEM's does, the footing sinking into its own heave (over s / b
+// 0.01-0.03, 0.03-0.06, 0.06-0.09, 0.09-0.12, in units of (2 + pi) c: the UL-FEM 1.05, 1.09,
+// 1.12, 1.16 at 8 cells under b and 1.03, 1.07, 1.10, 1.13 at 16, where it inverts an element
+// at 0.13 b; the node support on the grid's top row falls instead, 0.98 to 0.90 at 16 cells,
+// once the surface sinks below that row; the dolfinx model, static and small-strain, is flat at
+// 1.03). The constraint at factor 16 gives 1.06, 1.11, 1.12, 1.06 at 8 cells under b and 1.04,
+// 1.05, 1.08, 1.11 at 16 (1.03, 1.04, 1.09, 1.11 at half the speed): at 8 cells its mean over
+// 0.03-0.12 b is 1.10 at 0.0375 m/s (factor 100: 1.11, Nitsche's at 16: 1.10) and 1.09, 1.08,
+// 1.07 at 1/2, 1/4 and 1/8 of the speed, the largest value 1.46 to 1.69; at 16 cells 1.08.
+// The fit over every particle within reach (before the x_range rule) gave 1.085 at the speed but
+// 1.02 at 1/8 of it with spikes past 0.09 b (factor 100: -18 to +12 times (2 + pi) c; the first,
+// at factor 16, a spring force of -425 kN/m on the node column at the footing's edge, against -5
+// to -15 on the others), and at 16 cells under b and 1/4 of the speed it stopped at 0.125 b (CFL)
+// where the fit over the part runs through at 1.06. Measured with that fit at 0.0375 m/s: PIC's
+// dissipation grows with the speed (1 % of PIC instead of 5 %: 1.05 and 1.08 over 0.01-0.03 and
+// 0.03-0.06 b, against 1.07 and 1.11); the lumped stiffness damps each node's own velocity v_I
+// towards v_bar, by dt K_I (v_I - v_bar), where the consistent matrix damps only the
+// interpolated velocity's mismatch on the curve (that mismatch taken explicitly: 1.06, 1.08,
+// 1.11 over the first three windows against 1.07, 1.11, 1.11). Tried there without removing the
+// excess: Nitsche's method, a consistent stiffness solved as one system, each point's force on
+// its nearest node row (swings of -4.6 to +6.2 as that row changes), the shares taken a quarter
+// or half a cell outward along the normal (unstable at half a cell), the shares weighted by the
+// nodes' masses, a normal window of 10 or 25 degrees instead of 45, no damping, linear
+// functions, the part lengthened by h / 2 (+11 %) or ended h / 2 inside the edge (1.05, then
+// factor 100 stops at 0.11 b), the force carried to the nodes through the fit's own particle
+// weights (a conservative spring, which loses Nitsche's consistency and the turned block's
+// accuracy: -2.7 % at factor 100).
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);
@@ -111,6 +105,7 @@
 // Units: kN, m, s, t, kPa.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "mpm/boundary/surface_load.hpp"
@@ -169,8 +164,9 @@ class BoundaryConstraints {
   /// The material's displacement and stress at x (header comment); `mass`: the weights' sum
   /// (0: no material within reach).
   Fitted material_state(const Vec2& x, double& mass) const;
-  /// The moments of the particles within reach of the box [lo, hi].
-  void project(const Particles& particles, const Vec2& lo, const Vec2& hi);
+  /// The moments of the particles within reach of the box [lo, hi] (and over x_range, if given).
+  void project(const Particles& particles, const Vec2& lo, const Vec2& hi,
+               const std::optional<Vec2>& x_range);
   /// Constraint k's nodal terms (terms_dense_) and its report's gap; `rate`: the prescribed
   /// displacement's rate over the step.
   void gather(std::size_t k, const Vec2& rate);
