@@ -41,10 +41,13 @@ What it measures:
 * ``footing``: a rigid smooth strip footing (b = 1 m, 8 cells under b) pushed at 0.0375 m/s
   into the Prandtl benchmark's weightless Tresca soil (c = 10 kPa) to s = 0.14 b: through a
   constraint on the detected top under it (normal velocity; the penalty method at factors 16
-  and 100, Nitsche's at 16; the first again at 1/2, 1/4 and 1/8 of the speed), as a moving
-  support on the grid's top nodes, on the UL-FEM (its mesh nodes) and on the dolfinx model
-  (static): the reaction pressure against (2 + pi) c along the settlement, and its plateau's
-  mean over s / b in [0.03, 0.12] (issue 25 must-show 2);
+  and 100, Nitsche's at 16; the first again at 1/2, 1/4 and 1/8 of the speed and with 16
+  cells under b), as a moving support on the grid's top nodes, on the UL-FEM (its mesh nodes;
+  also with 16 elements under b) and on the dolfinx model (static): the reaction pressure
+  against (2 + pi) c along the settlement, its plateau's mean over s / b in [0.03, 0.12]
+  (issue 25 must-show 2) and its mean over windows of s / b, where the constraint is compared
+  with the UL-FEM of the same h (the reaction rises along the settlement on both: the footing
+  sinks into its heave);
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -65,6 +68,7 @@ run, with the metric ``benchmarks.<name>.energy_identity_rel``).
 from __future__ import annotations
 
 import copy
+import math
 import os
 from pathlib import Path
 
@@ -172,6 +176,12 @@ FOOTING = {
     "penalty_factors": (16.0, 100.0),
     "nitsche_factors": (16.0,),
     "plateau": (0.03, 0.12),  # s / b
+    # The reaction's mean over each of these windows of s / b too: it rises along the
+    # settlement, on the UL-FEM as well (the footing sinks into its heave)
+    "windows": ((0.01, 0.03), (0.03, 0.06), (0.06, 0.09), (0.09, 0.12)),
+    # The constraint at the first penalty factor and the UL-FEM again with this many cells
+    # under b: the h-dependence of both
+    "refined_cells": 16,
     "dolfinx_steps": 80,
     "samples": 400,  # time-series rows
 }
@@ -443,16 +453,19 @@ def footing_case(
     penalty_factor: float | None = None,
     method: str = "penalty",
     speedup: float = 1.0,
+    cells: int | None = None,
 ) -> dict:
     """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
     `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over
     x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than
-    1: slower) to the same settlement. The support is the fourth boundary condition
-    (reaction_3_*), the constraint the first (constraint_0_*)."""
+    1: slower) to the same settlement, with `cells` cells (or elements) under b (default
+    FOOTING's). The support is the fourth boundary condition (reaction_3_*), the constraint
+    the first (constraint_0_*)."""
     f = FOOTING
     b = f["half_width"]
     extent = 5.0 * b
-    h = b / f["cells_under_half_width"]
+    cells = f["cells_under_half_width"] if cells is None else cells
+    h = b / cells
     material = {
         "name": "clay",
         "model": "tresca",
@@ -480,6 +493,8 @@ def footing_case(
     )
     if speedup != 1.0:
         case["title"] += f", {speedup:g} times the speed"
+    if cells != f["cells_under_half_width"]:
+        case["title"] += f", {cells} cells under b"
     case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
     case["output"]["timeseries_interval"] = duration / f["samples"]
     ramp = footing_ramp(speedup)
@@ -542,8 +557,14 @@ def footing_jobs() -> dict:
             footing_case("constraint", k, speedup=speedup),
             "mpm",
         )
+    n = f["refined_cells"]
+    jobs[f"footing/constraint/f{k:g}_h{n}"] = (
+        footing_case("constraint", k, cells=n),
+        "mpm",
+    )
     jobs["footing/support/mpm"] = (footing_case("support"), "mpm")
     jobs["footing/support/ulfem"] = (footing_case("support"), "ulfem")
+    jobs[f"footing/support/ulfem_h{n}"] = (footing_case("support", cells=n), "ulfem")
     jobs["footing/support/dolfinx"] = (
         footing_case("support"),
         "dolfinx",
@@ -561,6 +582,11 @@ def footing_speedup(case: dict) -> float:
         (footing,) = [b for b in case["boundary_conditions"] if b["where"] == "footing"]
         speed = -footing["velocity"][1]
     return speed / FOOTING["speed"]
+
+
+def footing_cells(case: dict) -> int:
+    """The cells (or elements) under b of a footing_case."""
+    return int(round(FOOTING["half_width"] / case["grid"]["cell_size"]))
 
 
 def footing_curve(
@@ -1130,6 +1156,29 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
     )
 
 
+def footing_against_ulfem(rows: list[dict]) -> dict:
+    """Per constraint run at FOOTING's speed with a UL-FEM run of the same cells under b: the
+    largest |mean q of the constraint / mean q of the UL-FEM - 1| over the windows both
+    reached (rows as in footing.md)."""
+    windows = [f"mean_{a:g}_{z:g}" for a, z in FOOTING["windows"]]
+    ulfem = {r["cells"]: r for r in rows if r["solver"] == "ulfem"}
+    out = {}
+    for r in rows:
+        reference = ulfem.get(r["cells"])
+        if not r["run"].startswith("constraint_") or reference is None:
+            continue
+        if r["speed"] != FOOTING["speed"]:
+            continue
+        ratios = [
+            abs(r[w] / reference[w] - 1.0)
+            for w in windows
+            if math.isfinite(r[w]) and math.isfinite(reference[w])
+        ]
+        if ratios:
+            out[r["run"]] = max(ratios)
+    return out
+
+
 def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
     """The rigid footing on every code: the table footing.md (the plateau's mean, least and
     largest q / (2 + pi) c over FOOTING's plateau window, the last settlement reached), the
@@ -1155,17 +1204,22 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
         q = plateau["q_over_prandtl"]
         reached = float(curve["s_over_b"].iloc[-1])
         name = f"{how}_{which}"
-        rows.append(
-            {
-                "run": name,
-                "solver": job[1],
-                "speed": f["speed"] * speedup,
-                "plateau_mean": float(q.mean()) if reached >= hi else float("nan"),
-                "plateau_min": float(q.min()),
-                "plateau_max": float(q.max()),
-                "last_s_over_b": reached,
-            }
-        )
+        row = {
+            "run": name,
+            "solver": job[1],
+            "cells": footing_cells(job[0]),
+            "speed": f["speed"] * speedup,
+            "plateau_mean": float(q.mean()) if reached >= hi else float("nan"),
+            "plateau_min": float(q.min()),
+            "plateau_max": float(q.max()),
+        }
+        for a, z in f["windows"]:
+            window = curve[(curve["s_over_b"] >= a) & (curve["s_over_b"] <= z)]
+            row[f"mean_{a:g}_{z:g}"] = (
+                float(window["q_over_prandtl"].mean()) if reached >= z else float("nan")
+            )
+        row["last_s_over_b"] = reached
+        rows.append(row)
         if reached >= hi:
             outcome.metrics.append(
                 Metric(
@@ -1174,6 +1228,12 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
                     "1",
                 )
             )
+    # The reaction rises along the settlement on the UL-FEM too (FOOTING's windows): each
+    # constraint at the speed against the UL-FEM with the same cells, window by window.
+    for name, value in footing_against_ulfem(rows).items():
+        outcome.metrics.append(
+            Metric(f"benchmarks.footing.{name}_vs_ulfem_rel_error", value, "1")
+        )
     if not rows:
         raise PrerequisiteMissing("footing outputs")
     outcome.tables.append(
@@ -1184,30 +1244,49 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             f"Rigid smooth footing pushed at {f['speed']:g} m/s into weightless Tresca soil "
             f"(c = {f['cohesion']:g} kPa, b = {f['half_width']:g} m, "
             f"{f['cells_under_half_width']} cells under b): the reaction pressure over "
-            f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest; "
-            "NaN mean: the run stopped before its end), through a constraint on the detected "
-            "top (MPM, per method and penalty factor; _x<k>: at k times the speed) and as a "
-            "moving support on the grid's or mesh's top nodes (MPM, UL-FEM, dolfinx static)",
+            f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest) and "
+            "its mean over each window mean_<from>_<to> of s / b (NaN: the run stopped "
+            "before the window's end), through a constraint on the detected top (MPM, per "
+            "method and penalty factor; _x<k>: at k times the speed; _h<n>: n cells under b) "
+            "and as a moving support on the grid's or mesh's top nodes (MPM, UL-FEM, dolfinx "
+            "static)",
         )
     )
-    figure, axis = plt.subplots(figsize=(7.5, 4.5))
-    for key, curve in curves.items():
-        axis.plot(
-            curve["s_over_b"], curve["q_over_prandtl"], label=key[len("footing/") :]
-        )
-    axis.axhline(1.0, color="0.5", lw=0.8, ls="--")
-    axis.axvspan(lo, hi, color="0.9", zorder=0)
-    axis.set_ylim(0.0, 1.4)
-    axis.set_xlabel("settlement s / b")
-    axis.set_ylabel("reaction pressure / (2 + pi) c")
-    axis.legend(fontsize=8)
+    # The constraint's force jumps as particles cross node rows: each curve is drawn as its
+    # centred moving mean over `smooth` samples (the table's means are of the raw samples).
+    smooth = 15
+    width = smooth * f["duration"] / f["samples"] * f["speed"] / f["half_width"]
+    panels = {
+        "at the speed, 8 cells under b": lambda k: "_x" not in k and "_h" not in k,
+        "the constraint at factor 16 against speed and h; the UL-FEM": lambda k: (
+            k.startswith("footing/constraint/f16")
+            or k.startswith("footing/support/ulfem")
+        ),
+    }
+    figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    for axis, (title, shown) in zip(axes, panels.items()):
+        for key, curve in curves.items():
+            if not shown(key):
+                continue
+            q = curve["q_over_prandtl"].rolling(smooth, center=True, min_periods=1)
+            axis.plot(curve["s_over_b"], q.mean(), label=key[len("footing/") :])
+        axis.axhline(1.0, color="0.5", lw=0.8, ls="--")
+        axis.axvspan(lo, hi, color="0.9", zorder=0)
+        axis.set_ylim(0.8, 1.3)
+        axis.set_title(title, fontsize=9)
+        axis.set_xlabel("settlement s / b")
+        axis.legend(fontsize=7)
+    axes[0].set_ylabel(
+        f"reaction pressure / (2 + pi) c, moving mean over {width:.4f} b"
+    )
     figure.tight_layout()
     outcome.figures.append(
         save_figure(
             folder,
             figure,
             "footing",
-            "Rigid footing: reaction pressure against settlement on every code",
+            "Rigid footing: reaction pressure against settlement on every code (moving "
+            f"mean over {width:.4f} b of settlement; grey: the plateau window)",
         )
     )
 

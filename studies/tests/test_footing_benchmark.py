@@ -85,3 +85,51 @@ def test_the_speedup_is_read_back_from_the_case():
                 how, 16.0 if how == "constraint" else None, speedup=k
             )
             assert benchmarks.footing_speedup(case) == pytest.approx(k, rel=1e-15)
+
+
+def test_a_refined_footing_has_the_cells_it_asks_for():
+    """footing_case(cells=n) puts n cells (the UL-FEM: elements) under b; the jobs hold the
+    constraint and the UL-FEM at FOOTING's refined_cells."""
+    f = benchmarks.FOOTING
+    n = f["refined_cells"]
+    for how in ("constraint", "support"):
+        case = benchmarks.footing_case(
+            how, 16.0 if how == "constraint" else None, cells=n
+        )
+        assert benchmarks.footing_cells(case) == n
+        assert case["grid"]["cell_size"] == pytest.approx(
+            f["half_width"] / n, rel=1e-15
+        )
+    assert benchmarks.footing_cells(benchmarks.footing_case("support")) == (
+        f["cells_under_half_width"]
+    )
+    jobs = benchmarks.footing_jobs()
+    assert benchmarks.footing_cells(jobs[f"footing/constraint/f16_h{n}"][0]) == n
+    assert jobs[f"footing/support/ulfem_h{n}"][1] == "ulfem"
+
+
+def test_the_constraint_is_compared_with_the_ulfem_of_the_same_cells():
+    """footing_against_ulfem: the largest |constraint / UL-FEM - 1| over the windows both
+    reached, per constraint run at the speed, against the UL-FEM of its own cells only.
+    """
+    f = benchmarks.FOOTING
+    names = [f"mean_{a:g}_{z:g}" for a, z in f["windows"]]
+
+    def row(run, solver, cells, values, speed=f["speed"]):
+        return {"run": run, "solver": solver, "cells": cells, "speed": speed} | dict(
+            zip(names, values)
+        )
+
+    nan = float("nan")
+    rows = [
+        row("constraint_f16", "mpm", 8, [1.1, 1.2, 1.0, 1.0]),
+        row("constraint_f16_x0.5", "mpm", 8, [1.1, 1.2, 1.0, 1.0], 0.5 * f["speed"]),
+        row("constraint_f16_h16", "mpm", 16, [1.0, 1.05, 1.0, nan]),
+        row("support_mpm", "mpm", 8, [9.0, 9.0, 9.0, 9.0]),
+        row("support_ulfem", "ulfem", 8, [1.0, 1.0, 1.0, 1.0]),
+        row("support_ulfem_h16", "ulfem", 16, [1.0, 1.0, 1.25, 9.0]),
+    ]
+    result = benchmarks.footing_against_ulfem(rows)
+    assert set(result) == {"constraint_f16", "constraint_f16_h16"}
+    assert result["constraint_f16"] == pytest.approx(0.2, rel=1e-12)
+    assert result["constraint_f16_h16"] == pytest.approx(0.2, rel=1e-12)
