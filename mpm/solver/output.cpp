@@ -1,6 +1,8 @@
 #include "mpm/solver/output.hpp"
 
+#include <fcntl.h>
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -202,13 +204,72 @@ std::string step_group(long step) {
   return name;
 }
 
-/// Rebuilds `directory`/`file_name` with only the objects `names` of the old file (copied in
-/// order), written to a temporary file and renamed; returns the reopened file (read-write).
+/// The copy of a series file that the latest checkpoint keeps (copy_for_checkpoint()).
+std::string checkpoint_copy_of(const std::string& path) {
+  return path + ".checkpoint";
+}
+
+/// Copies the series file `name` of `folder` as it is now (flushed at the end of each output
+/// step) to its checkpoint_copy_of(), by a temporary and a rename, unless `steps` (the output
+/// steps the file holds) equals `steps_at_copy` (the copy still holds them all); sets
+/// `steps_at_copy`. IoError with the path and the system's reason when a read or write fails.
+void copy_series(OutputFolder& folder, const std::string& name, std::size_t steps,
+                 std::size_t& steps_at_copy) {
+  if (steps == steps_at_copy) return;
+  const std::string path = folder.file(name), copy = folder.file(checkpoint_copy_of(name));
+  const std::string temporary = copy + ".tmp";
+  const int in = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) throw_io_error("cannot open", path, errno);
+  const int out = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0) {
+    const int error = errno;
+    ::close(in);
+    throw_io_error("cannot create", temporary, error);
+  }
+  // A failed read or write: both closed, the temporary removed, the reason kept.
+  auto fail = [&](const char* what, const std::string& where, int error) {
+    ::close(in);
+    ::close(out);
+    std::remove(temporary.c_str());
+    throw_io_error(what, where, error);
+  };
+  std::vector<char> buffer(std::size_t{1} << 20);
+  for (;;) {
+    const ssize_t got = ::read(in, buffer.data(), buffer.size());
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) fail("cannot read", path, errno);
+    if (got == 0) break;
+    for (ssize_t done = 0; done < got;) {
+      const ssize_t put = ::write(out, buffer.data() + done, static_cast<std::size_t>(got - done));
+      if (put < 0 && errno == EINTR) continue;
+      if (put < 0) fail("cannot write", temporary, errno);
+      done += put;
+    }
+  }
+  ::close(in);
+  if (::close(out) != 0) {
+    const int error = errno;
+    std::remove(temporary.c_str());
+    throw_io_error("cannot write", temporary, error);
+  }
+  if (std::rename(temporary.c_str(), copy.c_str()) != 0) {
+    const int error = errno;
+    std::remove(temporary.c_str());
+    throw_io_error("cannot rename to", copy, error);
+  }
+  steps_at_copy = steps;
+}
+
+/// Rebuilds `path` with only the objects `names` (copied in order) of its copy at the latest
+/// checkpoint, or of the file itself where there is no such copy (a run from before the copies
+/// were kept), written to a temporary file and renamed; returns the reopened file (read-write).
 hid_t rebuild_keeping(const std::string& path, const std::vector<std::string>& names) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   const std::string temporary = path + ".rebuild";
-  const hid_t old_file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (old_file < 0) throw InputError(path + ": missing or not a readable HDF5 file (restart)");
+  const std::string copy = checkpoint_copy_of(path);
+  const std::string source = std::filesystem::exists(copy) ? copy : path;
+  const hid_t old_file = H5Fopen(source.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (old_file < 0) throw InputError(source + ": missing or not a readable HDF5 file (restart)");
   const hid_t new_file = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC,
                                    UntimedCreation(H5P_FILE_CREATE).get(), H5P_DEFAULT);
   if (new_file < 0) {
@@ -221,7 +282,7 @@ hid_t rebuild_keeping(const std::string& path, const std::vector<std::string>& n
       H5Fclose(old_file);
       H5Fclose(new_file);
       std::remove(temporary.c_str());
-      throw InputError(path + ": has no readable " + name + " (restart)");
+      throw InputError(source + ": has no readable " + name + " (restart)");
     }
   }
   H5Fclose(old_file);
@@ -346,6 +407,10 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
   write_xdmf();
 }
 
+void ParticleSeriesWriter::copy_for_checkpoint(OutputFolder& folder) {
+  copy_series(folder, "particles.h5", times_.size(), steps_at_copy_);
+}
+
 void ParticleSeriesWriter::write_xdmf() const {
   std::string x = xdmf::open("particles");
   for (std::size_t s = 0; s < times_.size(); ++s) {
@@ -397,6 +462,10 @@ BoundarySeriesWriter::BoundarySeriesWriter(OutputFolder& folder, bool compress,
     segments_.push_back(dataset_rows(static_cast<hid_t>(file_), groups_.back() + "/segments"));
   }
   write_xdmf();
+}
+
+void BoundarySeriesWriter::copy_for_checkpoint(OutputFolder& folder) {
+  copy_series(folder, "boundary.h5", times_.size(), steps_at_copy_);
 }
 
 BoundarySeriesWriter::~BoundarySeriesWriter() {

@@ -131,10 +131,16 @@ class ParticleSeriesWriter {
   void write(double time, long step, const Particles& particles);
   /// Extra polylines (detected boundary) listed beside the particles of the last step written.
   int n_steps() const { return static_cast<int>(times_.size()); }
+  /// Before a checkpoint: copies particles.h5 as it is now to particles.h5.checkpoint (by a
+  /// temporary and a rename; not again while no output step has been added), which a restart
+  /// rebuilds the series from. HDF5 appends an output step by rewriting the file's metadata in
+  /// place, so a run killed during that write can leave particles.h5 unreadable.
+  void copy_for_checkpoint(OutputFolder& folder);
 
  private:
   void write_xdmf() const;
   std::string h5_path_, xdmf_path_;
+  std::size_t steps_at_copy_ = static_cast<std::size_t>(-1);  // none yet
   bool compress_ = false;
   long file_ = -1;  // hid_t
   std::vector<double> times_;
@@ -160,10 +166,13 @@ class BoundarySeriesWriter {
   /// loops[k] is a polyline; closed[k] says whether it closes on itself.
   void write(double time, long step, const std::vector<std::vector<Vec2>>& loops,
              const std::vector<bool>& closed);
+  /// Before a checkpoint: boundary.h5 to boundary.h5.checkpoint (as ParticleSeriesWriter).
+  void copy_for_checkpoint(OutputFolder& folder);
 
  private:
   void write_xdmf() const;
   std::string h5_path_, xdmf_path_;
+  std::size_t steps_at_copy_ = static_cast<std::size_t>(-1);  // none yet
   bool compress_ = false;
   long file_ = -1;  // hid_t
   std::vector<double> times_;

@@ -141,6 +141,7 @@ int run_case(const Case& c, const RunOptions& options) {
     series.record(s.time(), s.energy(), coupling.diagnostics(), coupling.constraints().reports());
   };
   nlohmann::json outputs = nlohmann::json::array();
+  std::unique_ptr<ParticleSeriesWriter> writer_owner;
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
   std::unique_ptr<VtkSeriesWriter> vtk_writer, boundary_vtk;  // with output.vtk
   double next_output = c.output.interval, next_series = c.output.timeseries_interval;
@@ -161,6 +162,10 @@ int run_case(const Case& c, const RunOptions& options) {
     file.put("run/next_series", next_series);
     file.put_text("run/timeseries", series.text());
     file.put_text("run/outputs", outputs.dump());
+    // The HDF5 series as they are now, before the checkpoint that a restart rebuilds them to:
+    // a kill during a later output step can leave the files themselves unreadable.
+    if (writer_owner) writer_owner->copy_for_checkpoint(folder);
+    if (boundary_writer) boundary_writer->copy_for_checkpoint(folder);
     file.write(folder.file("checkpoint.h5"));
   };
   const long n_steps = static_cast<long>(std::ceil(c.time.end_time / solver.dt() - 1e-9));
@@ -253,7 +258,6 @@ int run_case(const Case& c, const RunOptions& options) {
     outputs.push_back(entry);
   };
 
-  std::unique_ptr<ParticleSeriesWriter> writer_owner;
   if (options.restart) {
     // Nothing is touched until the checkpoint has been read and validated.
     restore_checkpoint(CheckpointFile::read(checkpoint_path));

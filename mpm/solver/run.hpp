@@ -12,6 +12,9 @@
 //                         detected boundary, columns loop,x,y (mpm/detect/contour.hpp order)
 //   boundary.h5/.xdmf     the same boundaries as polylines (ParaView: open beside particles)
 //   checkpoint.h5         the complete state at the latest checkpoint (for --restart)
+//   particles.h5.checkpoint, boundary.h5.checkpoint   the HDF5 series as they were at the
+//                         latest checkpoint, which a restart rebuilds them from (a run killed
+//                         while it appends an output step can leave the series unreadable)
 //   .pfm-mpm-files        the files this program wrote here (the only ones it ever removes)
 //   .pfm-mpm.lock         held while a run or restart uses the folder (mpm/core/output_folder.hpp)
 #pragma once
