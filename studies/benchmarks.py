@@ -1156,6 +1156,17 @@ def _softening(outs: dict, outcome: StudyOutcome, folder: Path):
     )
 
 
+def footing_plateau_line(curve: pd.DataFrame) -> tuple[float, float]:
+    """The least-squares line q / (2 + pi) c = q0 + k s / b through a footing_curve over
+    FOOTING's plateau window: (q0, k). In a large-deformation run the reaction rises along the
+    settlement (the footing sinks into its heave); q0, the line at s = 0, is the level without
+    that rise, and k the rise."""
+    lo, hi = FOOTING["plateau"]
+    window = curve[(curve["s_over_b"] >= lo) & (curve["s_over_b"] <= hi)]
+    slope, at_0 = np.polyfit(window["s_over_b"], window["q_over_prandtl"], 1)
+    return float(at_0), float(slope)
+
+
 def footing_against_ulfem(rows: list[dict]) -> dict:
     """Per constraint run at FOOTING's speed with a UL-FEM run of the same cells under b: the
     largest |mean q of the constraint / mean q of the UL-FEM - 1| over the windows both
@@ -1218,6 +1229,8 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             row[f"mean_{a:g}_{z:g}"] = (
                 float(window["q_over_prandtl"].mean()) if reached >= z else float("nan")
             )
+        line = footing_plateau_line(curve) if reached >= hi else (float("nan"),) * 2
+        row["line_at_0"], row["line_slope"] = line
         row["last_s_over_b"] = reached
         rows.append(row)
         if reached >= hi:
@@ -1244,9 +1257,11 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             f"Rigid smooth footing pushed at {f['speed']:g} m/s into weightless Tresca soil "
             f"(c = {f['cohesion']:g} kPa, b = {f['half_width']:g} m, "
             f"{f['cells_under_half_width']} cells under b): the reaction pressure over "
-            f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest) and "
+            f"(2 + pi) c on the plateau s / b in [{lo:g}, {hi:g}] (mean, least, largest), "
             "its mean over each window mean_<from>_<to> of s / b (NaN: the run stopped "
-            "before the window's end), through a constraint on the detected top (MPM, per "
+            "before the window's end) and the least-squares line over the plateau, "
+            "line_at_0 + line_slope s / b (line_at_0: the level without the rise along the "
+            "settlement), through a constraint on the detected top (MPM, per "
             "method and penalty factor; _x<k>: at k times the speed; _h<n>: n cells under b) "
             "and as a moving support on the grid's or mesh's top nodes (MPM, UL-FEM, dolfinx "
             "static)",

@@ -133,3 +133,16 @@ def test_the_constraint_is_compared_with_the_ulfem_of_the_same_cells():
     assert set(result) == {"constraint_f16", "constraint_f16_h16"}
     assert result["constraint_f16"] == pytest.approx(0.2, rel=1e-12)
     assert result["constraint_f16_h16"] == pytest.approx(0.2, rel=1e-12)
+
+
+def test_the_plateau_line_is_the_least_squares_line_over_the_plateau():
+    """footing_plateau_line recovers q = q0 + k s / b over the plateau window to rounding, and
+    ignores the curve outside it."""
+    lo, hi = benchmarks.FOOTING["plateau"]
+    s = np.linspace(0.0, 0.14, 281)
+    q = np.where((s >= lo) & (s <= hi), 1.02 + 1.06 * s, 5.0)
+    at_0, slope = benchmarks.footing_plateau_line(
+        pd.DataFrame({"s_over_b": s, "q_over_prandtl": q})
+    )
+    assert at_0 == pytest.approx(1.02, abs=1e-12)
+    assert slope == pytest.approx(1.06, abs=1e-10)
