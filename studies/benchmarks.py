@@ -1241,6 +1241,13 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
                     "1",
                 )
             )
+            outcome.metrics.append(
+                Metric(
+                    f"benchmarks.footing.{name}_line_at_0_rel_error",
+                    abs(row["line_at_0"] - 1.0),
+                    "1",
+                )
+            )
     # The reaction rises along the settlement on the UL-FEM too (FOOTING's windows): each
     # constraint at the speed against the UL-FEM with the same cells, window by window.
     for name, value in footing_against_ulfem(rows).items():

@@ -79,6 +79,12 @@
 // 1.05, 1.08, 1.11 at 16 (1.03, 1.04, 1.09, 1.11 at half the speed): at 8 cells its mean over
 // 0.03-0.12 b is 1.10 at 0.0375 m/s (factor 100: 1.11, Nitsche's at 16: 1.10) and 1.09, 1.08,
 // 1.07 at 1/2, 1/4 and 1/8 of the speed, the largest value 1.46 to 1.69; at 16 cells 1.08.
+// At 32 cells under b (footing_case(cells=32), not in the study: 27 minutes) the constraint
+// gives 1.01, 1.05, 1.05, 1.13 and the UL-FEM 1.01, 1.06 before it inverts an element at 0.07 b.
+// The least-squares line through the plateau, taken at s = 0 (the level without the rise), is
+// 1.16, 1.01 and 0.99 at 8, 16 and 32 cells (the UL-FEM's 1.05, 1.02 and, over 0.03-0.07 b,
+// 1.01): the level converges to (2 + pi) c; the rise is the large deformation's, not the
+// constraint's.
 // The fit over every particle within reach (before the x_range rule) gave 1.085 at the speed but
 // 1.02 at 1/8 of it with spikes past 0.09 b (factor 100: -18 to +12 times (2 + pi) c; the first,
 // at factor 16, a spring force of -425 kN/m on the node column at the footing's edge, against -5
