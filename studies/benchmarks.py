@@ -1178,7 +1178,7 @@ def footing_against_ulfem(rows: list[dict]) -> dict:
         reference = ulfem.get(r["cells"])
         if not r["run"].startswith("constraint_") or reference is None:
             continue
-        if r["speed"] != FOOTING["speed"]:
+        if not math.isclose(r["speed"], FOOTING["speed"], rel_tol=1e-12):
             continue
         ratios = [
             abs(r[w] / reference[w] - 1.0)
@@ -1191,12 +1191,16 @@ def footing_against_ulfem(rows: list[dict]) -> dict:
 
 
 def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
-    """The rigid footing on every code: the table footing.md (the plateau's mean, least and
-    largest q / (2 + pi) c over FOOTING's plateau window, the last settlement reached), the
-    curves footing.png, and per run the plateau's mean |q / (2 + pi) c - 1| as a metric
-    (benchmarks.footing.<how>_plateau_rel_error: constraint_f<factor>,
-    constraint_nitsche_f<factor>, support_mpm, support_ulfem, support_dolfinx). A run that
-    stopped is read up to its stop."""
+    """The rigid footing on every code: the table footing.md (per run the plateau's mean,
+    least and largest q / (2 + pi) c over FOOTING's plateau window, the mean over each of its
+    windows, the plateau's line, the last settlement reached), the curves footing.png, and
+    the metrics benchmarks.footing.<run>_plateau_rel_error (the plateau's mean
+    |q / (2 + pi) c - 1|) and <run>_line_at_0_rel_error (|q0 - 1|, footing_plateau_line) for
+    each run that reached the plateau's end, <run>_vs_ulfem_rel_error (footing_against_ulfem)
+    for the constraint runs at the speed; <run> as in the table (constraint_f<factor>,
+    constraint_nitsche_f<factor>, constraint_f<factor>_x<k>, constraint_f<factor>_h<n>,
+    support_mpm, support_ulfem, support_ulfem_h<n>, support_dolfinx). A run that stopped is
+    read up to its stop."""
     import matplotlib.pyplot as plt
 
     f = FOOTING
@@ -1278,11 +1282,14 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
     # centred moving mean over `smooth` samples (the table's means are of the raw samples).
     smooth = 15
     width = smooth * f["duration"] / f["samples"] * f["speed"] / f["half_width"]
+    k = f["penalty_factors"][0]
     panels = {
-        "at the speed, 8 cells under b": lambda k: "_x" not in k and "_h" not in k,
-        "the constraint at factor 16 against speed and h; the UL-FEM": lambda k: (
-            k.startswith("footing/constraint/f16")
-            or k.startswith("footing/support/ulfem")
+        f"at the speed, {f['cells_under_half_width']} cells under b": lambda key: (
+            "_x" not in key and "_h" not in key
+        ),
+        f"the constraint at factor {k:g} against speed and h; the UL-FEM": lambda key: (
+            key.startswith(f"footing/constraint/f{k:g}")
+            or key.startswith("footing/support/ulfem")
         ),
     }
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
