@@ -221,8 +221,8 @@ TEST(BoundaryConstraint, FitTakesOnlyTheMaterialOverThePart) {
     Particles& p = solver.mutable_particles();
     for (std::size_t k = 0; k < p.size(); ++k) {
       const double x = p.position[k].x();
-      const double down = x >= 1.0 && x <= 1.6 ? -0.001 : beside;
-      p.reference_position[k].y() -= down;  // u_p = x_p - X_p
+      const double uy = x >= 1.0 && x <= 1.6 ? -0.001 : beside;
+      p.reference_position[k].y() -= uy;  // u_p = x_p - X_p: uy upwards
     }
     solver.step();
     return coupling.constraints().reports()[0];
