@@ -219,32 +219,76 @@ void OutputFolder::write_manifest() const {
   write_file_atomically(path_ + "/" + kManifest, text);
 }
 
-void write_file_atomically(const std::string& path, const std::string& text) {
-  const std::string temporary = path + ".tmp";
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw_io_error("cannot create", temporary, errno);
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int error = n < 0 ? errno : ENOSPC;
-      ::close(fd);
-      ::unlink(temporary.c_str());
-      throw_io_error("cannot write", temporary, error);
+namespace {
+
+/// A file `path` written through its temporary `path`.tmp and renamed over it by commit(); a
+/// failed write, or destruction before commit(), removes the temporary. Failures are IoError
+/// with the path and the system's reason.
+class AtomicWrite {
+ public:
+  explicit AtomicWrite(const std::string& path) : path_(path), temporary_(path + ".tmp") {
+    fd_ = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw_io_error("cannot create", temporary_, errno);
+  }
+  ~AtomicWrite() {
+    if (fd_ >= 0) ::close(fd_);
+    if (!committed_) ::unlink(temporary_.c_str());
+  }
+  AtomicWrite(const AtomicWrite&) = delete;
+  AtomicWrite& operator=(const AtomicWrite&) = delete;
+
+  void write(const char* data, std::size_t size) {
+    std::size_t done = 0;
+    while (done < size) {
+      const ssize_t n = ::write(fd_, data + done, size - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) throw_io_error("cannot write", temporary_, n < 0 ? errno : ENOSPC);
+      done += static_cast<std::size_t>(n);
     }
-    done += static_cast<std::size_t>(n);
   }
-  if (::close(fd) != 0) {
-    const int error = errno;
-    ::unlink(temporary.c_str());
-    throw_io_error("cannot write", temporary, error);
+
+  void commit() {
+    const int fd = fd_;
+    fd_ = -1;
+    if (::close(fd) != 0) throw_io_error("cannot write", temporary_, errno);
+    if (::rename(temporary_.c_str(), path_.c_str()) != 0)
+      throw_io_error("cannot rename to", path_, errno);
+    committed_ = true;
   }
-  if (::rename(temporary.c_str(), path.c_str()) != 0) {
-    const int error = errno;
-    ::unlink(temporary.c_str());
-    throw_io_error("cannot rename to", path, error);
+
+ private:
+  std::string path_, temporary_;
+  int fd_ = -1;
+  bool committed_ = false;
+};
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  AtomicWrite file(path);
+  file.write(text.data(), text.size());
+  file.commit();
+}
+
+void copy_file_atomically(const std::string& from, const std::string& to) {
+  const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) throw_io_error("cannot open", from, errno);
+  try {
+    AtomicWrite file(to);
+    std::vector<char> buffer(std::size_t{1} << 20);
+    for (;;) {
+      const ssize_t got = ::read(in, buffer.data(), buffer.size());
+      if (got < 0 && errno == EINTR) continue;
+      if (got < 0) throw_io_error("cannot read", from, errno);
+      if (got == 0) break;
+      file.write(buffer.data(), static_cast<std::size_t>(got));
+    }
+    file.commit();
+  } catch (...) {
+    ::close(in);
+    throw;
   }
+  ::close(in);
 }
 
 }  // namespace pfm

@@ -69,4 +69,8 @@ class OutputFolder {
 /// path and the reason when a write fails (the temporary is removed).
 void write_file_atomically(const std::string& path, const std::string& text);
 
+/// Copies the file `from` to `to` atomically (as write_file_atomically, read in pieces of 1 MB);
+/// IoError with the path and the reason when a read or write fails.
+void copy_file_atomically(const std::string& from, const std::string& to);
+
 }  // namespace pfm

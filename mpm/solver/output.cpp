@@ -1,8 +1,6 @@
 #include "mpm/solver/output.hpp"
 
-#include <fcntl.h>
 #include <hdf5.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -212,51 +210,11 @@ std::string checkpoint_copy_of(const std::string& path) {
 /// Copies the series file `name` of `folder` as it is now (flushed at the end of each output
 /// step) to its checkpoint_copy_of(), by a temporary and a rename, unless `steps` (the output
 /// steps the file holds) equals `steps_at_copy` (the copy still holds them all); sets
-/// `steps_at_copy`. IoError with the path and the system's reason when a read or write fails.
+/// `steps_at_copy`. IoError (copy_file_atomically) when a read or write fails.
 void copy_series(OutputFolder& folder, const std::string& name, std::size_t steps,
                  std::size_t& steps_at_copy) {
   if (steps == steps_at_copy) return;
-  const std::string path = folder.file(name), copy = folder.file(checkpoint_copy_of(name));
-  const std::string temporary = copy + ".tmp";
-  const int in = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (in < 0) throw_io_error("cannot open", path, errno);
-  const int out = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (out < 0) {
-    const int error = errno;
-    ::close(in);
-    throw_io_error("cannot create", temporary, error);
-  }
-  // A failed read or write: both closed, the temporary removed, the reason kept.
-  auto fail = [&](const char* what, const std::string& where, int error) {
-    ::close(in);
-    ::close(out);
-    std::remove(temporary.c_str());
-    throw_io_error(what, where, error);
-  };
-  std::vector<char> buffer(std::size_t{1} << 20);
-  for (;;) {
-    const ssize_t got = ::read(in, buffer.data(), buffer.size());
-    if (got < 0 && errno == EINTR) continue;
-    if (got < 0) fail("cannot read", path, errno);
-    if (got == 0) break;
-    for (ssize_t done = 0; done < got;) {
-      const ssize_t put = ::write(out, buffer.data() + done, static_cast<std::size_t>(got - done));
-      if (put < 0 && errno == EINTR) continue;
-      if (put < 0) fail("cannot write", temporary, errno);
-      done += put;
-    }
-  }
-  ::close(in);
-  if (::close(out) != 0) {
-    const int error = errno;
-    std::remove(temporary.c_str());
-    throw_io_error("cannot write", temporary, error);
-  }
-  if (std::rename(temporary.c_str(), copy.c_str()) != 0) {
-    const int error = errno;
-    std::remove(temporary.c_str());
-    throw_io_error("cannot rename to", copy, error);
-  }
+  copy_file_atomically(folder.file(name), folder.file(checkpoint_copy_of(name)));
   steps_at_copy = steps;
 }
 

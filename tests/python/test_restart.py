@@ -150,6 +150,14 @@ def run_and_kill(pfm_binary, case, killed, n_steps):
     return step
 
 
+def restart(pfm_binary, killed):
+    subprocess.run(
+        [pfm_binary, "run", "--restart", killed, "--threads", "2", "--quiet"],
+        check=True,
+        capture_output=True,
+    )
+
+
 @pytest.mark.parametrize(
     "build", [short_bearing_block, short_default_case, short_constraint_block]
 )
@@ -159,11 +167,7 @@ def test_killed_run_restarts_bitwise(pfm_binary, tmp_path, build):
     n_steps = run_reference(pfm_binary, case, reference)
     step = run_and_kill(pfm_binary, case, killed, n_steps)
 
-    subprocess.run(
-        [pfm_binary, "run", "--restart", killed, "--threads", "2", "--quiet"],
-        check=True,
-        capture_output=True,
-    )
+    restart(pfm_binary, killed)
     assert_same_outputs(reference, killed)
     # The restart kept the original run's checkpoint settings (every 4 steps): it went on
     # writing checkpoints past the one it started from.
@@ -193,11 +197,7 @@ def test_a_series_the_kill_damaged_is_rebuilt_from_the_checkpoint_copy(
         (killed / name).write_bytes(data[: len(data) // 2])
         with pytest.raises(OSError):
             h5py.File(killed / name, "r")
-    subprocess.run(
-        [pfm_binary, "run", "--restart", killed, "--threads", "2", "--quiet"],
-        check=True,
-        capture_output=True,
-    )
+    restart(pfm_binary, killed)
     assert_same_outputs(reference, killed)
 
 
