@@ -1295,7 +1295,7 @@ double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double>
     // F v2 = s2 u2: a singular value of zero (F is checked to have det F > 0) cannot occur.
     f = f * (Mat2::Identity() + (s1 / largest - 1.0) * v1 * v1.transpose() +
              (s2 / smallest - 1.0) * v2 * v2.transpose());
-    if (!volume.empty()) volume[p] *= std::min(1.0, (s1 / largest) * (s2 / smallest));
+    if (!volume.empty()) volume[p] *= (s1 / largest) * (s2 / smallest);
     smallest_det = std::min(smallest_det, f.determinant());
   }
   return smallest_det;
@@ -1318,12 +1318,16 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   CloudSurvey survey = survey_cloud(input, grid);
   //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
   //    values clamped to [1 / cap, cap] where any lies outside.
-  //    A particle's volume is V0 det F: where det F' < det F (stretched beyond the cap), the
-  //    volume shrinks with it, V' = V det F' / det F, so that the capped kernel holds no more than
-  //    V0 det F' and a stretched particle does not overfill it. Volumes are never raised: the
-  //    band's solid cells take the volumes as the space the particles fill, and a collapse's det F
-  //    (down to 1e-3) says nothing of where its points are. The survey's cell volumes are summed
-  //    again from the capped volumes, so that the band agrees with the field.
+  //    A particle's volume is V0 det F, and it follows the capped F both ways, V' = V det F' /
+  //    det F (= V0 det F'): every kernel holds the volume of its own capped ellipse, so a
+  //    stretched particle does not overfill it and a compacted one (a collapse's det F falls to
+  //    1e-3 while its points stay about a spacing apart) does not open a hole around itself.
+  //    The band's cell volumes are summed again from the capped volumes where they shrank, but
+  //    not where they grew: a cell is solid only if its particles fill it without a raised
+  //    volume, and phi can only grow as volumes do (the kernels do not depend on them), so a cell
+  //    the band calls interior is interior for the field too. (With the raised volumes, a cell
+  //    whose compacted points leave part of it empty passes for solid: on the 150 kPa collapse
+  //    from zero stress at 2.5 s a guard went missing there and a point was left in a hole.)
   ParticleCloud cloud = input;
   std::vector<Mat2> capped;
   std::vector<double> capped_volume;
@@ -1341,7 +1345,11 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
       survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
       cloud.deformation_gradient = capped;
       cloud.volume = capped_volume;
-      total_volumes_again(survey, capped_volume);
+      std::vector<double> band_volume(capped_volume.size());
+      for (std::size_t p = 0; p < band_volume.size(); ++p) {
+        band_volume[p] = std::min(input.volume[p], capped_volume[p]);
+      }
+      total_volumes_again(survey, band_volume);
     }
   }
   lap(parts.survey);

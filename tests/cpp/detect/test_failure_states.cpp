@@ -44,7 +44,7 @@ TEST(StretchCap, ClampsTheSingularValuesAndKeepsTheirAxes) {
         b.transpose());
   }
   const std::vector<Mat2> before = f;
-  // Volumes V = V0 det F with V0 = 1: the capped ones must be min(V, det F').
+  // Volumes V = V0 det F with V0 = 1: the capped ones must be det F'.
   std::vector<double> volume;
   for (const Mat2& m : f) volume.push_back(m.determinant());
   const std::vector<double> volume_before = volume;
@@ -53,7 +53,7 @@ TEST(StretchCap, ClampsTheSingularValuesAndKeepsTheirAxes) {
   int unchanged = 0;
   for (std::size_t k = 0; k < f.size(); ++k) {
     worst = std::max(worst, (f[k] - expected[k]).norm() / expected[k].norm());
-    const double v = std::min(volume_before[k], expected[k].determinant());
+    const double v = expected[k].determinant();
     worst_volume = std::max(worst_volume, std::abs(volume[k] - v) / v);
     double largest = 0.0, smallest = 0.0;
     detail::singular_values(before[k], largest, smallest);
@@ -346,7 +346,10 @@ namespace {
 // the wall and at any gap, where the field mirrors a point only where the wall is touched within
 // its reach, and where gaps along two walls meet at a corner the field opens a hole the volumes
 // do not show: 4 of these 2,579 windows lost a chain along the grid edge (38,387 windows, 3,000
-// per state, give none now). The bits must be the same on every window.
+// per state, give none now). The whole states too: the band's volumes must not raise a
+// compacted point's (the field's do), or a cell its points leave partly empty passes for solid
+// (bearing_150kPa_zero_t2.5 lost a guard and left a point in a hole that the reference does not
+// have; no window showed it). The bits must be the same on every window and state.
 TEST(Determinism, NarrowBandEqualsFullFieldOnWindowsOfFailureStates) {
   DetectorConfig band, full;
   band.method = full.method = DetectorMethod::kImproved;
@@ -355,6 +358,13 @@ TEST(Determinism, NarrowBandEqualsFullFieldOnWindowsOfFailureStates) {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   int mismatches = 0, windows = 0;
   for (const State& s : failure_states()) {
+    const ParticleCloud whole{s.particles.position, s.particles.volume,
+                              s.particles.deformation_gradient, s.spacing};
+    DetectorState w1, w2;
+    if (!same_contours(detect(whole, s.grid, band, w1), detect(whole, s.grid, full, w2))) {
+      ++mismatches;
+      std::printf("narrow band differs: %s, whole state\n", s.name.c_str());
+    }
     for (int k = 0; k < 200; ++k) {
       const double h = s.grid.cell_size;
       const int w = 4 + static_cast<int>(u01(rng) * 8), hgt = 4 + static_cast<int>(u01(rng) * 6);
@@ -390,7 +400,8 @@ TEST(Determinism, NarrowBandEqualsFullFieldOnWindowsOfFailureStates) {
       }
     }
   }
-  std::printf("%d windows of the failure states: %d mismatches\n", windows, mismatches);
+  std::printf("%d windows of the failure states and the whole states: %d mismatches\n", windows,
+              mismatches);
   EXPECT_GT(windows, 2500);
   EXPECT_EQ(mismatches, 0);
 }
