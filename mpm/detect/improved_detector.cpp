@@ -1288,14 +1288,19 @@ double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double>
     double largest = 0.0, smallest = 0.0;
     singular_values(f, largest, smallest);
     if (largest <= cap && smallest >= floor) continue;
-    const Mat2 c = f.transpose() * f;  // V diag(s^2) V^T
-    const double angle = 0.5 * std::atan2(2.0 * c(0, 1), c(0, 0) - c(1, 1));
-    const Vec2 v1(std::cos(angle), std::sin(angle)), v2(-v1.y(), v1.x());
-    const double s1 = std::clamp(largest, floor, cap), s2 = std::clamp(smallest, floor, cap);
-    // F v2 = s2 u2: a singular value of zero (F is checked to have det F > 0) cannot occur.
-    f = f * (Mat2::Identity() + (s1 / largest - 1.0) * v1 * v1.transpose() +
-             (s2 / smallest - 1.0) * v2 * v2.transpose());
-    if (!volume.empty()) volume[p] *= (s1 / largest) * (s2 / smallest);
+    // F' = F (k1 P1 + k2 P2), k the clamped singular values over the raw ones (not zero: det F
+    // is checked to be > 0) and P the projectors on the right singular vectors: P1 + P2 = I and,
+    // where the singular values differ, P1 = (F^T F - s2^2 I) / (s1^2 - s2^2) (where they do not,
+    // k1 = k2). No angle, so no trigonometric function.
+    const double k1 = std::clamp(largest, floor, cap) / largest;
+    const double k2 = std::clamp(smallest, floor, cap) / smallest;
+    Mat2 m = k2 * Mat2::Identity();
+    if (k1 != k2) {
+      m += (k1 - k2) / ((largest - smallest) * (largest + smallest)) *
+           (f.transpose() * f - smallest * smallest * Mat2::Identity());
+    }
+    f = f * m;
+    if (!volume.empty()) volume[p] *= k1 * k2;
     smallest_det = std::min(smallest_det, f.determinant());
   }
   return smallest_det;
