@@ -77,12 +77,20 @@ LoopClasses classify_loops(const DetectedBoundary& boundary, std::span<const Vec
       material.emplace_back(area, c);
       continue;
     }
-    // A hole: look for a free disk's centre on a lattice of a quarter spacing.
+    // A hole: look for a free disk's centre on a lattice of a quarter spacing, from the middle of
+    // the hole's box outwards (where a free disk most likely is: a real hole is then found after
+    // a few centres, each of which costs two passes over the loop's points).
     bool real = false;
     const double step = 0.25 * spacing;
-    for (double y = lo.y() + radius; y <= hi.y() - radius && !real; y += step) {
-      for (double x = lo.x() + radius; x <= hi.x() - radius && !real; x += step) {
-        const Vec2 centre(x, y);
+    const Vec2 first = lo + Vec2::Constant(radius);
+    const int n_x = static_cast<int>(std::floor((hi.x() - radius - first.x()) / step)) + 1;
+    const int n_y = static_cast<int>(std::floor((hi.y() - radius - first.y()) / step)) + 1;
+    const auto middle_out = [](int k, int n) {
+      return n / 2 + (k % 2 == 0 ? k / 2 : -(k + 1) / 2);
+    };
+    for (int b = 0; b < n_y && !real; ++b) {
+      for (int a = 0; a < n_x && !real; ++a) {
+        const Vec2 centre = first + step * Vec2(middle_out(a, n_x), middle_out(b, n_y));
         if (!point_in_polygon(p, centre) || distance_to_polygon(p, centre) < radius) continue;
         bool free = true;
         bins.for_each_slot_in_box(
