@@ -20,7 +20,8 @@ ROWS = [
      "step_ms": 0.2, "detect_ms": 0.5, "ratio_to_step": 2.5},
     {"name": "BM_DetectFailureState/3/1/min_time:0.300/manual_time", "label": "slope_t2.5",
      "particles": 1200.0, "step_ms": 0.1, "detect_ms": 0.4, "ratio_to_step": 4.0,
-     "ratio_to_t0": 2.0, "field_evaluations": 1234.0, "bridges": 7.0, "loops_removed": 1.0},
+     "ratio_to_t0": 2.0, "field_evaluations": 1234.0, "bridges": 7.0, "loops_removed": 1.0,
+     "loops": 3.0, "spurious_loops": 0.0},
 ]  # fmt: skip
 
 FAKE = """#!{python}
@@ -46,7 +47,7 @@ def test_tables_from_a_benchmark_and_the_readme_between_markers(tmp_path, capsys
         text.startswith("before\n") and text.endswith("after\n") and "old" not in text
     )
     assert "| 3,384 | 0.2 ms | 0.5 ms (2.5 x) | 0.25 ms (1.2 x) | - | - | - |" in text
-    assert "| slope_t2.5 | 1,200 | 0.4 ms | 4 | 2 | 1,234 | 7 | 1 |" in text
+    assert "| slope_t2.5 | 1,200 | 0.4 ms | 4 | 2 | 1,234 | 7 | 1 | 3 (0) |" in text
     assert capsys.readouterr().out.strip() in text
 
 

@@ -76,6 +76,7 @@ def failure_table(rows: list) -> str:
         "field evaluations",
         "bridges",
         "loops removed",
+        "loops (spurious)",
     ]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in rows:
@@ -91,6 +92,7 @@ def failure_table(rows: list) -> str:
                     f"{row['field_evaluations']:,.0f}",
                     f"{row['bridges']:.0f}",
                     f"{row['loops_removed']:.0f}",
+                    f"{row['loops']:.0f} ({row['spurious_loops']:.0f})",
                 ]
             )
             + " |"
@@ -146,8 +148,9 @@ def main(argv=None) -> int:
         "5 x 5 points per cell), against one MPM step of the same points:\n\n"
         + slope_table(slope)
         + "\n\nThe improved detector on the failure states (tests/data/failure_states), "
-        "against one step of their case and against the case's own detection at t = 0:\n\n"
-        + failure_table(failure)
+        "against one step of their case and against the case's own detection at t = 0, with "
+        "the loops of the boundary it finds (the spurious ones of `loop_classes.hpp` in "
+        "brackets):\n\n" + failure_table(failure)
     )
     print(text)
     if args.write:
