@@ -387,8 +387,13 @@ pfm::ParticleTable refined(const pfm::ParticleTable& p, const pfm::Grid& grid, d
     const int ci = bin_of(x.x() - grid.origin.x(), bx), cj = bin_of(x.y() - grid.origin.y(), by);
     double best = std::numeric_limits<double>::infinity();
     std::size_t nearest = 0;
-    // Ring r holds every point closer than r spacings: stop once the nearest is that close.
-    for (int r = 0; r < std::max(bx, by) && !(best < (r * spacing) * (r * spacing)); ++r) {
+    // A point in ring r (Chebyshev, in bins) lies farther than r - 1 spacings from x: stop
+    // before ring r once the nearest so far is that close.
+    const auto beyond = [&](int r) {
+      const double reach = (r - 1) * spacing;
+      return r > 0 && best <= reach * reach;
+    };
+    for (int r = 0; r < std::max(bx, by) && !beyond(r); ++r) {
       for (int b = cj - r; b <= cj + r; ++b) {
         for (int a = ci - r; a <= ci + r; ++a) {
           if (std::max(std::abs(a - ci), std::abs(b - cj)) != r || a < 0 || b < 0 || a >= bx ||
