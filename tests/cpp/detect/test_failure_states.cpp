@@ -70,6 +70,54 @@ TEST(StretchCap, ClampsTheSingularValuesAndKeepsTheirAxes) {
   EXPECT_GT(unchanged, 40);  // 68 of them (3.4 %)
 }
 
+// The volumes follow the capped F both ways, so a body truly compacted beyond the cap (F =
+// diag(1, 0.2) with its points 0.05 m apart in y, V = 0.2 V0) is overfilled by det F' / det F =
+// 2.5: its top face lies 0.21 h and its sides 0.41 h outside (mpm/detect/README.md, max_stretch).
+// A cap that covers its F (max_stretch 5 = 1 / 0.2) puts the faces back.
+TEST(StretchCap, ACompactedBodyIsOverfilledUnlessTheCapCoversItsF) {
+  Grid grid;
+  grid.cell_size = 0.5;
+  grid.n_cells_x = 16;
+  grid.n_cells_y = 8;
+  OwnedCloud c;
+  c.initial_spacing = 0.25;
+  const double sx = 0.25, sy = 0.05;  // the block [2, 6] x [1, 3] m
+  for (int j = 0; j < 40; ++j) {
+    for (int i = 0; i < 16; ++i) {
+      c.position.emplace_back(2.0 + (i + 0.5) * sx, 1.0 + (j + 0.5) * sy);
+      c.volume.push_back(sx * sy);
+      c.deformation_gradient.push_back((Mat2() << 1.0, 0.0, 0.0, 0.2).finished());
+    }
+  }
+  // Mean offset (in h) of the top face's points (x in (3, 5)) and of the right side's (y in
+  // (1.5, 2.5)).
+  const auto offsets = [&](double cap) {
+    DetectorConfig config;
+    config.method = DetectorMethod::kImproved;
+    config.improved.max_stretch = cap;
+    DetectorState state;
+    const DetectedBoundary b = detect(c.view(), grid, config, state);
+    double top = 0.0, side = 0.0;
+    int n_top = 0, n_side = 0;
+    for (const Contour& contour : b.contours) {
+      for (const Vec2& x : contour.points) {
+        if (x.x() > 3.0 && x.x() < 5.0 && x.y() > 2.5) top += x.y() - 3.0, ++n_top;
+        if (x.y() > 1.5 && x.y() < 2.5 && x.x() > 5.0) side += x.x() - 6.0, ++n_side;
+      }
+    }
+    EXPECT_GE(n_top, 15);  // a point per fine cell (h / 4) along 2 m
+    EXPECT_GE(n_side, 7);  // and along 1 m
+    return std::array<double, 2>{top / n_top / grid.cell_size, side / n_side / grid.cell_size};
+  };
+  const auto capped = offsets(2.0), covered = offsets(5.0);
+  std::printf("compacted block, offsets in h: cap 2 top %.4f side %.4f, cap 5 top %.4f side %.4f\n",
+              capped[0], capped[1], covered[0], covered[1]);
+  EXPECT_GT(capped[0], 0.15);
+  EXPECT_GT(capped[1], 0.3);
+  EXPECT_LT(std::abs(covered[0]), 0.005);
+  EXPECT_LT(std::abs(covered[1]), 0.005);
+}
+
 // The bridges of the second pass: every fine node within one fine cell (Chebyshev) of a bridged
 // particle or of a bridge segment is inside, so the four corners of the fine cell holding any
 // point of the segment are; nothing changes beyond 2.5 fine cells; the value does not depend on
