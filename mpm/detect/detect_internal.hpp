@@ -144,9 +144,8 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
 /// The kernels' stretch cap (ImprovedConfig::max_stretch): clamps every singular value of each F
 /// to [1 / cap, cap], keeping its axes: F' = F (I + sum_k (s_k' / s_k - 1) v_k v_k^T) over the
 /// right singular vectors v_k. A particle's volume is V = V0 det F: each `volume` (one per F, or
-/// empty) follows its det F both ways, V' = V det F' / det F. Returns the smallest det F' of the
-/// changed ones (infinity if none changed).
-double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume = {});
+/// empty) follows its det F both ways, V' = V det F' / det F.
+void cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume = {});
 
 /// Whether a contour pass at the refinement of the pass before keeps that pass's fine nodes and
 /// edge roots outside the cells where the field changed (on by default; tests turn it off to

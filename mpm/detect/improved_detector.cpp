@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <span>
 #include <unordered_map>
@@ -174,9 +175,19 @@ struct CloudSurvey {
   std::vector<Runs> runs;  ///< every particle's run, by chunk of the cloud (narrow band)
 };
 
-// The runs that start in [begin, end) of the n particles (the last may end beyond).
-Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, std::size_t end,
-                      std::size_t n) {
+// The particles' volumes as the stretch cap shrinks them (shrink_volumes()), taken only in the
+// chunks of kParticleChunk particles where some F lies beyond the cap: particle q's is value[q]
+// where taken[q / kParticleChunk], else its own volume. (`value` is left uninitialised: the
+// pages of the chunks not taken are never touched.)
+struct ShrunkByChunk {
+  std::unique_ptr<double[]> value;
+  std::vector<char> taken;
+};
+
+// The runs that start in [begin, end) of the n particles (the last may end beyond), with the
+// particles' volumes as the cap shrinks them.
+Runs runs_starting_in(const int* cell, const double* volume, const ShrunkByChunk& shrunk,
+                      std::size_t begin, std::size_t end, std::size_t n) {
   Runs runs;
   std::size_t p = begin;
   if (p > 0) {
@@ -195,7 +206,9 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
   start[count] = static_cast<std::uint32_t>(last);
   for (std::size_t r = 0; r < count; ++r) {
     double sum = 0.0;
-    for (std::size_t q = start[r]; q < start[r + 1]; ++q) sum += volume[q];
+    for (std::size_t q = start[r]; q < start[r + 1]; ++q) {
+      sum += shrunk.taken[q / kParticleChunk] ? shrunk.value[q] : volume[q];
+    }
     runs.volume[r] = sum;
     runs.cell[r] = cell[start[r]];
   }
@@ -204,11 +217,14 @@ Runs runs_starting_in(const int* cell, const double* volume, std::size_t begin, 
 
 // The one pass over every particle the improved detector makes: checks each particle (with the
 // messages of check_particle()), and gathers the box, the largest stretch and, for the narrow
-// band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised). Large
-// clouds are swept by chunks on the OpenMP threads; the chunks' minima and maxima, the volumes of
-// the runs (each added in particle order) and the cells' volumes (the runs added in run order)
-// are those of one sweep, whatever the thread count.
-CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid) {
+// band, the cell of each particle and the volume in each cell (sweep_cloud(), vectorised), the
+// volumes as the stretch cap `cap` (0: none) shrinks them, never raised (shrink_volumes(), taken
+// on a chunk whose F are not all within the cap while its F are still in the cache: reading
+// them again costs more than the arithmetic). Large clouds are swept by chunks on the OpenMP
+// threads; the chunks' minima and maxima, the volumes of the runs (each added in particle order)
+// and the cells' volumes (the runs added in run order) are those of one sweep, whatever the
+// thread count.
+CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, double cap) {
   CloudSurvey survey;
   const std::size_t n = cloud.position.size();
   if (n == 0) return survey;
@@ -223,11 +239,22 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid) {
   const auto chunk_begin = [&](std::size_t k) { return k * kParticleChunk; };
   const auto chunk_end = [&](std::size_t k) { return std::min(n, (k + 1) * kParticleChunk); };
   std::vector<CloudTotals> chunk_totals(n_chunks);
+  ShrunkByChunk shrunk;
+  shrunk.taken.assign(n_chunks, 0);
+  if (cap > 0.0 && deformation) shrunk.value.reset(new double[n]);
   for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
-    const std::size_t b = chunk_begin(k);
+    const std::size_t b = chunk_begin(k), e = chunk_end(k);
     chunk_totals[k] =
         sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
-                    chunk_end(k) - b, lattice, cell_of.data() + b);
+                    e - b, lattice, cell_of.data() + b);
+    // The test of detect_improved() for the whole cloud, on the chunk: a chunk that passes holds
+    // every F the cap changes.
+    const VolumeTotals& t = chunk_totals[k].volumes;
+    const double largest = std::sqrt(t.largest_squared);
+    if (cap > 0.0 && deformation && (largest > cap || t.smallest_det * cap < largest)) {
+      shrink_volumes(volume + b, deformation + 4 * b, e - b, cap, shrunk.value.get() + b);
+      shrunk.taken[k] = 1;
+    }
   });
   CloudTotals totals = chunk_totals[0];
   for (std::size_t k = 1; k < n_chunks; ++k) {
@@ -240,7 +267,8 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid) {
   // (After every cell is known: a run may go on into the next chunk.)
   std::vector<Runs> chunk_runs(n_chunks);
   for_each_on_threads(chunk_runs.size(), 1, [&](std::size_t k) {
-    chunk_runs[k] = runs_starting_in(cell_of.data(), volume, chunk_begin(k), chunk_end(k), n);
+    chunk_runs[k] =
+        runs_starting_in(cell_of.data(), volume, shrunk, chunk_begin(k), chunk_end(k), n);
   });
   survey.lo = Vec2(totals.positions.lo_x, totals.positions.lo_y);
   survey.hi = Vec2(totals.positions.hi_x, totals.positions.hi_y);
@@ -255,20 +283,6 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid) {
   }
   survey.runs = std::move(chunk_runs);
   return survey;
-}
-
-// The runs' and the cells' volumes summed again from `volume` (the same runs, in the same order
-// as survey_cloud()).
-void total_volumes_again(CloudSurvey& survey, std::span<const double> volume) {
-  std::fill(survey.cell_volume.begin(), survey.cell_volume.end(), 0.0);
-  for (Runs& r : survey.runs) {
-    for (std::size_t k = 0; k < r.cell.size(); ++k) {
-      double sum = 0.0;
-      for (std::size_t q = r.start[k]; q < r.start[k + 1]; ++q) sum += volume[q];
-      r.volume[k] = sum;
-      if (r.cell[k] >= 0) survey.cell_volume[static_cast<std::size_t>(r.cell[k])] += sum;
-    }
-  }
 }
 
 // A filter of the n_x x n_y cells along every row, then along every column. Along a line of n
@@ -1280,8 +1294,7 @@ bool keep_nodes_between_passes(bool on) {
   return keep_nodes.exchange(on);
 }
 
-double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume) {
-  double smallest_det = std::numeric_limits<double>::infinity();
+void cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume) {
   const double floor = 1.0 / cap;
   for (std::size_t p = 0; p < deformation.size(); ++p) {
     Mat2& f = deformation[p];
@@ -1301,9 +1314,7 @@ double cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double>
     }
     f = f * m;
     if (!volume.empty()) volume[p] *= k1 * k2;
-    smallest_det = std::min(smallest_det, f.determinant());
   }
-  return smallest_det;
 }
 
 // The pipeline: survey (0), band (0), field setup, coarse screening (1), guards (2), then per
@@ -1320,47 +1331,48 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   // 0. One sweep over the cloud. The fixed-point unit of the kernel sums follows from the whole
   //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
   //    sums of one built on all of them (the sums are of integers: any order gives the same).
-  CloudSurvey survey = survey_cloud(input, grid);
+  CloudSurvey survey = survey_cloud(input, grid, config.max_stretch);
   //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
   //    values clamped to [1 / cap, cap] where any lies outside.
   //    A particle's volume is V0 det F, and it follows the capped F both ways, V' = V det F' /
   //    det F (= V0 det F'): every kernel holds the volume of its own capped ellipse, so a
   //    stretched particle does not overfill it and a compacted one (a collapse's det F falls to
   //    1e-3 while its points stay about a spacing apart) does not open a hole around itself.
-  //    The band's cell volumes are summed again from the capped volumes where they shrank, but
-  //    not where they grew: a cell is solid only if its particles fill it without a raised
-  //    volume, and phi can only grow as volumes do (the kernels do not depend on them), so a cell
-  //    the band calls interior is interior for the field too. (With the raised volumes, a cell
-  //    whose compacted points leave part of it empty passes for solid: on the 150 kPa collapse
-  //    from zero stress at 2.5 s a guard went missing there and a point was left in a hole.)
+  //    The survey's cell volumes, which the band's solid cells read, take the capped volumes
+  //    where they shrank but not where they grew: a cell is solid only if its particles fill it
+  //    without a raised volume, and phi can only grow as volumes do (the kernels do not depend on
+  //    them), so a cell the band calls interior is interior for the field too. (With the raised
+  //    volumes, a cell whose compacted points leave part of it empty passes for solid: on the 150
+  //    kPa collapse from zero stress at 2.5 s a guard went missing there and a point was left in a
+  //    hole.)
   ParticleCloud cloud = input;
   std::vector<Mat2> capped;
   std::vector<double> capped_volume;
   //    Every particle's smallest singular value is det F / its largest >= smallest_det /
-  //    largest_stretch, so the pass runs only when some F may be outside the cap.
-  if (config.max_stretch > 0.0 && !input.deformation_gradient.empty() &&
-      (survey.largest_stretch > config.max_stretch ||
-       survey.smallest_det * config.max_stretch < survey.largest_stretch)) {
-    capped.assign(input.deformation_gradient.begin(), input.deformation_gradient.end());
-    capped_volume.assign(input.volume.begin(), input.volume.end());
-    const double det = cap_stretch(capped, config.max_stretch, capped_volume);
-    if (det < std::numeric_limits<double>::infinity()) {
-      // The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
-      survey.smallest_det = std::min(survey.smallest_det, det);
-      survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
-      cloud.deformation_gradient = capped;
-      cloud.volume = capped_volume;
-      std::vector<double> band_volume(capped_volume.size());
-      for (std::size_t p = 0; p < band_volume.size(); ++p) {
-        band_volume[p] = std::min(input.volume[p], capped_volume[p]);
-      }
-      total_volumes_again(survey, band_volume);
-    }
-  }
-  lap(parts.survey);
+  //    largest_stretch, so the cap is taken only when some F may be outside it. The narrow band
+  //    (below) takes it on its own copies of the particles, so that the particles away from the
+  //    boundary are not copied and capped at every call (at 241k points of a collapse 7.1 ms of a
+  //    25 ms detection went there); without the band, or with kernel shapes from the neighbours
+  //    (whose windows read the capped volumes of particles outside the band), on a copy of all.
+  //    The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
+  const bool capping = config.max_stretch > 0.0 && !input.deformation_gradient.empty() &&
+                       (survey.largest_stretch > config.max_stretch ||
+                        survey.smallest_det * config.max_stretch < survey.largest_stretch);
+  if (capping) survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
   const double kernel_reach = config.radius_factor * cloud.initial_spacing * survey.largest_stretch;
   const double particle_reach =
       ImprovedField::reference_reach(config, cloud.initial_spacing) * survey.largest_stretch;
+  const double widest = std::max(grid.n_cells_x, grid.n_cells_y);
+  const bool banded = !cloud.position.empty() && particle_reach / h < widest;
+  const bool band_caps = capping && banded && config.neighbour_shape == 0.0;
+  if (capping && !band_caps) {
+    capped.assign(input.deformation_gradient.begin(), input.deformation_gradient.end());
+    capped_volume.assign(input.volume.begin(), input.volume.end());
+    cap_stretch(capped, config.max_stretch, capped_volume);
+    cloud.deformation_gradient = capped;
+    cloud.volume = capped_volume;
+  }
+  lap(parts.survey);
   //    Kernels shaped by the neighbours only narrow (det F' >= (1 - beta) det F): the reaches of
   //    F bound theirs, and their weights are at most 1 / (1 - beta) times those of F.
   const double shaped_weights = 1.0 / (1.0 - config.neighbour_shape);
@@ -1370,10 +1382,10 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
       4 * cloud.position.size()};
   //    The narrow band; a kernel reaching across the whole grid (a huge stretch or radius) leaves
   //    nothing to screen.
-  const double widest = std::max(grid.n_cells_x, grid.n_cells_y);
   std::optional<Band> band;
-  if (!cloud.position.empty() && particle_reach / h < widest) {
+  if (banded) {
     band = select_band(cloud, grid, config, survey, kernel_reach, particle_reach);
+    if (band_caps) cap_stretch(band->deformation, config.max_stretch, band->volume);
   }
   ParticleCloud field_cloud =
       band ? ParticleCloud{band->position, band->volume, band->deformation, cloud.initial_spacing}

@@ -395,7 +395,8 @@ DetectedBoundary detect_improved_reference(const ParticleCloud& input, const Gri
   const double h = grid.cell_size, spacing = input.initial_spacing;
   const std::size_t n = input.position.size();
   // The stretch cap (ImprovedConfig::max_stretch) on a copy of F and the volumes, and the bound
-  // of the kernel weights (V / det F, from the volumes and F before the cap and the capped F).
+  // of the kernel weights (V / det F, from the volumes and F before the cap: the cap keeps
+  // V' / det F' = V / det F).
   std::vector<Mat2> deformation(input.deformation_gradient.begin(),
                                 input.deformation_gradient.end());
   std::vector<double> volume(input.volume.begin(), input.volume.end());
@@ -405,7 +406,7 @@ DetectedBoundary detect_improved_reference(const ParticleCloud& input, const Gri
     smallest_det = std::numeric_limits<double>::infinity();
     for (const Mat2& f : deformation) smallest_det = std::min(smallest_det, f.determinant());
     if (config.max_stretch > 0.0) {
-      smallest_det = std::min(smallest_det, cap_stretch(deformation, config.max_stretch, volume));
+      cap_stretch(deformation, config.max_stretch, volume);
     }
   }
   ParticleCloud cloud{input.position, volume, deformation, spacing};

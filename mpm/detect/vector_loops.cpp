@@ -156,6 +156,30 @@ template <bool Cells>
   return {largest_volume, largest_squared, smallest_det, finite == 0.0 && positive != 0};
 }
 
+// The body of shrink_volumes(): sigma_1^2 is the larger eigenvalue of F^T F = [a b; b c],
+// sigma_2 = det F / sigma_1, and the factor the product of the clamped over the raw ones, at most
+// 1 (plain IEEE operations: every compilation gives the same bits).
+[[gnu::always_inline]] inline void shrink_sweep(const double* volume, const double* f,
+                                                std::size_t n, double cap, double* out) {
+  const double floor = 1.0 / cap;
+#pragma omp simd
+  for (std::size_t p = 0; p < n; ++p) {
+    const double f00 = f[4 * p], f10 = f[4 * p + 1], f01 = f[4 * p + 2], f11 = f[4 * p + 3];
+    const double a = f00 * f00 + f10 * f10, c = f01 * f01 + f11 * f11;
+    const double b = f00 * f01 + f10 * f11, d = f00 * f11 - f01 * f10;
+    const double s1 = std::sqrt(0.5 * (a + c + std::sqrt((a - c) * (a - c) + 4.0 * b * b)));
+    const double s2 = d / s1;
+    const double c1 = s1 > cap ? cap : (s1 < floor ? floor : s1);
+    const double c2 = s2 > cap ? cap : (s2 < floor ? floor : s2);
+    const double k = (c1 / s1) * (c2 / s2);
+    out[p] = volume[p] * (k < 1.0 ? k : 1.0);
+  }
+}
+
+void shrink_plain(const double* v, const double* f, std::size_t n, double cap, double* out) {
+  shrink_sweep(v, f, n, cap, out);
+}
+
 template <int E>
 std::uint64_t sum_plain(const KernelColumns& c, const int* begin, const int* end, int n_ranges,
                         double px, double py) {
@@ -212,6 +236,11 @@ template <bool Cells>
   return volume_sweep(v, f, n);
 }
 
+[[gnu::target("avx2")]] void shrink_avx2(const double* v, const double* f, std::size_t n,
+                                         double cap, double* out) {
+  shrink_sweep(v, f, n, cap, out);
+}
+
 // Four cells at a time in SSE2, which every x86-64 processor has.
 std::size_t changes_sse2(const int* cell, std::size_t begin, std::size_t end, std::uint32_t* out) {
   std::size_t q = begin, k = 0;
@@ -266,6 +295,11 @@ template <bool Cells>
 [[gnu::target(PFM_AVX512)]] VolumeTotals volumes_avx512(const double* v, const double* f,
                                                         std::size_t n) {
   return volume_sweep(v, f, n);
+}
+
+[[gnu::target(PFM_AVX512)]] void shrink_avx512(const double* v, const double* f, std::size_t n,
+                                               double cap, double* out) {
+  shrink_sweep(v, f, n, cap, out);
 }
 #undef PFM_AVX512
 #endif
@@ -342,6 +376,15 @@ VolumeTotals sweep_volumes(const double* volume, const double* deformation, std:
   if (lanes_in_use == VectorLanes::kAvx2) return volumes_avx2(volume, deformation, n);
 #endif
   return volumes_plain(volume, deformation, n);
+}
+
+void shrink_volumes(const double* volume, const double* deformation, std::size_t n, double cap,
+                    double* out) {
+#ifdef PFM_VECTOR_LOOPS_X86
+  if (lanes_in_use == VectorLanes::kAvx512) return shrink_avx512(volume, deformation, n, cap, out);
+  if (lanes_in_use == VectorLanes::kAvx2) return shrink_avx2(volume, deformation, n, cap, out);
+#endif
+  shrink_plain(volume, deformation, n, cap, out);
 }
 
 std::size_t cell_changes(const int* cell, std::size_t begin, std::size_t end, std::uint32_t* out) {

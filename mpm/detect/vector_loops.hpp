@@ -74,6 +74,12 @@ PositionTotals sweep_positions(const double* position, std::size_t n, const Cell
 /// The volumes and deformation gradients, column-major (f00 f10 f01 f11 ...; nullptr: none), of
 /// n >= 1 particles.
 VolumeTotals sweep_volumes(const double* volume, const double* deformation, std::size_t n);
+/// The volumes of n particles as the stretch cap `cap` shrinks them, never raised (the narrow
+/// band's measure of the space its cells' particles fill): out[p] = volume[p] min(1, det F' /
+/// det F), F' the deformation gradient (column-major, as above) with its singular values
+/// clamped to [1 / cap, cap].
+void shrink_volumes(const double* volume, const double* deformation, std::size_t n, double cap,
+                    double* out);
 /// Both sweeps.
 CloudTotals sweep_cloud(const double* position, const double* volume, const double* deformation,
                         std::size_t n, const CellLattice& lattice, int* cell);
