@@ -316,7 +316,8 @@ TEST(Determinism, HugeStretchSkipsTheVolumeScreening) {
 // found by chunks, on the OpenMP threads. Blocks of 19k-32k points with holes, strained by a
 // field of deformation gradients (stretch up to 3, some particles so stretched that they get a
 // guard), partly shuffled (runs of one cell broken at random) and with a few points off the grid:
-// one thread and two must give bitwise the same boundary from the same work (evaluations, band).
+// one thread and two must give bitwise the same boundary from the same work (evaluations, band),
+// and the reference detector's.
 TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheThreadCount) {
   for (std::uint64_t seed = 0; seed < 3; ++seed) {
     std::mt19937_64 rng(seed + 7);
@@ -365,6 +366,13 @@ TEST(Determinism, ImprovedBoundaryDoesNotDependOnTheThreadCount) {
                 cloud.position.size(), boundary[0].contours.size(), timings[0].edge_point_count,
                 timings[0].field_evaluations);
     EXPECT_TRUE(same_contours(boundary[0], boundary[1])) << "seed " << seed;
+    // And the reference detector's: the survey shrinks the volumes beyond the stretch cap chunk
+    // by chunk, and the band caps its own copies of the particles.
+    DetectorConfig reference = config;
+    reference.improved.narrow_band = false;
+    DetectorState reference_state;
+    EXPECT_TRUE(same_contours(boundary[0], detect(cloud.view(), g, reference, reference_state)))
+        << "seed " << seed;
     EXPECT_EQ(timings[0].field_evaluations, timings[1].field_evaluations);
     EXPECT_EQ(timings[0].field_particles, timings[1].field_particles);
     EXPECT_EQ(timings[0].edge_point_count, timings[1].edge_point_count);
