@@ -241,7 +241,7 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, double ca
   std::vector<CloudTotals> chunk_totals(n_chunks);
   ShrunkByChunk shrunk;
   shrunk.taken.assign(n_chunks, 0);
-  if (cap > 0.0 && deformation) shrunk.value.reset(new double[n]);
+  if (cap > 0.0 && deformation) shrunk.value = std::make_unique_for_overwrite<double[]>(n);
   for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
     const std::size_t b = chunk_begin(k), e = chunk_end(k);
     chunk_totals[k] =

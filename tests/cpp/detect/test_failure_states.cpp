@@ -319,8 +319,8 @@ std::vector<State> failure_states() {
 // cap the collapses' F (singular values up to 2,250) make kernels that reach across the body
 // and slivers that split it into hundreds of loops: in Release the uncapped detection runs too,
 // and over the states the cap must cut the field evaluations to less than a third (measured:
-// 493,000 against 2,108,000; each uncapped evaluation also searches a wider window, so the time
-// falls 11 to 50 times on the collapses, tests/data/failure_states/cost.py).
+// 37,115 against 425,558; each uncapped evaluation also searches a wider window, so the time
+// falls further on the collapses, tests/data/failure_states/cost.py).
 TEST(FailureStates, DefaultDetectionKeepsTheInvariantsAndTheCapCutsTheWork) {
   const std::vector<State> states = failure_states();
   ASSERT_EQ(states.size(), 14u);
