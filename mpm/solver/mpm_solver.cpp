@@ -733,7 +733,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
   double* kinetic_blocks = kinetic_blocks_.data();
   const Vec2* particle_velocity = particles_.velocity.data();
   const double* particle_mass = particles_.mass.data();
-  long bad = -1;
+  long bad = -1, inverted = -1;
   const std::size_t n_blocks = point_energy_blocks_.size();
   const bool mean_dilatation = case_.solver.mean_dilatation;
   const int* band_start = band_start_.data();
@@ -761,7 +761,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
     l << column_x.x(), column_y.x(), column_x.y(), column_y.y();
     return l;
   };
-#pragma omp parallel reduction(max : bad) if (parallel_)
+#pragma omp parallel reduction(max : bad, inverted) if (parallel_)
   {
     if (mean_dilatation) {
       // Every particle's L, and each cell's volume-weighted sum of tr L, band by band (a band
@@ -804,6 +804,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
         particle_deformation[p] = deformation;
         const double volume = deformation.determinant() * initial_volume[p];
         particle_volume[p] = volume;
+        if (volume <= 0.0) inverted = std::max(inverted, static_cast<long>(p));
         const double work = add_stress_update_energy(constants[mi], before, rotated, sig, de,
                                                      volume_before, volume, block);
         if (!std::isfinite(work)) bad = std::max(bad, static_cast<long>(p));
@@ -814,6 +815,7 @@ void MpmSolver::update_stress(const std::vector<Vec2>& node_velocity) {
     }
   }
   bad_particle_ = std::max(bad_particle_, bad);
+  inverted_particle_ = inverted;
   PointEnergy step;
   double kinetic = 0.0;
   for (std::size_t k = 0; k < n_blocks; ++k) {
@@ -844,6 +846,17 @@ void MpmSolver::check_particles() {
                           describe_particle(particles_, static_cast<std::size_t>(bad_particle_)) +
                           " at t = " + std::to_string(counters_.time) + " s (step " +
                           std::to_string(counters_.step) + ")");
+  }
+  if (inverted_particle_ >= 0) {
+    const auto p = static_cast<std::size_t>(inverted_particle_);
+    const Mat2& f = particles_.deformation_gradient[p];
+    std::ostringstream det;
+    det << f.determinant() << ", F = [[" << f(0, 0) << ", " << f(0, 1) << "], [" << f(1, 0) << ", "
+        << f(1, 1) << "]]";
+    throw SimulationError(describe_particle(particles_, p) + " inverted (det F = " + det.str() +
+                          ": its material folded over) at t = " + std::to_string(counters_.time) +
+                          " s (step " + std::to_string(counters_.step) +
+                          "): the deformation is not resolved by the grid and the time step");
   }
   // Courant condition with the material speed added to the wave speed.
   if ((max_wave_speed_ + max_speed_) * counters_.dt > case_.grid.cell_size) {
@@ -899,6 +912,7 @@ void MpmSolver::update_stress_from_grid_velocity(const std::vector<Vec2>& node_v
       locate_particles<4>(false);
       update_stress<4>(node_velocity);
   }
+  check_particles();
 }
 
 template void MpmSolver::run_step<2>();

@@ -50,7 +50,8 @@
 
 namespace pfm {
 
-/// A run that cannot go on (NaN, CFL violation, particle leaving the grid, element inversion).
+/// A run that cannot go on (NaN, CFL violation, particle leaving the grid, particle or element
+/// inversion).
 class SimulationError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -89,7 +90,8 @@ class MpmSolver {
 
   /// Stress update from given nodal velocities (one node per grid node) at the current
   /// particle positions, over one dt(): the kinematics + constitutive stage of a step alone.
-  /// Used by the patch test and by solvers that prescribe the grid motion.
+  /// Used by the patch test and by solvers that prescribe the grid motion. Stops like step()
+  /// (SimulationError) on a non-finite value or an inverted particle (det F <= 0).
   void update_stress_from_grid_velocity(const std::vector<Vec2>& node_velocity);
 
   /// Apply the initial stress procedure of the case (zero, K0, gravity loading); afterwards
@@ -233,9 +235,10 @@ class MpmSolver {
   bool kinetic_stale_ = true;            ///< the ledger's particle_kinetic is to be taken anew
   std::vector<Vec2> remapped_velocity_;  ///< MUSL: nodal velocity from updated particles
   std::vector<Vec2> remapped_momentum_;  ///< MUSL: nodal momentum of updated particles
-  bool parallel_ = true;    ///< run the stages on all threads (false for tiny problems)
-  long bad_particle_ = -1;  ///< a particle with a non-finite value in this step, or -1
-  double max_speed_ = 0.0;  ///< largest particle speed after this step, m/s
+  bool parallel_ = true;         ///< run the stages on all threads (false for tiny problems)
+  long bad_particle_ = -1;       ///< a particle with a non-finite value in this step, or -1
+  long inverted_particle_ = -1;  ///< a particle whose det F <= 0 after this step, or -1
+  double max_speed_ = 0.0;       ///< largest particle speed after this step, m/s
 };
 
 }  // namespace pfm

@@ -56,6 +56,39 @@ TEST(SolverPhysics, PatchTestUniformStrainGivesUniformStress) {
   }
 }
 
+// A grid motion that folds the material over (v_x = -2 x / dt: I + L dt = diag(-1, 1), det F =
+// -1 at every particle) stops with a SimulationError naming the last inverted particle, its
+// det F and the time, instead of handing a body of negative volumes to what follows (a
+// collapse's inverted point once reached the detector, which stopped with an input error).
+TEST(SolverPhysics, InvertedParticleStopsTheRun) {
+  nlohmann::json j = testing::column_case(3.0, 0.5, 3, "equal");
+  j["grid"]["n_cells"] = {8, 10};
+  j["bodies"][0]["rectangle"] = {{1.0, 0.5}, {3.0, 3.5}};
+  const Case c = parse_case(j, "folded");
+  MpmSolver solver(c);
+  std::vector<Vec2> v(static_cast<std::size_t>(c.grid.n_nodes()));
+  for (int jn = 0; jn < c.grid.n_nodes_y(); ++jn) {
+    for (int in = 0; in < c.grid.n_nodes_x(); ++in) {
+      v[static_cast<std::size_t>(c.grid.node_index(in, jn))] =
+          Vec2(-2.0 / solver.dt() * c.grid.node_position(in, jn).x(), 0.0);
+    }
+  }
+  const std::size_t last = solver.particles().size() - 1;
+  try {
+    solver.update_stress_from_grid_velocity(v);
+    FAIL() << "no error for inverted particles";
+  } catch (const SimulationError& e) {
+    const std::string what = e.what();
+    std::printf("[mpm inversion] %s\n", what.c_str());
+    EXPECT_EQ(what.find("particle " + std::to_string(last) + " at ("), 0u) << what;
+    EXPECT_NE(what.find(" inverted (det F = -1, F = [[-1, 0], [0, 1]]: its material folded over)"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("at t = 0.0"), std::string::npos) << what;
+  }
+  EXPECT_NEAR(solver.particles().deformation_gradient[last].determinant(), -1.0, 1e-12);
+}
+
 struct ColumnResult {
   double settlement_error = 0.0;  // max relative error of the top row's settlement
   double stress_error = 0.0;      // relative error of the mid-depth cell-mean stress
