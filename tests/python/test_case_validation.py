@@ -422,3 +422,24 @@ def test_particle_leaving_the_grid_stops_with_exit_3_and_keeps_output(
     )
     assert (out / "particles.xdmf").exists()
     assert not (out / "final_particles.csv").exists()
+
+
+@pytest.mark.parametrize("threads", ["x", "-1", "2x", "--out"])
+def test_ulfem_driver_refuses_a_bad_thread_count(tmp_path, pfm_binary, threads):
+    """pfm-ulfem CASE OUT [THREADS]: a THREADS that is not a whole number >= 0 is bad input
+    (exit 2 naming THREADS and the value), not an uncaught exception (it was one: std::stoi
+    threw on "--out"); nothing is written."""
+    case = tmp_path / "case.json"
+    case.write_text(json.dumps(BASE))
+    out = tmp_path / "out"
+    result = subprocess.run(
+        [str(pfm_binary.parent / "pfm-ulfem"), str(case), str(out), threads],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2, result.stderr
+    assert f"THREADS: expected a whole number >= 0 (0: all cores), got '{threads}'" in (
+        result.stderr
+    )
+    assert not out.exists()

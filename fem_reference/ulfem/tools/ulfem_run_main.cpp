@@ -23,7 +23,20 @@ int main(int argc, char** argv) {
   }
   pfm::RunOptions options;
   options.out_dir = argv[2];
-  options.threads = argc > 3 ? std::stoi(argv[3]) : 0;
+  if (argc > 3) {
+    const std::string threads = argv[3];
+    std::size_t used = 0;
+    try {
+      options.threads = std::stoi(threads, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != threads.size() || options.threads < 0) {
+      std::cerr << "pfm-ulfem: error: THREADS: expected a whole number >= 0 (0: all cores), got '"
+                << threads << "'\nusage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
+      return pfm::kExitInputError;
+    }
+  }
   for (int k = 0; k < argc; ++k) {
     if (k > 0) options.command_line += ' ';
     options.command_line += argv[k];
