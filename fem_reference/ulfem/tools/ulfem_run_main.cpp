@@ -1,4 +1,5 @@
-// pfm-ulfem: run a case with the UL-FEM until `pfm-mpm run CASE --solver ulfem` exists.
+// pfm-ulfem: run a case with the UL-FEM, stand-alone (`pfm-mpm run CASE --out DIR --solver ulfem`
+// runs the same run_ulfem_case).
 //
 //   pfm-ulfem CASE.json OUT_DIR [THREADS]
 //
