@@ -20,7 +20,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -372,24 +371,11 @@ pfm::ParticleTable refined(const pfm::ParticleTable& p, const pfm::Grid& grid, d
   const pfm::ImprovedConfig config;
   pfm::detail::cap_stretch(capped, config.max_stretch, capped_volume);
   const pfm::ImprovedField field({p.position, capped_volume, capped, spacing}, config, &grid);
-  // The nearest point, by bins of one spacing searched ring by ring
-  // (ParticleBins::for_each_nearest_rings(): two rings past the first that holds a point, which
-  // find the nearest unless it lies about 1.4 times farther than that ring; the lattice nodes of
-  // the material lie within 1.8 spacings of a point on the 150 kPa collapse from K0 at 2.5 s).
+  // The nearest point, by bins of one spacing searched ring by ring (ParticleBins::nearest():
+  // two rings past the first that holds a point, which find the nearest unless it lies about 1.4
+  // times farther than that ring; the lattice nodes of the material lie within 1.8 spacings of a
+  // point on the 150 kPa collapse from K0 at 2.5 s).
   const pfm::ParticleBins bins(p.position, spacing);
-  const auto nearest_to = [&](const pfm::Vec2& x) {
-    double best = std::numeric_limits<double>::infinity();
-    std::size_t nearest = 0;
-    bins.for_each_nearest_rings(x, [&](int q) {
-      const auto k = static_cast<std::size_t>(q);
-      const double r2 = (p.position[k] - x).squaredNorm();
-      if (r2 < best || (r2 == best && k < nearest)) {
-        best = r2;
-        nearest = k;
-      }
-    });
-    return nearest;
-  };
   pfm::ParticleTable out;
   const double width = grid.n_cells_x * grid.cell_size, height = grid.n_cells_y * grid.cell_size;
   const double d = spacing / m;
@@ -401,7 +387,8 @@ pfm::ParticleTable refined(const pfm::ParticleTable& p, const pfm::Grid& grid, d
       if (field(x) < config.level) continue;
       out.position.push_back(x);
       out.volume.push_back(d * d);
-      out.deformation_gradient.push_back(capped[nearest_to(x)]);
+      out.deformation_gradient.push_back(
+          capped[static_cast<std::size_t>(bins.nearest(x, p.position))]);
     }
   }
   return out;

@@ -141,6 +141,13 @@ inline void singular_values(const Mat2& m, double& largest, double& smallest) {
   smallest = std::abs(q - r);
 }
 
+/// Whether some F of a set may lie beyond the stretch cap `cap` (0: no cap), from the set's
+/// largest singular value and smallest det F: each F's smallest singular value is det F / its
+/// largest >= smallest_det / largest.
+inline bool may_exceed_stretch_cap(double largest, double smallest_det, double cap) {
+  return cap > 0.0 && (largest > cap || smallest_det * cap < largest);
+}
+
 /// The kernels' stretch cap (ImprovedConfig::max_stretch): clamps every singular value of each F
 /// to [1 / cap, cap], keeping its axes: F' = F (I + sum_k (s_k' / s_k - 1) v_k v_k^T) over the
 /// right singular vectors v_k. A particle's volume is V = V0 det F: each `volume` (one per F, or

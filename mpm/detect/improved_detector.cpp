@@ -247,11 +247,10 @@ CloudSurvey survey_cloud(const ParticleCloud& cloud, const Grid& grid, double ca
     chunk_totals[k] =
         sweep_cloud(position + 2 * b, volume + b, deformation ? deformation + 4 * b : nullptr,
                     e - b, lattice, cell_of.data() + b);
-    // The test of detect_improved() for the whole cloud, on the chunk: a chunk that passes holds
+    // detect_improved()'s test for the whole cloud, on the chunk: a chunk that passes holds
     // every F the cap changes.
     const VolumeTotals& t = chunk_totals[k].volumes;
-    const double largest = std::sqrt(t.largest_squared);
-    if (cap > 0.0 && deformation && (largest > cap || t.smallest_det * cap < largest)) {
+    if (deformation && may_exceed_stretch_cap(std::sqrt(t.largest_squared), t.smallest_det, cap)) {
       shrink_volumes(volume + b, deformation + 4 * b, e - b, cap, shrunk.value.get() + b);
       shrunk.taken[k] = 1;
     }
@@ -1348,16 +1347,15 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   ParticleCloud cloud = input;
   std::vector<Mat2> capped;
   std::vector<double> capped_volume;
-  //    Every particle's smallest singular value is det F / its largest >= smallest_det /
-  //    largest_stretch, so the cap is taken only when some F may be outside it. The narrow band
+  //    The cap is taken only when some F may be outside it. The narrow band
   //    (below) takes it on its own copies of the particles, so that the particles away from the
   //    boundary are not copied and capped at every call (at 241k points of a collapse 7.1 ms of a
   //    25 ms detection went there); without the band, or with kernel shapes from the neighbours
   //    (whose windows read the capped volumes of particles outside the band), on a copy of all.
   //    The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
-  const bool capping = config.max_stretch > 0.0 && !input.deformation_gradient.empty() &&
-                       (survey.largest_stretch > config.max_stretch ||
-                        survey.smallest_det * config.max_stretch < survey.largest_stretch);
+  const bool capping =
+      !input.deformation_gradient.empty() &&
+      may_exceed_stretch_cap(survey.largest_stretch, survey.smallest_det, config.max_stretch);
   if (capping) survey.largest_stretch = std::min(survey.largest_stretch, config.max_stretch);
   const double kernel_reach = config.radius_factor * cloud.initial_spacing * survey.largest_stretch;
   const double particle_reach =

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -89,7 +90,7 @@ class ParticleBins {
   /// Calls visit(p) for particles in rings of bins around x, ring by ring, until two rings past
   /// the first ring with a particle have been searched (the closest particle by Euclidean distance
   /// is then among the visited ones unless it is more than ~1.4 times farther than that ring). Used
-  /// for the thesis' closest-point value.
+  /// by nearest().
   template <class Visitor>
   void for_each_nearest_rings(const Vec2& x, Visitor&& visit) const {
     if (n_x_ == 0) return;
@@ -112,6 +113,22 @@ class ParticleBins {
       // ring r is at most (r + 1) sqrt(2) bins away, one in ring r + k at least r + k - 1).
       if (first_hit_ring >= 0 && ring >= first_hit_ring + 2) return;
     }
+  }
+
+  /// The particle nearest to x among those for_each_nearest_rings() visits (the first visited
+  /// of equally near ones), by `position` (the positions the bins were built from); -1 if there
+  /// is none.
+  int nearest(const Vec2& x, std::span<const Vec2> position) const {
+    double best = std::numeric_limits<double>::infinity();
+    int nearest = -1;
+    for_each_nearest_rings(x, [&](int p) {
+      const double d = (position[static_cast<std::size_t>(p)] - x).squaredNorm();
+      if (d < best) {
+        best = d;
+        nearest = p;
+      }
+    });
+    return nearest;
   }
 
   double bin_size() const { return bin_size_; }

@@ -149,15 +149,8 @@ class ProximityField {
   }
   // Outside every kernel: the (negative) kernel value of the closest material point (5.2.2).
   double closest_value(const Vec2& x) const {
-    double best_distance = std::numeric_limits<double>::infinity(), value = 0.0;
-    bins_.for_each_nearest_rings(x, [&](int p) {
-      const double d = (position_[p] - x).squaredNorm();
-      if (d < best_distance) {
-        best_distance = d;
-        value = kernel(p, x);
-      }
-    });
-    return value;
+    const int p = bins_.nearest(x, position_);
+    return p < 0 ? 0.0 : kernel(static_cast<std::size_t>(p), x);
   }
   std::span<const Vec2> positions() const { return position_; }
   double reach(std::size_t p) const { return reach_[p]; }

@@ -7,6 +7,7 @@
 // 4 a write failed.
 #include <hdf5.h>
 
+#include <charconv>
 #include <iostream>
 #include <string>
 
@@ -26,13 +27,9 @@ int main(int argc, char** argv) {
   options.out_dir = argv[2];
   if (argc > 3) {
     const std::string threads = argv[3];
-    std::size_t used = 0;
-    try {
-      options.threads = std::stoi(threads, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != threads.size() || options.threads < 0) {
+    const char* end = threads.data() + threads.size();
+    const auto [stop, error] = std::from_chars(threads.data(), end, options.threads);
+    if (error != std::errc() || stop != end || options.threads < 0) {
       std::cerr << "pfm-ulfem: error: THREADS: expected a whole number >= 0 (0: all cores), got '"
                 << threads << "'\nusage: pfm-ulfem CASE.json OUT_DIR [THREADS]\n";
       return pfm::kExitInputError;

@@ -6,10 +6,11 @@
 Runs the benchmarks BM_Detect (every detector on the slope at three sizes) and
 BM_DetectFailureState (the improved detector on the failure states; with --refined also the
 states refined 5 times, about 30k points, which take minutes to build) on one thread, and
-prints two Markdown tables: detection per call against one MPM step of the same points, and the failure states'
-cost against a step and against the case's own detection at t = 0. With --write the tables
-replace the text between the markers <!-- cost-tables:begin --> and <!-- cost-tables:end --> of
-the README, with the machine and the git revision they were measured on.
+prints two Markdown tables: detection per call against one MPM step of the same points, and
+the failure states' cost against a step and against the case's own detection at t = 0, with
+the loops of each state's boundary. With --write the tables replace the text between the
+markers <!-- cost-tables:begin --> and <!-- cost-tables:end --> of the README, with the machine
+and the git revision they were measured on.
 """
 
 from __future__ import annotations
