@@ -23,4 +23,7 @@ using Strain = Eigen::Vector4d;
 
 enum VoigtIndex : int { kXX = 0, kYY = 1, kXY = 2, kZZ = 3 };
 
+/// Direction bits of a constraint (of a node in the grid update).
+enum FixMask : unsigned { kFixNone = 0u, kFixX = 1u, kFixY = 2u, kFixXY = 3u };
+
 }  // namespace pfm

@@ -171,8 +171,15 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
       spec.x_range = Vec2(load.spec.x_range->x() + shift0, load.spec.x_range->y() + shift1);
     }
     current_range_[k] = spec.x_range;
+    std::span<const double> carriers = grid_state.mass;
+    if (grid_state.ties) {
+      // Every node passes its load on: the solver ties the nodes with little or no material to
+      // inner ones after this hook (basis_extension.hpp), and nothing is lost.
+      spec.redistribute_lost_load = false;
+      carriers = {};
+    }
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves, spec, load.time_function.factor(step.time), grid_state.mass, force, true);
+        curves, spec, load.time_function.factor(step.time), carriers, force, true);
     LoadWorkRecorder& recorder = step.load_work;
     for (const boundary::NodalForce& f : result.nodal_forces)
       recorder.add(load.case_index, static_cast<std::size_t>(f.node), f.force);

@@ -810,9 +810,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
   }
 
+  std::optional<double> outer_node_fraction;
   if (const auto s = root.find("solver")) {
-    s->expect_object(
-        {"scheme", "shape_function", "damping", "damping_form", "pic_fraction", "anti_locking"});
+    s->expect_object({"scheme", "shape_function", "damping", "damping_form", "pic_fraction",
+                      "anti_locking", "outer_node_fraction"});
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
     const std::string shape =
@@ -838,7 +839,23 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                    "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
     c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"}, "none") == "bbar";
+    if (s->has("outer_node_fraction")) {
+      outer_node_fraction = s->at("outer_node_fraction").as_number();
+      s->at("outer_node_fraction")
+          .require(*outer_node_fraction >= 0.0 && *outer_node_fraction <= 0.5,
+                   "must be in [0, 0.5] (0 leaves every node free)");
+    }
   }
+  // The ties of nearly empty nodes (mpm/core/basis_extension.hpp): on by default with B-splines,
+  // but not with constraints on the detected boundary, whose penalty forces and implicit nodal
+  // stiffness go to the nodes with mass (boundary_constraint.hpp), not through the ties.
+  if (!c.constraints.empty() && outer_node_fraction.value_or(0.0) > 0.0) {
+    root.at("solver").at("outer_node_fraction").fail(
+        "must be 0 in a case with constraints (the constraints do not act through tied nodes)");
+  }
+  c.solver.outer_node_fraction = outer_node_fraction.value_or(
+      shape_degree(c.solver.shape_function) > 1 && c.constraints.empty() ? kDefaultOuterNodeFraction
+                                                                          : 0.0);
   // Checks that need the shape function, which has a default.
   {
     const int degree = shape_degree(c.solver.shape_function);

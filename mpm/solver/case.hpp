@@ -149,6 +149,9 @@ struct ConstraintSpec {
 
 enum class Scheme { kMUSL, kUSL };
 
+/// solver.outer_node_fraction's default with B-splines (linear and uGIMP: 0).
+inline constexpr double kDefaultOuterNodeFraction = 0.05;
+
 struct SolverSpec {
   Scheme scheme = Scheme::kMUSL;
   ShapeFunctionKind shape_function = ShapeFunctionKind::kQuadraticBspline;
@@ -161,6 +164,10 @@ struct SolverSpec {
   /// Anti-locking: the mean dilatation (B-bar) over each cell (MPM) or element (UL-FEM) in the
   /// stress update and the internal force (mean_dilatation_gradient, mpm/core/kinematics.hpp).
   bool mean_dilatation = false;
+  /// Nodes whose mass is below this share of a full support's are tied to their interior
+  /// neighbours (mpm/core/basis_extension.hpp); 0 leaves every node free. Set by the case
+  /// reader: kDefaultOuterNodeFraction with B-splines, 0 with linear and uGIMP functions.
+  double outer_node_fraction = 0.0;
 };
 
 struct TimeSpec {

@@ -55,13 +55,11 @@
 #include <string_view>
 #include <vector>
 
+#include "mpm/core/basis_extension.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
 
 namespace pfm {
-
-/// Direction bits of a constraint (of a node in the grid update).
-enum FixMask : unsigned { kFixNone = 0u, kFixX = 1u, kFixY = 2u, kFixXY = 3u };
 
 /// The energy terms of one node's update (kJ/m), summed over nodes by the solvers.
 struct NodeEnergy {
@@ -268,6 +266,26 @@ class LoadWorkRecorder {
   }
   void add(std::size_t load, std::size_t node, const Vec2& force) {
     forces_[load].push_back({node, force});
+  }
+  /// Moves the forces recorded on outer nodes to the inner nodes they are tied to, as the grid's
+  /// forces (BasisExtension::gather): each load's work is then booked on the nodes it acts on.
+  void tie(const BasisExtension& extension) {
+    const NodeTies& ties = extension.ties();
+    if (ties.empty()) return;
+    for (auto& entries : forces_) {
+      const std::size_t n = entries.size();
+      for (std::size_t e = 0; e < n; ++e) {
+        const int k = extension.tie_of(static_cast<int>(entries[e].node));
+        if (k < 0) continue;
+        const Vec2 f = entries[e].force;
+        entries[e].force.setZero();
+        for (int t = ties.start[static_cast<std::size_t>(k)];
+             t < ties.start[static_cast<std::size_t>(k) + 1]; ++t) {
+          entries.push_back({static_cast<std::size_t>(ties.inner[static_cast<std::size_t>(t)]),
+                             ties.weight[static_cast<std::size_t>(t)] * f});
+        }
+      }
+    }
   }
   /// Adds each load's work over the grid update just made to work[load] (resized to the
   /// number of loads); nodes of mass <= tiny are not updated and take no work. `start`: the

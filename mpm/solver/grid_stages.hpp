@@ -11,6 +11,7 @@
 #include <variant>
 #include <vector>
 
+#include "mpm/core/basis_extension.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
@@ -33,6 +34,10 @@ struct GridState {
   /// kN, the force holding the fixed components of each node in the last grid update
   /// (update_node; zero on free components).
   std::vector<Vec2> reaction;
+  /// The outer nodes of this step and their ties (mpm/core/basis_extension.hpp; null or empty
+  /// without them): their mass, momentum and forces so far have gone to the inner nodes; the
+  /// forces added to them later go there before the update.
+  const NodeTies* ties = nullptr;
 };
 
 /// What a material point carries to the nodes in the particle-to-grid map.

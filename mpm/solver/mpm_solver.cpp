@@ -76,6 +76,12 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
     counters_.dt = case_.time.cfl * critical_dt_;
   }
   counters_.damping = case_.solver.damping;
+  const double fraction = case_.solver.outer_node_fraction;
+  if (fraction > 0.0) {
+    extension_ = BasisExtension(case_.grid, case_.solver.shape_function, fraction);
+    extension_density_ = largest_density(particles_);
+    grid_.ties = &extension_.ties();
+  }
   build_top_node_loads();
   point_energy_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, {});
   kinetic_blocks_.assign(point_energy_blocks_.size(), 0.0);
@@ -174,10 +180,13 @@ void MpmSolver::build_top_node_loads() {
   light_node_mass_ =
       boundary::BoundaryLoadSpec{}.min_node_mass_fraction * largest_density(particles_) * h * h;
   const int degree = shape_degree(case_.solver.shape_function);
-  for (const LoadSpec& load : case_.loads) {
+  top_columns_.resize(case_.loads.size());
+  for (std::size_t k = 0; k < case_.loads.size(); ++k) {
+    const LoadSpec& load = case_.loads[k];
     TopNodeLoad entry;
     if (load.apply_on == LoadTarget::kGridTopNodes && degree > 1) {
       entry = bspline_top_load(load, occupied);
+      top_columns_[k] = bspline_top_columns(load, occupied);
     } else if (load.apply_on == LoadTarget::kGridTopNodes) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
         if (top[static_cast<std::size_t>(i)] < 0) continue;
@@ -237,6 +246,84 @@ MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const LoadSpec& load,
   return entry;
 }
 
+std::vector<MpmSolver::TopColumn> MpmSolver::bspline_top_columns(
+    const LoadSpec& load, const std::vector<char>& occupied) const {
+  const Grid& grid = case_.grid;
+  const double h = grid.cell_size;
+  const int degree = shape_degree(case_.solver.shape_function);
+  // 4-point Gauss-Legendre on [-1, 1]: exact on the pieces (degree <= 3) between half cells.
+  const double xg[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
+                        0.8611363115940526};
+  const double wg[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
+                        0.3478548451374538};
+  std::vector<TopColumn> columns;
+  for (int c = 0; c < grid.n_cells_x; ++c) {
+    int top_row = -1;
+    for (int j = grid.n_cells_y - 1; j >= 0 && top_row < 0; --j) {
+      if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) top_row = j + 1;
+    }
+    const double left = grid.origin.x() + c * h;
+    const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
+    if (top_row < 0 || b <= a) continue;
+    TopColumn column;
+    column.y0 = grid.origin.y() + top_row * h;
+    for (std::size_t p = 0; p < particles_.size(); ++p) {
+      const Vec2& x = particles_.position[p];
+      if (grid.cell_i(x.x()) == c && grid.cell_j(x.y()) == top_row - 1 &&
+          x.y() + particles_.half_length[p].y() >= column.y0 - 1e-9 * h) {
+        column.particles.push_back(static_cast<int>(p));
+      }
+    }
+    // int N_i dx over [a, b], the piece split at the cell's midline.
+    std::vector<double> integral(static_cast<std::size_t>(grid.n_nodes_x()), 0.0);
+    const double mid = left + 0.5 * h;
+    for (const auto& [lo, hi] : {std::pair(a, std::min(b, mid)), std::pair(std::max(a, mid), b)}) {
+      if (hi <= lo) continue;
+      for (int g = 0; g < 4; ++g) {
+        const double x = 0.5 * (lo + hi) + 0.5 * (hi - lo) * xg[g];
+        double value[4], derivative[4];
+        const int base =
+            bspline_1d(degree, grid.n_cells_x, (x - grid.origin.x()) / h, value, derivative);
+        for (int i = 0; i <= degree; ++i) {
+          integral[static_cast<std::size_t>(base + i)] += 0.5 * (hi - lo) * wg[g] * value[i];
+        }
+      }
+    }
+    for (int i = 0; i < grid.n_nodes_x(); ++i) {
+      if (integral[static_cast<std::size_t>(i)] != 0.0)
+        column.x_integral.emplace_back(i, integral[static_cast<std::size_t>(i)]);
+    }
+    columns.push_back(std::move(column));
+  }
+  return columns;
+}
+
+void MpmSolver::add_bspline_top_load(std::size_t k, double q) {
+  const Grid& grid = case_.grid;
+  const int degree = shape_degree(case_.solver.shape_function);
+  for (const TopColumn& column : top_columns_[k]) {
+    double dy = 0.0;
+    for (const int p : column.particles) {
+      const auto i = static_cast<std::size_t>(p);
+      dy += particles_.position[i].y() - particles_.reference_position[i].y();
+    }
+    if (!column.particles.empty()) dy /= static_cast<double>(column.particles.size());
+    const double u = (column.y0 + dy - grid.origin.y()) / grid.cell_size;
+    if (!(u >= 0.0 && u <= grid.n_cells_y)) continue;  // the body has left the grid there
+    double value[4], derivative[4];
+    const int base = bspline_1d(degree, grid.n_cells_y, u, value, derivative);
+    for (const auto& [i, integral] : column.x_integral) {
+      for (int b = 0; b <= degree; ++b) {
+        if (value[b] == 0.0) continue;
+        const auto node = static_cast<std::size_t>(grid.node_index(i, base + b));
+        const Vec2 force(0.0, -q * integral * value[b]);
+        grid_.external_force[node] += force;
+        load_work_recorder_.add(k, node, force);
+      }
+    }
+  }
+}
+
 double MpmSolver::gravity_factor(double t) const {
   if (counters_.gravity_full || case_.gravity.ramp_time <= 0.0) return 1.0;
   return std::min(1.0, t / case_.gravity.ramp_time);
@@ -265,7 +352,10 @@ void MpmSolver::run_step() {
   // markers' advection) runs within the grid update's time.
   struct Stages {
     MpmSolver& s;
-    void particles_to_grid() { s.particles_to_grid<W>(); }
+    void particles_to_grid() {
+      s.particles_to_grid<W>();
+      s.tie_outer_nodes();
+    }
     void external_forces() { s.external_forces(); }
     void update_grid() {
       s.update_grid();
@@ -574,10 +664,14 @@ void MpmSolver::external_forces() {
     const LoadSpec& load = case_.loads[k];
     if (load.apply_on != LoadTarget::kGridTopNodes) continue;
     const double q = load.pressure * load.time_function.factor(counters_.time);
+    if (bspline && extension_.enabled()) {
+      add_bspline_top_load(k, q);
+      continue;
+    }
     const TopNodeLoad& top = top_loads_[k];
     for (std::size_t i = 0; i < top.node.size(); ++i) {
       auto node = static_cast<std::size_t>(top.node[i]);
-      if (bspline) {
+      if (bspline && !extension_.enabled()) {
         // A node too light to carry its share passes it down its node column.
         while (grid_.mass[node] <= light_node_mass_ && node >= row) node -= row;
       }
@@ -587,6 +681,35 @@ void MpmSolver::external_forces() {
     }
   }
   if (hook_) hook_(step_view(), grid_, grid_.external_force);
+  if (extension_.enabled()) {
+    // A load on a node that no particle reaches (its boundary within the node's support) goes
+    // through a tie as well.
+    loaded_massless_.clear();
+    for (std::size_t node = 0; node < grid_.mass.size(); ++node) {
+      if (!(grid_.mass[node] > 0.0) && extension_.tie_of(static_cast<int>(node)) < 0 &&
+          grid_.external_force[node] != grid_.body_force[node]) {
+        loaded_massless_.push_back(static_cast<int>(node));
+      }
+    }
+    if (!loaded_massless_.empty()) {
+      extension_.tie_massless(loaded_massless_, grid_.fixed, prescribed_.start(),
+                              prescribed_.end());
+    }
+    extension_.gather(std::span<Vec2>(grid_.external_force));
+    load_work_recorder_.tie(extension_);
+  }
+}
+
+void MpmSolver::tie_outer_nodes() {
+  if (!extension_.enabled()) return;
+  prescribed_.update(counters_.time, counters_.dt);
+  extension_.classify(grid_.mass, extension_density_, grid_.fixed, prescribed_.start(),
+                      prescribed_.end());
+  extension_.gather(std::span<double>(grid_.mass));
+  extension_.gather(std::span<Vec2>(grid_.momentum));
+  extension_.gather(std::span<Vec2>(grid_.internal_force));
+  extension_.gather(std::span<Vec2>(grid_.body_force));
+  extension_.gather(std::span<Vec2>(grid_.external_force));
 }
 
 void MpmSolver::update_grid() {
@@ -605,6 +728,9 @@ void MpmSolver::update_grid() {
                  prescribed_.end(), tiny, alpha, case_.solver.damping_form, dt, block);
     node_energy[k] = block;
   }
+  // The outer nodes move as the extended functions say (basis_extension.hpp).
+  extension_.extrapolate(std::span<Vec2>(grid_.velocity));
+  extension_.extrapolate(std::span<Vec2>(grid_.acceleration));
   NodeEnergy step;
   for (std::size_t k = 0; k < n_blocks; ++k) step.add(node_energy[k]);
   if (kinetic_stale_) counters_.energy.particle_kinetic = particle_kinetic_energy();
@@ -705,6 +831,7 @@ void MpmSolver::remap() {
   const std::size_t n_nodes = grid_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
   const Vec2* end = prescribed_.end().data();
+  extension_.gather(std::span<Vec2>(remapped_momentum_));
 #pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
   for (std::size_t node = 0; node < n_nodes; ++node) {
     const Vec2 p = remapped_momentum_[node];
@@ -712,6 +839,7 @@ void MpmSolver::remap() {
     remapped_velocity_[node] =
         node_velocity(grid_.mass[node], p, grid_.fixed[node], end[node], tiny);
   }
+  extension_.extrapolate(std::span<Vec2>(remapped_velocity_));
 }
 
 template <int W>

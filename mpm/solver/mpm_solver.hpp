@@ -151,6 +151,16 @@ class MpmSolver {
     std::vector<int> node;
     std::vector<double> vertical_force_per_kpa;  ///< kN per kPa (downwards positive)
   };
+  /// A grid_top_nodes load with B-splines, per loaded cell column: the height of the column's
+  /// top edge at the start, the particles whose squares reach it (the top layer), and
+  /// int N_i dx over the load's part of the edge for each node column i it reaches (m). In a
+  /// step the edge is at the start height plus the top layer's mean vertical displacement, and
+  /// node (i, j) takes -q int N_i dx N_j(y) (the traction integral on that horizontal edge).
+  struct TopColumn {
+    double y0 = 0.0;
+    std::vector<int> particles;
+    std::vector<std::pair<int, double>> x_integral;
+  };
   const std::vector<TopNodeLoad>& top_node_loads() const { return top_loads_; }
 
  private:
@@ -182,6 +192,12 @@ class MpmSolver {
   void build_top_node_loads();
   /// A grid_top_nodes load's forces with B-splines (build_top_node_loads); occupied: per cell.
   TopNodeLoad bspline_top_load(const LoadSpec& load, const std::vector<char>& occupied) const;
+  /// The top columns of a grid_top_nodes load with B-splines (TopColumn).
+  std::vector<TopColumn> bspline_top_columns(const LoadSpec& load,
+                                             const std::vector<char>& occupied) const;
+  /// Adds a grid_top_nodes load's forces at pressure q with B-splines, on the edges as they
+  /// have moved (TopColumn), to the grid and the load-work recorder (load k).
+  void add_bspline_top_load(std::size_t k, double q);
   double gravity_factor(double t) const;
   double particle_kinetic_energy() const;
 
@@ -195,10 +211,17 @@ class MpmSolver {
   ExternalForceHook hook_;
   GridVelocityHook velocity_hook_;
   std::vector<TopNodeLoad> top_loads_;
+  std::vector<std::vector<TopColumn>> top_columns_;  ///< per load (B-splines; empty otherwise)
   double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
   LoadWorkRecorder load_work_recorder_;
   std::vector<double> step_work_;  ///< the work of each load and constraint in this step
   PrescribedVelocity prescribed_;  ///< moving supports (boundary_conditions[].velocity)
+  BasisExtension extension_;       ///< the outer nodes' ties (solver.outer_node_fraction)
+  double extension_density_ = 0.0; ///< t/m^3, the densest particle's at the start
+  std::vector<int> loaded_massless_;  ///< nodes without mass or tie that took a load
+  /// Ties the outer nodes of this step (basis_extension.hpp) and gathers what the particles
+  /// gave them.
+  void tie_outer_nodes();
 
   // Per-step work arrays (sized once).
   /// Linear stencil of a particle: its cell (i, j) and local coordinates in [0, 1).

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -206,7 +207,8 @@ TEST(SolverPhysics, FreeVibrationConservesEnergy) {
 // support lies inside the loaded range (x = 1.5, 2 and 2.5 m). In the step, nodes too light to
 // carry their share (mass <= 0.01 of a full cell's: the rows above the top with one point per
 // cell, and next to the corners with two) pass it down their node column, which keeps all three
-// sums; no node that carries load is light.
+// sums; no node that carries load is light. That is the rule without ties
+// (solver.outer_node_fraction 0); GridTopLoadWithTiedBsplinesActsOnTheMovingTop has the default.
 TEST(SolverPhysics, GridTopLoadWithBsplinesIsTheIntegralAlongTheTop) {
   const double q = 10.0;
   for (const char* shape : {"quadratic_bspline", "cubic_bspline"}) {
@@ -224,6 +226,7 @@ TEST(SolverPhysics, GridTopLoadWithBsplinesIsTheIntegralAlongTheTop) {
         "time": {"end_time": 1.0}
       })");
       j["solver"]["shape_function"] = shape;
+      j["solver"]["outer_node_fraction"] = 0.0;
       j["bodies"][0]["points_per_cell"] = points_per_cell;
       const Case c = parse_case(j, "stepped block");
       MpmSolver solver(c);
@@ -265,6 +268,78 @@ TEST(SolverPhysics, GridTopLoadWithBsplinesIsTheIntegralAlongTheTop) {
         for (const int i : {3, 4, 5}) EXPECT_NEAR(column[i], -q * h, 1e-13) << "column " << i;
       }
       EXPECT_GT(light, 0) << "the light-node rule must be at work for the test to tell";
+    }
+  }
+}
+
+// The same stepped block with the default ties (basis_extension.hpp): the load acts on each
+// cell column's top edge as the top layer of points has moved, with the same forces as the
+// integral along the initial top while nothing has moved (first step); a node that takes a force
+// either keeps material after the ties or is tied. Then the block is lowered rigidly by 0.3 h:
+// the forces keep their sum and moment and move down with it (the grid reaches a cell below the
+// block, so that it stays on the grid).
+TEST(SolverPhysics, GridTopLoadWithTiedBsplinesActsOnTheMovingTop) {
+  const double q = 10.0;
+  for (const char* shape : {"quadratic_bspline", "cubic_bspline"}) {
+    SCOPED_TRACE(shape);
+    nlohmann::json j = nlohmann::json::parse(R"({
+      "grid": {"origin": [0, -0.5], "cell_size": 0.5, "n_cells": [10, 9]},
+      "materials": [{"name": "soil", "model": "linear_elastic", "youngs_modulus": 10000.0,
+                     "poisson_ratio": 0.3, "unit_weight": 20.0}],
+      "bodies": [{"name": "block", "material": "soil", "points_per_cell": 2,
+                  "polygon": [[0, 0], [4, 0], [4, 2], [2, 2], [2, 3], [0, 3]]}],
+      "gravity": {"g": 0.0},
+      "boundary_conditions": [{"where": "bottom", "fix": "xy"}],
+      "loads": [{"type": "vertical_pressure", "pressure": 10.0, "x_range": [0.3, 3.7]}],
+      "time": {"end_time": 1.0}
+    })");
+    j["solver"]["shape_function"] = shape;
+    const Case c = parse_case(j, "stepped block");
+    ASSERT_EQ(c.solver.outer_node_fraction, kDefaultOuterNodeFraction);
+    for (const double lowered : {0.0, 0.3}) {
+      SCOPED_TRACE("lowered by " + std::to_string(lowered) + " h");
+      MpmSolver solver(c);
+      const Grid& grid = solver.grid();
+      const double h = grid.cell_size;
+      for (Vec2& x : solver.mutable_particles().position) x.y() -= lowered * h;
+      const auto& load = solver.top_node_loads().at(0);
+      std::vector<double> stored(static_cast<std::size_t>(grid.n_nodes()), 0.0);
+      for (std::size_t k = 0; k < load.node.size(); ++k)
+        stored[static_cast<std::size_t>(load.node[k])] = -q * load.vertical_force_per_kpa[k];
+      std::vector<double> applied;
+      solver.set_external_force_hook([&](const StepView&, GridState&, std::vector<Vec2>& force) {
+        for (const Vec2& f : force) applied.push_back(f.y());
+      });
+      solver.step();
+      // The step's ties, those of loaded nodes without material included.
+      const GridState& state = solver.grid_state();
+      ASSERT_NE(state.ties, nullptr);
+      int untied_without_mass = 0, tied_with_force = 0;
+      for (std::size_t node = 0; node < applied.size(); ++node) {
+        if (applied[node] == 0.0) continue;
+        const bool tied = std::count(state.ties->outer.begin(), state.ties->outer.end(),
+                                     static_cast<int>(node)) > 0;
+        tied_with_force += tied;
+        untied_without_mass += !tied && !(state.mass[node] > 0.0);
+      }
+      EXPECT_EQ(untied_without_mass, 0);
+      EXPECT_GT(tied_with_force, 0) << "the ties must be at work for the test to tell";
+      double force = 0.0, moment = 0.0, first_moment_y = 0.0, stored_first_moment_y = 0.0;
+      for (int node = 0; node < grid.n_nodes(); ++node) {
+        const double f = applied[static_cast<std::size_t>(node)];
+        const Vec2 x = grid.node_position(node % grid.n_nodes_x(), node / grid.n_nodes_x());
+        force += f;
+        moment += f * x.x();
+        first_moment_y += f * x.y();
+        stored_first_moment_y += stored[static_cast<std::size_t>(node)] * x.y();
+        if (lowered == 0.0) {
+          EXPECT_NEAR(f, stored[static_cast<std::size_t>(node)], 1e-12) << "node " << node;
+        }
+      }
+      EXPECT_NEAR(force, -q * 3.4, 1e-12);
+      EXPECT_NEAR(moment, -q * 0.5 * (3.7 * 3.7 - 0.3 * 0.3), 1e-12);
+      // Linear precision along y: the forces' centre moves down with the top.
+      EXPECT_NEAR(first_moment_y, stored_first_moment_y - force * lowered * h, 1e-11);
     }
   }
 }
