@@ -76,6 +76,26 @@ def column_displacement(
     return -(surcharge * y0 + unit_weight * (height * y0 - 0.5 * y0**2)) / m
 
 
+def column_displacement_large_strain(
+    y0,
+    height: float,
+    surcharge: float,
+    unit_weight: float,
+    youngs_modulus: float,
+    poisson_ratio: float,
+):
+    """Vertical displacement (m, negative down) at reference height y0 of the column of
+    column_settlement_large_strain: the integral of the stretch exp(-(q + gamma (H - X)) / M) - 1
+    from the base, (M / gamma) exp(-(q + gamma H) / M) (exp(gamma y0 / M) - 1) - y0 (for
+    gamma = 0, y0 (exp(-q / M) - 1))."""
+    m = constrained_modulus(youngs_modulus, poisson_ratio)
+    y0 = np.asarray(y0, dtype=float)
+    if unit_weight == 0.0:
+        return y0 * np.expm1(-surcharge / m)
+    g = unit_weight / m
+    return np.exp(-(surcharge + unit_weight * height) / m) * np.expm1(g * y0) / g - y0
+
+
 def column_vertical_stress(y, height: float, surcharge: float, unit_weight: float):
     """syy(y) (kPa, tension positive) in a column with base at y = 0: -(q + gamma (H - y))."""
     return -(surcharge + unit_weight * (height - np.asarray(y, dtype=float)))

@@ -47,7 +47,9 @@ double lagrange(int lo, int q, int i, int j) {
 }
 
 // Nodes between j and the index range [lo, lo + q] (0 inside it).
-int box_distance(int lo, int q, int j) { return std::max({0, lo - j, j - (lo + q)}); }
+int box_distance(int lo, int q, int j) {
+  return std::max({0, lo - j, j - (lo + q)});
+}
 
 }  // namespace
 

@@ -10,8 +10,10 @@
 // unknown of its own: its value is the extrapolation of an array of (q + 1) x (q + 1) inner
 // nodes, v_j = sum_i e_ij v_i, with the tensor-product Lagrange weights in the node indices,
 //   e_ij = prod_d prod_{m != i_d} (j_d - m) / (i_d - m),  m over the array's indices along d.
-// q is the functions' degree p (1 for linear and uGIMP), lower only where no array of that
-// degree fits (a body thinner than p + 1 inner nodes). The array is the one nearest to j (the
+// q is the functions' degree p (1 for linear and uGIMP), lower where no array of that degree
+// fits (a body thinner than p + 1 inner nodes) or where the tie's negative weights would leave
+// an inner node with less than half its own mass (a lumped mass that stays positive keeps the
+// explicit step stable). The array is the one nearest to j (the
 // box distance in nodes, then its centre's distance, then the lower indices), at most two
 // nodes away. Since the weights reproduce every polynomial of degree q in the indices, and the
 // B-spline coefficients of a polynomial of degree <= p are such polynomials (away from the
@@ -23,10 +25,11 @@
 //
 // In a step (the Galerkin method with the extended functions, lumped): what the particles and
 // loads give each node is summed with the plain functions, then gathered, x_i += e_ij x_j for
-// mass, momentum and forces, and the outer node emptied; the inner nodes are updated; the
-// outer nodes' velocity and acceleration are extrapolated from them, which is the velocity the
-// extended functions give at every point. Every force then acts on a motion the particles see,
-// and no node has a sliver of mass under a force of a full one.
+// mass, momentum and forces, and the outer node emptied (a node without material that a load
+// reaches, its boundary within the node's support, is tied as well: tie_massless); the inner nodes
+// are updated; the outer nodes' velocity and acceleration are extrapolated from them, which is the
+// velocity the extended functions give at every point. Every force then acts on a motion the
+// particles see, and no node has a sliver of mass under a force of a full one.
 //
 // Constraints: a node with fixed components is outer only if every node of its array fixes the
 // same components to the same prescribed velocities (a roller on the grid's edge: the node

@@ -21,6 +21,8 @@
 //   lumped-mass system of the B-splines, edges included, gives 1.31 h / c_p (quadratic) and
 //   1.44 h / c_p (cubic) on long lines, and no less than 1.22 h / c_p on the shortest grids
 //   allowed (tests/cpp/core/test_shape_functions.cpp), so h / c_p is on the safe side.
+// * Nodes with almost no material under them keep no unknown of their own with B-splines by
+//   default: they are tied to inner nodes (extended B-splines, mpm/core/basis_extension.hpp).
 // * Isoparametric 4-node quadrilateral functions in natural coordinates (xi, eta) in [-1, 1]^2
 //   for the FEM, node order counter-clockwise from (-1, -1).
 #pragma once

@@ -35,6 +35,14 @@ std::string describe_particle(const Particles& particles, std::size_t p) {
   return s.str();
 }
 
+// The node row of cell column c's top edge: the top of its highest occupied cell (-1: none).
+int top_edge_row(const Grid& grid, const std::vector<char>& occupied, int c) {
+  for (int j = grid.n_cells_y - 1; j >= 0; --j) {
+    if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) return j + 1;
+  }
+  return -1;
+}
+
 }  // namespace
 
 MpmSolver::MpmSolver(const Case& c) : case_(c) {
@@ -223,10 +231,7 @@ MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const LoadSpec& load,
   boundary::TractionLaw law;
   law.normal_scale = Vec2(0.0, -1.0);
   for (int c = 0; c < grid.n_cells_x; ++c) {
-    int top_row = -1;
-    for (int j = grid.n_cells_y - 1; j >= 0 && top_row < 0; --j) {
-      if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) top_row = j + 1;
-    }
+    const int top_row = top_edge_row(grid, occupied, c);
     const double left = grid.origin.x() + c * h;
     const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
     if (top_row < 0 || b <= a) continue;
@@ -258,10 +263,7 @@ std::vector<MpmSolver::TopColumn> MpmSolver::bspline_top_columns(
                         0.3478548451374538};
   std::vector<TopColumn> columns;
   for (int c = 0; c < grid.n_cells_x; ++c) {
-    int top_row = -1;
-    for (int j = grid.n_cells_y - 1; j >= 0 && top_row < 0; --j) {
-      if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) top_row = j + 1;
-    }
+    const int top_row = top_edge_row(grid, occupied, c);
     const double left = grid.origin.x() + c * h;
     const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
     if (top_row < 0 || b <= a) continue;
@@ -702,6 +704,7 @@ void MpmSolver::external_forces() {
 
 void MpmSolver::tie_outer_nodes() {
   if (!extension_.enabled()) return;
+  grid_.ties = &extension_.ties();  // set anew each step: the solver may have been moved
   prescribed_.update(counters_.time, counters_.dt);
   extension_.classify(grid_.mass, extension_density_, grid_.fixed, prescribed_.start(),
                       prescribed_.end());

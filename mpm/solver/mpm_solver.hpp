@@ -214,10 +214,10 @@ class MpmSolver {
   std::vector<std::vector<TopColumn>> top_columns_;  ///< per load (B-splines; empty otherwise)
   double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
   LoadWorkRecorder load_work_recorder_;
-  std::vector<double> step_work_;  ///< the work of each load and constraint in this step
-  PrescribedVelocity prescribed_;  ///< moving supports (boundary_conditions[].velocity)
-  BasisExtension extension_;       ///< the outer nodes' ties (solver.outer_node_fraction)
-  double extension_density_ = 0.0; ///< t/m^3, the densest particle's at the start
+  std::vector<double> step_work_;     ///< the work of each load and constraint in this step
+  PrescribedVelocity prescribed_;     ///< moving supports (boundary_conditions[].velocity)
+  BasisExtension extension_;          ///< the outer nodes' ties (solver.outer_node_fraction)
+  double extension_density_ = 0.0;    ///< t/m^3, the densest particle's at the start
   std::vector<int> loaded_massless_;  ///< nodes without mass or tie that took a load
   /// Ties the outer nodes of this step (basis_extension.hpp) and gathers what the particles
   /// gave them.
