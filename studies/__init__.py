@@ -24,4 +24,5 @@ STUDY_NAMES = (
     "parametric",
     "convergence",
     "benchmarks",
+    "stability",
 )

@@ -151,10 +151,33 @@ BENCHMARK(BM_Step)
     ->UseRealTime()
     ->MinTime(1.0);
 
+// The B-spline blocks with the ties of nearly empty nodes (mpm/core/basis_extension.hpp, the
+// default) and without them (solver.outer_node_fraction 0, the step before the ties existed):
+// what the ties cost per particle-step, side by side in one run.
+void BM_StepTies(benchmark::State& state) {
+  const double cell = 0.5 / static_cast<double>(state.range(0));
+  const std::string shape = state.range(1) == 2 ? "quadratic_bspline" : "cubic_bspline";
+  const bool ties = state.range(2) != 0;
+  omp_set_num_threads(1);
+  pfm::Case c = bearing_block(cell, false, shape);
+  if (!ties) c.solver.outer_node_fraction = 0.0;
+  pfm::MpmSolver solver(c);
+  time_steps(state, solver);
+  state.SetLabel(shape + (ties ? ", ties" : ", no ties") + ", 1 thread");
+}
+
 // range(0): refinement (4 -> 19k, 16 -> 307k); range(1): 0 linear, 1 uGIMP, 2 quadratic and
 // 3 cubic B-splines; range(2): 0 no anti-locking, 1 B-bar; range(3): threads.
 BENCHMARK(BM_StepShapes)
     ->ArgsProduct({{4, 16}, {0, 1, 2, 3}, {0, 1}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(1.0);
+
+// range(0): refinement (4 -> 19k, 16 -> 307k); range(1): 2 quadratic, 3 cubic B-splines;
+// range(2): 0 without the ties, 1 with them.
+BENCHMARK(BM_StepTies)
+    ->ArgsProduct({{4, 16}, {2, 3}, {0, 1}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MinTime(1.0);

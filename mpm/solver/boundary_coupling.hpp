@@ -16,15 +16,17 @@
 // x_range is tied to the particle of the body's top layer whose x is closest to x_e (ties: the
 // lower id); the end then moves with that particle's horizontal displacement.
 //
-// Lost load. A node is too light to carry a load when its mass is <= min_node_mass_fraction x a
-// full cell's (the densest particle's density x h^2). With redistribute_lost_load (the
-// default), such a node that receives a load carries no force of its own at all: the load and
-// its internal force are both moved to the nearest heavier nodes, conserving the sum and the
-// moment (surface_load.hpp); only its own gravity stays. Moving the load alone would leave the
-// internal force, which the load balances where the stress is what the load demands, to
-// accelerate a node of tiny mass: in a free square under a follower pressure (3 m, turned 20
-// degrees, test_boundary_coupling) the points one cell inside were 4.8 % off the exact uniform
-// stress with the load alone moved, 1.7 % with both.
+// Lost load (without the ties of nearly empty nodes, mpm/core/basis_extension.hpp: with them
+// every load goes to its nodes and the solver passes the tied nodes' loads on through the ties,
+// so nothing is lost or redistributed). A node is too light to carry a load when its mass is
+// <= min_node_mass_fraction x a full cell's (the densest particle's density x h^2). With
+// redistribute_lost_load (the default), such a node that receives a load carries no force of its
+// own at all: the load and its internal force are both moved to the nearest heavier nodes,
+// conserving the sum and the moment (surface_load.hpp); only its own gravity stays. Moving the load
+// alone would leave the internal force, which the load balances where the stress is what the load
+// demands, to accelerate a node of tiny mass: in a free square under a follower pressure (3 m,
+// turned 20 degrees, test_boundary_coupling) the points one cell inside were 4.8 % off the exact
+// uniform stress with the load alone moved, 1.7 % with both.
 //
 // Diagnostics per step and load (kN/m): target = the exact resultant of the load on the loaded
 // parts of the curves; applied = the sum of the nodal forces on the grid; lost = the part on

@@ -846,18 +846,19 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                    "must be in [0, 0.5] (0 leaves every node free)");
     }
   }
-  // The ties of nearly empty nodes (mpm/core/basis_extension.hpp): on by default with B-splines,
-  // but not with constraints on the detected boundary, whose penalty forces and implicit nodal
-  // stiffness go to the nodes with mass (boundary_constraint.hpp), not through the ties.
+  // The ties of nearly empty nodes (mpm/core/basis_extension.hpp): on by default with uGIMP and
+  // B-splines (linear functions, the thesis's, keep their results), but not with constraints on the
+  // detected boundary, whose penalty forces and implicit nodal stiffness go to the nodes with mass
+  // (boundary_constraint.hpp), not through the ties.
   if (!c.constraints.empty() && outer_node_fraction.value_or(0.0) > 0.0) {
     root.at("solver")
         .at("outer_node_fraction")
         .fail(
             "must be 0 in a case with constraints (the constraints do not act through tied nodes)");
   }
-  c.solver.outer_node_fraction = outer_node_fraction.value_or(
-      shape_degree(c.solver.shape_function) > 1 && c.constraints.empty() ? kDefaultOuterNodeFraction
-                                                                         : 0.0);
+  const bool tied = c.solver.shape_function != ShapeFunctionKind::kLinear && c.constraints.empty();
+  c.solver.outer_node_fraction =
+      outer_node_fraction.value_or(tied ? kDefaultOuterNodeFraction : 0.0);
   // Checks that need the shape function, which has a default.
   {
     const int degree = shape_degree(c.solver.shape_function);

@@ -149,7 +149,7 @@ struct ConstraintSpec {
 
 enum class Scheme { kMUSL, kUSL };
 
-/// solver.outer_node_fraction's default with B-splines (linear and uGIMP: 0).
+/// solver.outer_node_fraction's default with uGIMP and B-splines (linear functions: 0).
 inline constexpr double kDefaultOuterNodeFraction = 0.05;
 
 struct SolverSpec {
@@ -166,7 +166,7 @@ struct SolverSpec {
   bool mean_dilatation = false;
   /// Nodes whose mass is below this share of a full support's are tied to their interior
   /// neighbours (mpm/core/basis_extension.hpp); 0 leaves every node free. Set by the case
-  /// reader: kDefaultOuterNodeFraction with B-splines, 0 with linear and uGIMP functions.
+  /// reader: kDefaultOuterNodeFraction with uGIMP and B-splines, 0 with linear functions.
   double outer_node_fraction = 0.0;
 };
 
