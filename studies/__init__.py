@@ -25,4 +25,5 @@ STUDY_NAMES = (
     "convergence",
     "benchmarks",
     "stability",
+    "near_boundary",
 )
