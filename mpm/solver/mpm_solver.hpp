@@ -4,7 +4,11 @@
 // locate_particles, run_stages of step_scheme.hpp calls them in the scheme's order, as the
 // UL-FEM's):
 //   locate_particles      shape functions at the particles, particles binned by band
-//   particles_to_grid     nodal mass, momentum and internal force  (+ body force)
+//   particles_to_grid     nodal mass, momentum and internal force  (+ body force); then the
+//                         nodes with nearly no material are tied to inner nodes and what they
+//                         hold is gathered there (solver.outer_node_fraction,
+//                         mpm/core/basis_extension.hpp; the loads on them follow after
+//                         external_forces, their velocities after update_grid and remap)
 //   external_forces       surface loads on the grid (grid-aligned, or on the detected boundary)
 //   update_grid           local damping, acceleration, velocity, velocity constraints
 //   grid_to_particles     particle velocity (FLIP, blended with PIC by solver.pic_fraction)
@@ -70,7 +74,8 @@ struct StepView {
 };
 
 /// Extra external forces added to the grid each step (the boundary-traction stage hooks in
-/// here). Called after particles_to_grid with the nodal masses and internal forces known; adds
+/// here). Called after particles_to_grid with the nodal masses and internal forces known (after
+/// the ties: a tied node shows no mass, and a force added to it goes through its tie); adds
 /// into `force` (grid_state.external_force). It may move internal forces between nodes,
 /// conserving their sum and moment (the lost-load rule of boundary_coupling.hpp).
 using ExternalForceHook =
@@ -143,10 +148,11 @@ class MpmSolver {
   /// surface, the top edge of each cell column's highest occupied cell (exposed for tests).
   /// Linear and uGIMP: the top nodes' hat integrals over x_range (a top node that the body
   /// leaves carries its force on nothing, as in the thesis). B-splines: the integrals of N_I
-  /// along the top, on the node rows next to it too; in each step a node too light to carry
-  /// its share (mass <= 0.01 of a full cell's, the detected boundary's rule) passes it down its
-  /// node column, which keeps the resultant and the moment (the rows above the top hold little
-  /// mass at the start and none once the body settles).
+  /// along the initial top, on the node rows next to it too. With ties (the default) the step
+  /// applies them on the top edge as it has moved (TopColumn); without, in each step a node too
+  /// light to carry its share (mass <= 0.01 of a full cell's, the detected boundary's rule)
+  /// passes it down its node column, which keeps the resultant and the moment (the rows above
+  /// the top hold little mass at the start and none once the body settles).
   struct TopNodeLoad {
     std::vector<int> node;
     std::vector<double> vertical_force_per_kpa;  ///< kN per kPa (downwards positive)

@@ -42,29 +42,35 @@ def column_case(shape_function: str, apply_on: str) -> dict:
     return case
 
 
-@pytest.mark.parametrize("apply_on", ["detected_boundary", "grid_top_nodes"])
-@pytest.mark.parametrize("shape_function", ["quadratic_bspline", "cubic_bspline"])
-def test_column_under_a_surcharge_rests_exact_up_to_its_top(
-    run_case, tmp_path, shape_function, apply_on
-):
-    result = run_case(column_case(shape_function, apply_on), tmp_path, "--threads", "1")
+def rested_top_row(run_case, case: dict, folder):
+    """Runs the column case; asserts it is at rest at END and not growing over the last half and
+    that its ledger closes; returns the top row of points and its reference height."""
+    result = run_case(case, folder, "--threads", "1")
     assert result.returncode == 0, result.stderr
-    out = tmp_path / "out"
+    out = folder / "out"
     series = pd.read_csv(out / "timeseries.csv")
     work = series["external_work"].iloc[-1]
     kinetic = series["kinetic_energy"]
     half = kinetic[series["time"] >= END / 2 - 1e-9].iloc[0]
     assert kinetic.iloc[-1] < 1e-6 * work, (kinetic.iloc[-1], work)
     assert kinetic.iloc[-1] <= 1.01 * half, (half, kinetic.iloc[-1])
+    assert_ledger_closes(out, END)
     points = pd.read_csv(out / "final_particles.csv")
     reference_y = (points["y"] - points["uy"]).round(9)
-    top = points[reference_y == reference_y.max()]
     y0 = float(reference_y.max())
+    return points[reference_y == y0], y0
+
+
+@pytest.mark.parametrize("apply_on", ["detected_boundary", "grid_top_nodes"])
+@pytest.mark.parametrize("shape_function", ["quadratic_bspline", "cubic_bspline"])
+def test_column_under_a_surcharge_rests_exact_up_to_its_top(
+    run_case, tmp_path, shape_function, apply_on
+):
+    top, y0 = rested_top_row(run_case, column_case(shape_function, apply_on), tmp_path)
     exact_u = analytic.column_displacement_large_strain(y0, H, Q, GAMMA, E, NU)
     assert top["uy"].mean() == pytest.approx(exact_u, rel=0.005)
     exact_syy = analytic.column_vertical_stress(y0, H, Q, GAMMA)
     assert top["syy"].mean() == pytest.approx(exact_syy, rel=0.03)
-    assert_ledger_closes(out, END)
 
 
 @pytest.mark.parametrize("shape_function", ["linear", "gimp"])
@@ -77,18 +83,6 @@ def test_column_under_a_detected_surcharge_rests_with_linear_functions_and_ugimp
     case = column_case(shape_function, "detected_boundary")
     if shape_function == "gimp":
         case = with_margin(case)
-    result = run_case(case, tmp_path, "--threads", "1")
-    assert result.returncode == 0, result.stderr
-    out = tmp_path / "out"
-    series = pd.read_csv(out / "timeseries.csv")
-    work = series["external_work"].iloc[-1]
-    kinetic = series["kinetic_energy"]
-    half = kinetic[series["time"] >= END / 2 - 1e-9].iloc[0]
-    assert kinetic.iloc[-1] < 1e-6 * work, (kinetic.iloc[-1], work)
-    assert kinetic.iloc[-1] <= 1.01 * half, (half, kinetic.iloc[-1])
-    points = pd.read_csv(out / "final_particles.csv")
-    reference_y = (points["y"] - points["uy"]).round(9)
-    y0 = float(reference_y.max())
+    top, y0 = rested_top_row(run_case, case, tmp_path)
     exact_u = analytic.column_displacement_large_strain(y0, H, Q, GAMMA, E, NU)
-    assert points[reference_y == y0]["uy"].mean() == pytest.approx(exact_u, rel=0.01)
-    assert_ledger_closes(out, END)
+    assert top["uy"].mean() == pytest.approx(exact_u, rel=0.01)
