@@ -14,7 +14,7 @@ interior, d >= 3; per bin the largest and the root mean square error.
 
 Table ``near_boundary`` (case, shape function, h, bin, points, max and rms error), figure
 ``near_boundary.png`` (rms error against the distance, one panel per case, interior as the last
-point). Metrics ``near_boundary.<case>.<shape>.h<k>.max_<bin>`` and ``.rms_<bin>`` with k = 1 / h
+point; a colour per shape function, a marker per cell size). Metrics ``near_boundary.<case>.<shape>.h<k>.max_<bin>`` and ``.rms_<bin>`` with k = 1 / h
 in cells per metre (4, 8, 16) and bin ``0_1``, ``1_2``, ``2_3`` or ``interior``; gated: the
 column's rms over each of its first two cells with B-splines within 3 %; the others are
 reported. The quick variant
@@ -193,6 +193,7 @@ def figure_of(table: pd.DataFrame):
     )
     centres = {"0_1": 0.5, "1_2": 1.5, "2_3": 2.5, "interior": 4.0}
     markers = {0.25: "o", 0.125: "s", 0.0625: "^"}
+    colours = dict(zip(SHAPES, ("tab:grey", "tab:green", "tab:blue", "tab:red")))
     for axis, case in zip(axes[0], cases):
         for (shape, h), group in table[table["case"] == case].groupby(
             ["shape_function", "h"]
@@ -201,6 +202,7 @@ def figure_of(table: pd.DataFrame):
                 [centres[b] for b in group["bin"]],
                 np.clip(group["rms_error"], 1e-6, None),
                 marker=markers.get(h, "x"),
+                color=colours.get(shape),
                 label=f"{shape}, h = {h:g}",
                 linewidth=0.8,
             )
