@@ -84,7 +84,8 @@ void BasisExtension::classify(std::span<const double> mass, double density,
   if (!enabled()) return;
   const int n_nodes = grid_.n_nodes();
   const int nx = grid_.n_nodes_x();
-  std::vector<int> outer;
+  std::vector<int>& outer = outer_;
+  outer.clear();
   for (int node = 0; node < n_nodes; ++node) {
     const double m = mass[static_cast<std::size_t>(node)];
     const bool inner = m >= fraction_ * density * support(node);

@@ -74,8 +74,8 @@ class BasisExtension {
 
   /// Ties nodes without mass that have come to carry a force after classify() (a load whose
   /// boundary lies in the support of a node that no particle reaches): appended to ties(),
-  /// with the arrays of classify() (degree p: they take no mass from their array). Returns the
-  /// nodes that no array within reach could take.
+  /// with the arrays of classify() (degree p: they take no mass from their array). Returns how
+  /// many of them no array within reach could take (their loads then act on nothing).
   int tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
                    std::span<const Vec2> start, std::span<const Vec2> end);
 
@@ -131,6 +131,7 @@ class BasisExtension {
   std::vector<double> support_x_, support_y_;  ///< int N dx per node column / row, m
   std::vector<char> inner_;                    ///< per node, this step
   std::vector<int> tie_of_;                    ///< per node, this step
+  std::vector<int> outer_;                     ///< the outer nodes of this step
   std::vector<int> degree_cap_;                ///< per outer node of this step
   std::vector<std::size_t> tied_;              ///< the outer node of each tie
   std::vector<double> gathered_;               ///< the masses after the ties
