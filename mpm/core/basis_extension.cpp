@@ -126,19 +126,15 @@ void BasisExtension::classify(std::span<const double> mass, double density,
   }
 }
 
-int BasisExtension::tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
-                                 std::span<const Vec2> start, std::span<const Vec2> end) {
-  int untied = 0;
+void BasisExtension::tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
+                                  std::span<const Vec2> start, std::span<const Vec2> end) {
   const int nx = grid_.n_nodes_x();
   for (const int j : nodes) {
     if (tie_of_[static_cast<std::size_t>(j)] >= 0 || inner_[static_cast<std::size_t>(j)]) continue;
     if (tie(j % nx, j / nx, degree_, fixed, start, end)) {
       tie_of_[static_cast<std::size_t>(j)] = static_cast<int>(ties_.size()) - 1;
-    } else {
-      ++untied;
     }
   }
-  return untied;
 }
 
 bool BasisExtension::tie(int jx, int jy, int max_degree, std::span<const unsigned> fixed,

@@ -74,10 +74,11 @@ class BasisExtension {
 
   /// Ties nodes without mass that have come to carry a force after classify() (a load whose
   /// boundary lies in the support of a node that no particle reaches): appended to ties(),
-  /// with the arrays of classify() (degree p: they take no mass from their array). Returns how
-  /// many of them no array within reach could take (their loads then act on nothing).
-  int tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
-                   std::span<const Vec2> start, std::span<const Vec2> end);
+  /// with the arrays of classify() (degree p: they take no mass from their array). A node that
+  /// no array within reach can take stays as it is: its load acts on nothing, as on any node
+  /// without mass.
+  void tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
+                    std::span<const Vec2> start, std::span<const Vec2> end);
 
   const NodeTies& ties() const { return ties_; }
   bool enabled() const { return fraction_ > 0.0; }

@@ -88,7 +88,6 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   if (fraction > 0.0) {
     extension_ = BasisExtension(case_.grid, case_.solver.shape_function, fraction);
     extension_density_ = largest_density(particles_);
-    grid_.ties = &extension_.ties();
   }
   build_top_node_loads();
   point_energy_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, {});
@@ -193,8 +192,8 @@ void MpmSolver::build_top_node_loads() {
     const LoadSpec& load = case_.loads[k];
     TopNodeLoad entry;
     if (load.apply_on == LoadTarget::kGridTopNodes && degree > 1) {
-      entry = bspline_top_load(load, occupied);
       top_columns_[k] = bspline_top_columns(load, occupied);
+      entry = bspline_top_load(top_columns_[k]);
     } else if (load.apply_on == LoadTarget::kGridTopNodes) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
         if (top[static_cast<std::size_t>(i)] < 0) continue;
@@ -219,34 +218,34 @@ void MpmSolver::build_top_node_loads() {
   }
 }
 
-MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const LoadSpec& load,
-                                                   const std::vector<char>& occupied) const {
-  // f_I = int N_I t dx along the top of each cell column (the top edge of its highest occupied
-  // cell) over the load's range, t = (0, -1) per kPa: the traction integrator of the detected
-  // boundary with the same B-splines (exact on a straight segment), walked right to left so
-  // that the material lies below.
+template <class Add>
+void MpmSolver::for_each_top_force(const TopColumn& column, double y, Add&& add) const {
   const Grid& grid = case_.grid;
-  const double h = grid.cell_size;
-  boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(case_.solver.shape_function));
-  boundary::TractionLaw law;
-  law.normal_scale = Vec2(0.0, -1.0);
-  for (int c = 0; c < grid.n_cells_x; ++c) {
-    const int top_row = top_edge_row(grid, occupied, c);
-    const double left = grid.origin.x() + c * h;
-    const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
-    if (top_row < 0 || b <= a) continue;
-    const double y = grid.origin.y() + top_row * h;
-    integrator.add_segment(boundary::BezierSegment::line(Vec2(b, y), Vec2(a, y)), 0.0, 1.0, law,
-                           boundary::QuadratureOptions{});
+  const double u = (y - grid.origin.y()) / grid.cell_size;
+  if (!(u >= 0.0 && u <= grid.n_cells_y)) return;  // the body has left the grid there
+  const int degree = shape_degree(case_.solver.shape_function);
+  double value[4], derivative[4];
+  const int base = bspline_1d(degree, grid.n_cells_y, u, value, derivative);
+  for (const auto& [i, integral] : column.x_integral) {
+    for (int b = 0; b <= degree; ++b) {
+      if (value[b] != 0.0)
+        add(static_cast<std::size_t>(grid.node_index(i, base + b)), integral * value[b]);
+    }
   }
-  std::vector<Vec2> force(static_cast<std::size_t>(grid.n_nodes()));
-  integrator.take_forces(force);
+}
+
+MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const std::vector<TopColumn>& columns) const {
+  // f_I = int N_I t dx along the top of each cell column (TopColumn) at its initial height,
+  // t = (0, -1) per kPa, summed per node over the columns, in node order.
+  std::vector<double> down(static_cast<std::size_t>(case_.grid.n_nodes()), 0.0);
+  for (const TopColumn& column : columns) {
+    for_each_top_force(column, column.y0, [&](std::size_t node, double f) { down[node] += f; });
+  }
   TopNodeLoad entry;
-  for (int node = 0; node < grid.n_nodes(); ++node) {
-    const double down = -force[static_cast<std::size_t>(node)].y();
-    if (down == 0.0) continue;
-    entry.node.push_back(node);
-    entry.vertical_force_per_kpa.push_back(down);
+  for (std::size_t node = 0; node < down.size(); ++node) {
+    if (down[node] == 0.0) continue;
+    entry.node.push_back(static_cast<int>(node));
+    entry.vertical_force_per_kpa.push_back(down[node]);
   }
   return entry;
 }
@@ -301,8 +300,6 @@ std::vector<MpmSolver::TopColumn> MpmSolver::bspline_top_columns(
 }
 
 void MpmSolver::add_bspline_top_load(std::size_t k, double q) {
-  const Grid& grid = case_.grid;
-  const int degree = shape_degree(case_.solver.shape_function);
   for (const TopColumn& column : top_columns_[k]) {
     double dy = 0.0;
     for (const int p : column.particles) {
@@ -310,19 +307,11 @@ void MpmSolver::add_bspline_top_load(std::size_t k, double q) {
       dy += particles_.position[i].y() - particles_.reference_position[i].y();
     }
     if (!column.particles.empty()) dy /= static_cast<double>(column.particles.size());
-    const double u = (column.y0 + dy - grid.origin.y()) / grid.cell_size;
-    if (!(u >= 0.0 && u <= grid.n_cells_y)) continue;  // the body has left the grid there
-    double value[4], derivative[4];
-    const int base = bspline_1d(degree, grid.n_cells_y, u, value, derivative);
-    for (const auto& [i, integral] : column.x_integral) {
-      for (int b = 0; b <= degree; ++b) {
-        if (value[b] == 0.0) continue;
-        const auto node = static_cast<std::size_t>(grid.node_index(i, base + b));
-        const Vec2 force(0.0, -q * integral * value[b]);
-        grid_.external_force[node] += force;
-        load_work_recorder_.add(k, node, force);
-      }
-    }
+    for_each_top_force(column, column.y0 + dy, [&](std::size_t node, double f) {
+      const Vec2 force(0.0, -q * f);
+      grid_.external_force[node] += force;
+      load_work_recorder_.add(k, node, force);
+    });
   }
 }
 

@@ -196,8 +196,13 @@ class MpmSolver {
   void clear_band_cells(int band);
   void build_constraints();
   void build_top_node_loads();
-  /// A grid_top_nodes load's forces with B-splines (build_top_node_loads); occupied: per cell.
-  TopNodeLoad bspline_top_load(const LoadSpec& load, const std::vector<char>& occupied) const;
+  /// A grid_top_nodes load's forces with B-splines on its columns' initial top edges
+  /// (build_top_node_loads).
+  TopNodeLoad bspline_top_load(const std::vector<TopColumn>& columns) const;
+  /// Calls add(node, f) with f = int N_i dx N_j(y) (m, the force per kPa, downwards) for the
+  /// nodes (i, j) that a column's top edge at height y reaches.
+  template <class Add>
+  void for_each_top_force(const TopColumn& column, double y, Add&& add) const;
   /// The top columns of a grid_top_nodes load with B-splines (TopColumn).
   std::vector<TopColumn> bspline_top_columns(const LoadSpec& load,
                                              const std::vector<char>& occupied) const;
