@@ -95,8 +95,9 @@ def column_surcharge_case() -> dict:
 
 
 def with_margin(case: dict) -> dict:
-    """uGIMP on a case whose supports are the grid's edges (bottom, left, right): a margin of
-    2 cells, and walls as node sets at the old edges holding the nodes behind them."""
+    """A case whose supports are the grid's edges (bottom, left, right) moved inside the grid, as
+    uGIMP needs: a margin of 2 cells, and walls as node sets at the old edges holding the nodes
+    behind them."""
     grid = case["grid"]
     h = grid["cell_size"]
     x0, y0 = grid["origin"]

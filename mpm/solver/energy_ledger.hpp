@@ -58,6 +58,7 @@
 #include "mpm/core/basis_extension.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
+#include "mpm/core/wall_mirror.hpp"
 
 namespace pfm {
 
@@ -283,6 +284,31 @@ class LoadWorkRecorder {
              t < ties.start[static_cast<std::size_t>(k) + 1]; ++t) {
           entries.push_back({static_cast<std::size_t>(ties.inner[static_cast<std::size_t>(t)]),
                              ties.weight[static_cast<std::size_t>(t)] * f});
+        }
+      }
+    }
+  }
+  /// Moves the forces recorded on mirrored components of nodes behind a wall to their image
+  /// nodes and scales the images' own, as the grid's forces (WallMirror::gather); before tie().
+  void mirror(const WallMirror& mirror) {
+    if (mirror.empty()) return;
+    for (auto& entries : forces_) {
+      const std::size_t n = entries.size();
+      for (std::size_t e = 0; e < n; ++e) {
+        const int node = static_cast<int>(entries[e].node);
+        for (int d = 0; d < 2; ++d) {
+          const int image = mirror.image_at(node, d);
+          if (image >= 0 && mirror.active(static_cast<std::size_t>(image))) {
+            entries[e].force[d] *= mirror.scale(static_cast<std::size_t>(image));
+          }
+          double w = 0.0;
+          const int source = mirror.source_at(node, d, w);
+          if (source < 0 || !mirror.active(static_cast<std::size_t>(source))) continue;
+          const auto k = static_cast<std::size_t>(source);
+          Vec2 moved = Vec2::Zero();
+          moved[d] = mirror.scale(k) * w * entries[e].force[d];
+          entries[e].force[d] = 0.0;
+          entries.push_back({static_cast<std::size_t>(mirror.images()[k].node), moved});
         }
       }
     }

@@ -136,6 +136,7 @@ void MpmSolver::set_dt(double dt) {
 void MpmSolver::build_constraints() {
   const Grid& grid = case_.grid;
   prescribed_ = PrescribedVelocity(case_.boundary_conditions, grid_.fixed.size());
+  std::vector<unsigned> moving(grid_.fixed.size(), kFixNone);  // components a moving one fixes
   for (std::size_t k = 0; k < case_.boundary_conditions.size(); ++k) {
     const BoundaryCondition& bc = case_.boundary_conditions[k];
     for (int j = 0; j < grid.n_nodes_y(); ++j) {
@@ -157,10 +158,16 @@ void MpmSolver::build_constraints() {
         }
         if (!selected) continue;
         grid_.fixed[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
+        if (bc.moving) moving[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
         prescribed_.add(k, static_cast<std::size_t>(grid.node_index(i, j)));
       }
     }
   }
+  std::vector<unsigned> at_zero(grid_.fixed.size());
+  for (std::size_t node = 0; node < at_zero.size(); ++node) {
+    at_zero[node] = grid_.fixed[node] & ~moving[node];
+  }
+  mirror_ = WallMirror(grid, case_.solver.shape_function, at_zero);
 }
 
 void MpmSolver::build_top_node_loads() {
@@ -672,6 +679,8 @@ void MpmSolver::external_forces() {
     }
   }
   if (hook_) hook_(step_view(), grid_, grid_.external_force);
+  mirror_.gather_added(std::span<Vec2>(grid_.external_force));
+  load_work_recorder_.mirror(mirror_);
   if (extension_.enabled()) {
     // A load on a node that no particle reaches (its boundary within the node's support) goes
     // through a tie as well.
@@ -692,16 +701,29 @@ void MpmSolver::external_forces() {
 }
 
 void MpmSolver::tie_outer_nodes() {
-  if (!extension_.enabled()) return;
-  grid_.ties = &extension_.ties();  // set anew each step: the solver may have been moved
-  prescribed_.update(counters_.time, counters_.dt);
-  extension_.classify(grid_.mass, extension_density_, grid_.fixed, prescribed_.start(),
-                      prescribed_.end());
-  extension_.gather(std::span<double>(grid_.mass));
-  extension_.gather(std::span<Vec2>(grid_.momentum));
-  extension_.gather(std::span<Vec2>(grid_.internal_force));
-  extension_.gather(std::span<Vec2>(grid_.body_force));
-  extension_.gather(std::span<Vec2>(grid_.external_force));
+  if (extension_.enabled()) {
+    grid_.ties = &extension_.ties();  // set anew each step: the solver may have been moved
+    prescribed_.update(counters_.time, counters_.dt);
+    extension_.classify(grid_.mass, extension_density_, grid_.fixed, prescribed_.start(),
+                        prescribed_.end());
+  }
+  // The mirrors first: a node behind a wall may be tied too, by its free component.
+  if (!mirror_.empty()) {
+    mirror_.prepare(grid_.mass, extension_.enabled() ? &extension_ : nullptr);
+    mirror_.gather(std::span<Vec2>(grid_.momentum));
+    mirror_.gather(std::span<Vec2>(grid_.internal_force));
+    mirror_.gather(std::span<Vec2>(grid_.body_force));
+    mirror_.gather(std::span<Vec2>(grid_.external_force));
+  }
+  if (extension_.enabled()) {
+    extension_.gather(std::span<double>(grid_.mass));
+    extension_.gather(std::span<Vec2>(grid_.momentum));
+    extension_.gather(std::span<Vec2>(grid_.internal_force));
+    extension_.gather(std::span<Vec2>(grid_.body_force));
+    extension_.gather(std::span<Vec2>(grid_.external_force));
+  }
+  // The loads come next (external_forces): the mirrors gather what they add.
+  mirror_.hold(grid_.external_force);
 }
 
 void MpmSolver::update_grid() {
@@ -723,6 +745,8 @@ void MpmSolver::update_grid() {
   // The outer nodes move as the extended functions say (basis_extension.hpp).
   extension_.extrapolate(std::span<Vec2>(grid_.velocity));
   extension_.extrapolate(std::span<Vec2>(grid_.acceleration));
+  mirror_.extrapolate(std::span<Vec2>(grid_.velocity));
+  mirror_.extrapolate(std::span<Vec2>(grid_.acceleration));
   NodeEnergy step;
   for (std::size_t k = 0; k < n_blocks; ++k) step.add(node_energy[k]);
   if (kinetic_stale_) counters_.energy.particle_kinetic = particle_kinetic_energy();
@@ -823,6 +847,7 @@ void MpmSolver::remap() {
   const std::size_t n_nodes = grid_.mass.size();
   const double tiny = 1e-12 * particles_.mass.front();
   const Vec2* end = prescribed_.end().data();
+  mirror_.gather(std::span<Vec2>(remapped_momentum_));
   extension_.gather(std::span<Vec2>(remapped_momentum_));
 #pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
   for (std::size_t node = 0; node < n_nodes; ++node) {
@@ -832,6 +857,7 @@ void MpmSolver::remap() {
         node_velocity(grid_.mass[node], p, grid_.fixed[node], end[node], tiny);
   }
   extension_.extrapolate(std::span<Vec2>(remapped_velocity_));
+  mirror_.extrapolate(std::span<Vec2>(remapped_velocity_));
 }
 
 template <int W>

@@ -228,6 +228,7 @@ class MpmSolver {
   std::vector<double> step_work_;     ///< the work of each load and constraint in this step
   PrescribedVelocity prescribed_;     ///< moving supports (boundary_conditions[].velocity)
   BasisExtension extension_;          ///< the outer nodes' ties (solver.outer_node_fraction)
+  WallMirror mirror_;                 ///< the nodes behind walls inside the grid (B-splines)
   double extension_density_ = 0.0;    ///< t/m^3, the densest particle's at the start
   std::vector<int> loaded_massless_;  ///< nodes without mass or tie that took a load
   /// Ties the outer nodes of this step (basis_extension.hpp) and gathers what the particles
