@@ -71,7 +71,7 @@ from studies.metrics import (
 from studies.report.build import templates_dir
 
 # Relative settlement error against dolfinx, and kinetic energy / external work at the end.
-SETTLEMENT_LIMITS = {"mpm": 0.03, "ulfem": 0.02}
+SETTLEMENT_LIMITS = {"mpm": 0.01, "ulfem": 0.02}
 REST_LIMIT = 1e-4
 REFERENCE_STEPS = 20
 SOLVER_NAMES = {"mpm": "MPM (detected boundary)", "ulfem": "UL-FEM"}

@@ -23,20 +23,20 @@ def run(tmp_path_factory):
     return out, json.loads((out / "verdict.json").read_text())
 
 
-def test_the_settlement_is_dolfinx_static_answer_within_3_percent_mpm_and_2_percent_ulfem(
+def test_the_settlement_is_dolfinx_static_answer_within_1_percent_mpm_and_2_percent_ulfem(
     run,
 ):
     _, verdict = run
     reference = verdict["reference"]["settlement_m"]
     assert 0.03 < reference < 0.06  # E = 10 MPa, q = 100 kPa: a few centimetres
-    assert abs(verdict["mpm"]["settlement_m"] / reference - 1.0) <= 0.03
+    assert abs(verdict["mpm"]["settlement_m"] / reference - 1.0) <= 0.01
     assert abs(verdict["ulfem"]["settlement_m"] / reference - 1.0) <= 0.02
 
 
 def test_both_explicit_runs_end_at_rest_with_a_closed_energy_ledger(run):
     _, verdict = run
     for solver in ("mpm", "ulfem"):
-        assert verdict[solver]["final_time_s"] == pytest.approx(5.0, abs=0.01)
+        assert verdict[solver]["final_time_s"] == pytest.approx(10.0, abs=0.01)
         assert verdict[solver]["kinetic_over_external_work"] <= 1e-4
         assert verdict[solver]["energy_error_relative"] <= 1e-9
 
@@ -51,7 +51,7 @@ def test_the_detected_boundary_stays_within_a_hundredth_of_a_cell_of_the_fem_bou
 ):
     out, verdict = run
     table = pd.read_csv(out / "history.csv")
-    assert len(table) == 41  # t = 0, 0.125, ..., 5 s
+    assert len(table) == 41  # t = 0, 0.25, ..., 10 s
     assert table["distance_max_m"].max() <= 0.01 * 0.5
     assert verdict["passed"]
 

@@ -1,5 +1,5 @@
 """detection.max_motion: a due detection runs only when some point has moved more than
-max_motion x h since the last one. On the default case (quasi-static, to 5 s) the default
+max_motion x h since the last one. On the default case (quasi-static, to 10 s) the default
 1e-3 h keeps the boundary through most steps: fewer than 1 in 8 steps detect, and the points
 end within max_motion x h of the every-step run's (max_motion 0). (A restart between
 detections continues with the same bytes: test_restart.) A collapsing block moves more than

@@ -8,7 +8,8 @@ F21, F22) plus eps_p, 9 significant digits:
   fling points faster than the case's time step allows (CFL 0.5 stops them between 0.9 and
   1.9 s), so they run at time.cfl = 0.2;
 * ``slope_runout_t2.5``: cases/thesis55_slope_dynamic_zero_start.json at 2.5 s;
-* ``bearing_quasi_static_t5``: cases/bearing_quasi_static.json at its end, 5 s.
+* ``bearing_quasi_static_t5``: cases/bearing_quasi_static.json at 5 s with uGIMP and its load
+  ramped over 3 s (the case as it was when the states were made).
 
     /usr/bin/python3 tests/data/failure_states/generate.py [--build build]
 
@@ -66,7 +67,10 @@ def runs() -> list[dict]:
         {
             "prefix": "bearing_quasi_static",
             "case": "bearing_quasi_static",
-            "overrides": {},
+            "overrides": {
+                "solver": {"shape_function": "gimp"},
+                "loads": {"0": {"time_function": {"type": "ramp", "ramp_time": 3.0}}},
+            },
             "times": (5.0,),
         }
     )
