@@ -217,6 +217,76 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
   }
 }
 
+std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& now,
+                                                               std::span<const unsigned> fixed) {
+  current_boundary(now);
+  const Grid& grid = case_.grid;
+  const double h = grid.cell_size;
+  std::vector<TractionSample> samples;
+  std::vector<boundary::CurvePoint> points;
+  // The parts whose traction the loads give, and the constraints' parts (unknown traction).
+  std::vector<Vec2> taken;
+  const auto add_part = [&](const boundary::BoundaryLoadSpec& spec, double factor, bool known) {
+    integrator_.quadrature_points(curves_for(spec.curve), spec, points);
+    const boundary::TractionLaw law = spec.traction_law(factor);
+    for (const boundary::CurvePoint& c : points) {
+      taken.push_back(c.x);
+      if (!known) continue;
+      const Vec2 t = law.normal_scale.cwiseProduct(c.normal) + law.fixed_traction;
+      samples.push_back({c.x, c.normal, t, c.weight});
+    }
+  };
+  for (std::size_t k = 0; k < loads_.size(); ++k) {
+    boundary::BoundaryLoadSpec spec = loads_[k].spec;
+    spec.x_range = current_range_[k];
+    add_part(spec, loads_[k].time_function.factor(now.time), true);
+  }
+  for (const LoadSpec& load : case_.loads) {
+    if (load.apply_on != LoadTarget::kGridTopNodes) continue;
+    boundary::BoundaryLoadSpec spec;
+    spec.type = boundary::BoundaryLoadType::kVerticalPressure;
+    spec.pressure = load.pressure;
+    spec.x_range = Vec2(load.x0, load.x1);
+    spec.faces = boundary::LoadedFaces::kTop;
+    add_part(spec, load.time_function.factor(now.time), true);
+  }
+  for (const ConstraintSpec& constraint : case_.constraints) add_part(constraint.part, 0.0, false);
+  // The rest of the boundary is free: zero traction, where no part above took it (a point
+  // within a quarter cell of one of theirs).
+  boundary::BoundaryLoadSpec all;
+  all.type = boundary::BoundaryLoadType::kTraction;
+  all.faces = boundary::LoadedFaces::kAll;
+  integrator_.quadrature_points(curves_for(boundary::CurveKind::kLinear), all, points);
+  std::sort(taken.begin(), taken.end(), [](const Vec2& a, const Vec2& b) { return a.x() < b.x(); });
+  const double near = 0.25 * h;
+  for (const boundary::CurvePoint& c : points) {
+    auto it = std::lower_bound(taken.begin(), taken.end(), c.x.x() - near,
+                               [](const Vec2& a, double x) { return a.x() < x; });
+    bool covered = false;
+    for (; it != taken.end() && it->x() <= c.x.x() + near && !covered; ++it) {
+      covered = (*it - c.x).squaredNorm() <= near * near;
+    }
+    if (!covered) samples.push_back({c.x, c.normal, Vec2::Zero(), c.weight});
+  }
+  // No traction is known within reach of a support's functions.
+  const double reach = 0.5 * (shape_degree(case_.solver.shape_function) + 1);
+  const int nx = grid.n_nodes_x(), ny = grid.n_nodes_y();
+  std::erase_if(samples, [&](const TractionSample& s) {
+    const double u = (s.x.x() - grid.origin.x()) / h, v = (s.x.y() - grid.origin.y()) / h;
+    const int i0 = std::max(0, static_cast<int>(std::ceil(u - reach)));
+    const int i1 = std::min(nx - 1, static_cast<int>(std::floor(u + reach)));
+    const int j0 = std::max(0, static_cast<int>(std::ceil(v - reach)));
+    const int j1 = std::min(ny - 1, static_cast<int>(std::floor(v + reach)));
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        if (fixed[static_cast<std::size_t>(grid.node_index(i, j))] != kFixNone) return true;
+      }
+    }
+    return false;
+  });
+  return samples;
+}
+
 const std::vector<boundary::CompositeBezier>& BoundaryCoupling::curves_for(
     boundary::CurveKind kind) {
   if (curves_step_ != detected_at_step_ || curves_kind_ != kind) {

@@ -41,6 +41,7 @@
 
 #include "mpm/boundary/bezier.hpp"
 #include "mpm/boundary/surface_load.hpp"
+#include "mpm/core/stress_recovery.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/boundary_constraint.hpp"
 #include "mpm/solver/case.hpp"
@@ -118,6 +119,17 @@ class BoundaryCoupling {
   /// Restores what save() wrote for the state `now` (its particles and step); call after
   /// attach().
   void restore(const CheckpointFile& file, const StepView& now);
+  /// The points of the boundary of `now` (current_boundary) where the traction is known, for
+  /// the stress recovery (mpm/core/stress_recovery.hpp): the points of each detected-boundary
+  /// load's parts with its traction at `now`; the parts that a grid-top load covers (upward
+  /// faces seen from above, over its x_range) with its vertical pressure; every other point of
+  /// the boundary with zero traction (a free surface), except the points of a constraint's part
+  /// and the points within reach of a support's functions (a node with a fixed component whose
+  /// function, of degree `degree`, can be nonzero there), where the traction is the unknown
+  /// reaction. The exact rule's quadrature points (BoundaryLoadIntegrator::quadrature_points),
+  /// each standing for its weight's length.
+  std::vector<TractionSample> traction_samples(const StepView& now,
+                                               std::span<const unsigned> fixed);
   /// Ids of the particles that carry the ends of material load intervals (-1: fixed interval).
   std::vector<std::array<long, 2>> interval_particles() const;
 

@@ -304,7 +304,8 @@ ParticleSeriesWriter::~ParticleSeriesWriter() {
   if (file_ >= 0) H5Fclose(static_cast<hid_t>(file_));
 }
 
-void ParticleSeriesWriter::write(double time, long step, const Particles& particles) {
+void ParticleSeriesWriter::write(double time, long step, const Particles& particles,
+                                 std::span<const Stress> recovered) {
   if (times_.empty()) {
     // Polyvertex connectivity 0 .. N-1, shared by every step (the particle count is fixed),
     // and the units of the file's fields.
@@ -360,6 +361,10 @@ void ParticleSeriesWriter::write(double time, long step, const Particles& partic
     scalar([&](std::size_t p) { return particles.deformation_gradient[p](k / 2, k % 2); });
     write_h5_dataset(group.get(), h5_path_, gradient_names[k], buffer, n, 1, compress_);
   }
+  for (int k = 0; k < 4; ++k) {
+    scalar([&](std::size_t p) { return recovered_or_own(recovered, particles, p)[k]; });
+    write_h5_dataset(group.get(), h5_path_, kRecoveredStressNames[k], buffer, n, 1, compress_);
+  }
   end_series_step(static_cast<hid_t>(file_), h5_path_, step, time, times_, groups_);
   counts_.push_back(n);
   write_xdmf();
@@ -383,8 +388,10 @@ void ParticleSeriesWriter::write_xdmf() const {
     for (const char* vector_name : {"position", "displacement", "velocity"}) {
       x += xdmf::attribute(vector_name, true, false, n, false, at + vector_name);
     }
-    for (const char* scalar_name : {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material",
-                                    "body", "F11", "F12", "F21", "F22"}) {
+    for (const char* scalar_name :
+         {"sxx", "syy", "sxy", "szz", "eps_p", "volume", "id", "material", "body", "F11", "F12",
+          "F21", "F22", kRecoveredStressNames[0], kRecoveredStressNames[1],
+          kRecoveredStressNames[2], kRecoveredStressNames[3]}) {
       const std::string name = scalar_name;
       const bool integer = name == "id" || name == "material" || name == "body";
       x += xdmf::attribute(scalar_name, false, false, n, integer, at + name);
@@ -477,9 +484,10 @@ void BoundarySeriesWriter::write_xdmf() const {
   write_file_atomically(xdmf_path_, x);
 }
 
-std::string particles_csv(const Particles& particles) {
+std::string particles_csv(const Particles& particles, std::span<const Stress> recovered) {
   std::ostringstream out;
-  out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body,F11,F12,F21,F22\n";
+  out << "id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume,ux,uy,material,body,F11,F12,F21,F22,"
+         "sxx_rec,syy_rec,sxy_rec,szz_rec\n";
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     const Vec2& v = particles.velocity[p];
@@ -493,7 +501,10 @@ std::string particles_csv(const Particles& particles) {
         << format_exact(u.y()) << ',' << particles.material[p] << ',' << particles.body[p];
     const Mat2& f = particles.deformation_gradient[p];
     out << ',' << format_exact(f(0, 0)) << ',' << format_exact(f(0, 1)) << ','
-        << format_exact(f(1, 0)) << ',' << format_exact(f(1, 1)) << '\n';
+        << format_exact(f(1, 0)) << ',' << format_exact(f(1, 1));
+    const Stress& r = recovered_or_own(recovered, particles, p);
+    out << ',' << format_exact(r[0]) << ',' << format_exact(r[1]) << ',' << format_exact(r[2])
+        << ',' << format_exact(r[3]) << '\n';
   }
   return out.str();
 }

@@ -113,7 +113,10 @@ class TimeSeriesTable {
 ///
 /// Per step, datasets of length N (N = number of particles): position (N x 3, z = 0),
 /// displacement (N x 3), velocity (N x 3), sxx, syy, sxy, szz (kPa), eps_p, volume (m^2),
-/// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start). The XDMF
+/// id, material, body, F11, F12, F21, F22 (the deformation gradient since the start),
+/// sxx_rec, syy_rec, sxy_rec, szz_rec (kPa: the stress recovered next to a boundary of known
+/// traction, mpm/core/stress_recovery.hpp; the point's own elsewhere, and everywhere when the
+/// run has no recovery). The XDMF
 /// gives position as the geometry and again as a point attribute: meshio's TimeSeriesReader
 /// keeps the first step's geometry for every step, and reads each step's positions from it.
 class ParticleSeriesWriter {
@@ -128,7 +131,9 @@ class ParticleSeriesWriter {
   ParticleSeriesWriter(const ParticleSeriesWriter&) = delete;
   ParticleSeriesWriter& operator=(const ParticleSeriesWriter&) = delete;
 
-  void write(double time, long step, const Particles& particles);
+  /// recovered: per particle the recovered stress (empty: the particles' own).
+  void write(double time, long step, const Particles& particles,
+             std::span<const Stress> recovered = {});
   /// Extra polylines (detected boundary) listed beside the particles of the last step written.
   int n_steps() const { return static_cast<int>(times_.size()); }
   /// Before a checkpoint: copies particles.h5 as it is now to particles.h5.checkpoint (by a
@@ -180,12 +185,13 @@ class BoundarySeriesWriter {
   std::vector<std::size_t> points_, segments_;
 };
 
-/// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body and
-/// the deformation gradient F11,F12,F21,F22).
+/// final_particles.csv: id,x,y,vx,vy,sxx,syy,sxy,szz,eps_p,volume (+ ux,uy,material,body, the
+/// deformation gradient F11,F12,F21,F22 and the recovered stress sxx_rec,syy_rec,sxy_rec,szz_rec,
+/// as ParticleSeriesWriter).
 /// run.json's summary.energy: every energy and ledger term (kJ/m), energy_error, the largest
 /// term and their ratio.
 nlohmann::json energy_summary(const EnergyBalance& e);
 
-std::string particles_csv(const Particles& particles);
+std::string particles_csv(const Particles& particles, std::span<const Stress> recovered = {});
 
 }  // namespace pfm

@@ -2,6 +2,7 @@
 // id: ids are assigned in creation order and never change.
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include "mpm/core/materials.hpp"
@@ -33,5 +34,14 @@ struct Particles {
 /// The largest initial density of the particles, mass / initial volume (t/m^3): x h^2, the mass
 /// of a full cell of the densest material, the scale of "too light to carry a load".
 double largest_density(const Particles& particles);
+
+/// The names of the recovered stress components (outputs), and a particle's recovered stress
+/// (its own when `recovered` is empty; mpm/core/stress_recovery.hpp).
+inline constexpr const char* kRecoveredStressNames[4] = {"sxx_rec", "syy_rec", "sxy_rec",
+                                                         "szz_rec"};
+inline const Stress& recovered_or_own(std::span<const Stress> recovered, const Particles& particles,
+                                      std::size_t p) {
+  return recovered.empty() ? particles.stress[p] : recovered[p];
+}
 
 }  // namespace pfm

@@ -207,10 +207,21 @@ int run_case(const Case& c, const RunOptions& options) {
     }
     if (!valid) file.fail("run/outputs", "is not the list of output steps before the checkpoint");
   };
+  // The stresses next to the boundary's known tractions, recovered (stress_recovery.hpp).
+  auto recovered_stress = [&]() -> std::vector<Stress> {
+    if (!coupling.detection_enabled()) return {};
+    const std::vector<TractionSample> samples =
+        coupling.traction_samples(solver.step_view(), solver.grid_state().fixed);
+    return recover_stress(solver.particles().position, solver.particles().stress, samples,
+                          c.grid.cell_size);
+  };
   auto write_output = [&](ParticleSeriesWriter& writer) {
-    writer.write(solver.time(), solver.step_count(), solver.particles());
-    if (vtk_writer)
-      vtk_writer->write(solver.time(), solver.step_count(), particles_vtu(solver.particles()));
+    const std::vector<Stress> recovered = recovered_stress();
+    writer.write(solver.time(), solver.step_count(), solver.particles(), recovered);
+    if (vtk_writer) {
+      vtk_writer->write(solver.time(), solver.step_count(),
+                        particles_vtu(solver.particles(), recovered));
+    }
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
     if (coupling.detection_enabled()) {
       const DetectedBoundary& boundary = coupling.current_boundary(solver.step_view());
@@ -297,6 +308,7 @@ int run_case(const Case& c, const RunOptions& options) {
   hooks.finished = [&] { return solver.step_count() >= n_steps; };
   hooks.record = [&] { record(solver); };
   hooks.output = [&] { write_output(*writer_owner); };
+  hooks.recovered_stress = recovered_stress;
   hooks.after_step = [&](bool last) {
     const bool by_steps =
         options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;

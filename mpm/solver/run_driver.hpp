@@ -34,6 +34,8 @@ struct RunHooks {
   std::function<void()> close_writers;
   /// The solver's own entries of run.json at the end (its summary, the outputs list).
   std::function<void(nlohmann::json& run)> summarise;
+  /// The particles' recovered stress now (mpm/core/stress_recovery.hpp; empty: their own).
+  std::function<std::vector<Stress>()> recovered_stress;
 };
 
 /// Runs `solver` with `hooks`: writes run.json as `run` holds it, starts, steps until
@@ -88,7 +90,10 @@ int drive_run(Solver& solver, const RunHooks& hooks, const Case& c, const RunOpt
       if (hooks.after_step) hooks.after_step(last);
       progress.update(solver.step_count(), t, c.time.end_time);
     }
-    write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
+    const std::vector<Stress> recovered =
+        hooks.recovered_stress ? hooks.recovered_stress() : std::vector<Stress>{};
+    write_file_atomically(folder.file("final_particles.csv"),
+                          particles_csv(solver.particles(), recovered));
   } catch (const SimulationError& e) {
     status = note_simulation_stop(e, options.out_dir, message);
   } catch (const IoError& e) {

@@ -97,7 +97,7 @@ constexpr std::uint8_t kVtkVertex = 1, kVtkLine = 3;
 
 }  // namespace
 
-std::string particles_vtu(const Particles& particles) {
+std::string particles_vtu(const Particles& particles, std::span<const Stress> recovered) {
   const std::size_t n = particles.size();
   std::ostringstream out;
   std::vector<double> v3(3 * n, 0.0), v1(n);
@@ -133,6 +133,10 @@ std::string particles_vtu(const Particles& particles) {
   for (int k = 0; k < 4; ++k) {
     for (std::size_t p = 0; p < n; ++p) v1[p] = particles.deformation_gradient[p](k / 2, k % 2);
     data_array(out, "Float64", gradient_names[k], 1, v1);
+  }
+  for (int k = 0; k < 4; ++k) {
+    for (std::size_t p = 0; p < n; ++p) v1[p] = recovered_or_own(recovered, particles, p)[k];
+    data_array(out, "Float64", kRecoveredStressNames[k], 1, v1);
   }
   // One vertex cell per point.
   std::vector<std::int64_t> offsets(n);

@@ -10,6 +10,7 @@
 // boundary_<step>.csv).
 #pragma once
 
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -40,7 +41,7 @@ class VtkSeriesWriter {
 };
 
 /// The .vtu text of the particles.
-std::string particles_vtu(const Particles& particles);
+std::string particles_vtu(const Particles& particles, std::span<const Stress> recovered = {});
 /// The .vtu text of the loops of a detected boundary; closed[k]: loop k closes on itself.
 std::string boundary_vtu(const std::vector<std::vector<Vec2>>& loops,
                          const std::vector<bool>& closed);
