@@ -274,7 +274,10 @@ def _ignored(root: dict) -> list:
                     "integrates the traction exactly on the mesh boundary)"
                 )
     solver = root.get("solver", {})
-    if solver.get("damping_form", "per_axis") != "per_axis":
+    if (
+        solver.get("damping", 0.0) > 0.0
+        and solver.get("damping_form", "along_velocity") != "per_axis"
+    ):
         out.append("/solver/damping_form: the explicit dolfinx model damps per axis")
     for key in ("scheme", "shape_function", "pic_fraction"):
         if key in solver:

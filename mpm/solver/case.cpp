@@ -829,7 +829,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
                                "must be in [0, 1)");
     }
     c.solver.damping_form =
-        s->choice_or("damping_form", {"per_axis", "along_velocity"}, "per_axis") == "along_velocity"
+        s->choice_or("damping_form", {"per_axis", "along_velocity"}, "along_velocity") ==
+                "along_velocity"
             ? DampingForm::kAlongVelocity
             : DampingForm::kPerAxis;
     c.solver.pic_fraction = s->number_or("pic_fraction", 0.0);

@@ -156,7 +156,7 @@ struct SolverSpec {
   Scheme scheme = Scheme::kMUSL;
   ShapeFunctionKind shape_function = ShapeFunctionKind::kQuadraticBspline;
   double damping = 0.0;  ///< local (Cundall) damping coefficient
-  DampingForm damping_form = DampingForm::kPerAxis;
+  DampingForm damping_form = DampingForm::kAlongVelocity;
   /// beta of the particle velocity update v_p' = (1 - beta) (v_p + dt sum N a) + beta sum N v':
   /// 0 = FLIP (the thesis), 1 = PIC. FLIP keeps velocity the grid cannot see (it moves no
   /// particle: jitter), PIC removes it each step at the cost of dissipation.
