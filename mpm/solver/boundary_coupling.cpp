@@ -268,18 +268,22 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
     }
     if (!covered) samples.push_back({c.x, c.normal, Vec2::Zero(), c.weight});
   }
-  // No traction is known within reach of a support's functions.
-  const double reach = 0.5 * (shape_degree(case_.solver.shape_function) + 1);
+  // On a support the traction is the unknown reaction: no sample within 3/4 of a cell of a node
+  // with a fixed component (a wall's line of nodes, wherever the detector puts the boundary
+  // beside it, and the first 3/4 cell of a free surface that meets it).
+  const double reach = 0.75 * h;
   const int nx = grid.n_nodes_x(), ny = grid.n_nodes_y();
   std::erase_if(samples, [&](const TractionSample& s) {
     const double u = (s.x.x() - grid.origin.x()) / h, v = (s.x.y() - grid.origin.y()) / h;
-    const int i0 = std::max(0, static_cast<int>(std::ceil(u - reach)));
-    const int i1 = std::min(nx - 1, static_cast<int>(std::floor(u + reach)));
-    const int j0 = std::max(0, static_cast<int>(std::ceil(v - reach)));
-    const int j1 = std::min(ny - 1, static_cast<int>(std::floor(v + reach)));
+    const int i0 = std::max(0, static_cast<int>(std::ceil(u - 0.75)));
+    const int i1 = std::min(nx - 1, static_cast<int>(std::floor(u + 0.75)));
+    const int j0 = std::max(0, static_cast<int>(std::ceil(v - 0.75)));
+    const int j1 = std::min(ny - 1, static_cast<int>(std::floor(v + 0.75)));
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
-        if (fixed[static_cast<std::size_t>(grid.node_index(i, j))] != kFixNone) return true;
+        if (fixed[static_cast<std::size_t>(grid.node_index(i, j))] != kFixNone &&
+            (grid.node_position(i, j) - s.x).squaredNorm() < reach * reach)
+          return true;
       }
     }
     return false;

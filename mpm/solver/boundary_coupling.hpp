@@ -124,10 +124,9 @@ class BoundaryCoupling {
   /// load's parts with its traction at `now`; the parts that a grid-top load covers (upward
   /// faces seen from above, over its x_range) with its vertical pressure; every other point of
   /// the boundary with zero traction (a free surface), except the points of a constraint's part
-  /// and the points within reach of a support's functions (a node with a fixed component whose
-  /// function, of degree `degree`, can be nonzero there), where the traction is the unknown
-  /// reaction. The exact rule's quadrature points (BoundaryLoadIntegrator::quadrature_points),
-  /// each standing for its weight's length.
+  /// and the points within 3/4 of a cell of a node with a fixed component (a support), where the
+  /// traction is the unknown reaction. The exact rule's quadrature points
+  /// (BoundaryLoadIntegrator::quadrature_points), each standing for its weight's length.
   std::vector<TractionSample> traction_samples(const StepView& now,
                                                std::span<const unsigned> fixed);
   /// Ids of the particles that carry the ends of material load intervals (-1: fixed interval).

@@ -828,11 +828,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       s->at("damping").require(c.solver.damping >= 0.0 && c.solver.damping < 1.0,
                                "must be in [0, 1)");
     }
-    c.solver.damping_form =
-        s->choice_or("damping_form", {"per_axis", "along_velocity"}, "along_velocity") ==
-                "along_velocity"
-            ? DampingForm::kAlongVelocity
-            : DampingForm::kPerAxis;
+    c.solver.damping_form = s->choice_or("damping_form", {"per_axis", "along_velocity"},
+                                         "along_velocity") == "along_velocity"
+                                ? DampingForm::kAlongVelocity
+                                : DampingForm::kPerAxis;
     c.solver.pic_fraction = s->number_or("pic_fraction", 0.0);
     if (s->has("pic_fraction")) {
       s->at("pic_fraction")
