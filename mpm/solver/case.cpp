@@ -810,6 +810,18 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
   }
 
+  // The mean dilatation by default where a material is nearly incompressible: without it such a
+  // soil locks (a smooth footing on Tresca soil with nu = 0.49 shows no collapse up to
+  // 1.2 (2 + pi) c, test_anti_locking); with it the stresses of a compressible one converge at
+  // first order only (the manufactured solution with quadratic B-splines and nu = 0.3: 12.7 %,
+  // 6.3 %, 3.1 % at 8, 16, 32 cells, against 1.1 %, 0.29 %, 0.085 % without).
+  double largest_poisson_ratio = 0.0;
+  for (const MaterialRecord& m : c.materials) {
+    largest_poisson_ratio =
+        std::max(largest_poisson_ratio, elastic_parameters(m.model).poisson_ratio);
+  }
+  const bool nearly_incompressible = largest_poisson_ratio >= kBbarPoissonRatio;
+  c.solver.mean_dilatation = nearly_incompressible;
   std::optional<double> outer_node_fraction;
   if (const auto s = root.find("solver")) {
     s->expect_object({"scheme", "shape_function", "damping", "damping_form", "pic_fraction",
@@ -838,7 +850,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
           .require(c.solver.pic_fraction >= 0.0 && c.solver.pic_fraction <= 1.0,
                    "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
-    c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"}, "none") == "bbar";
+    c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"},
+                                            nearly_incompressible ? "bbar" : "none") == "bbar";
     if (s->has("outer_node_fraction")) {
       outer_node_fraction = s->at("outer_node_fraction").as_number();
       s->at("outer_node_fraction")

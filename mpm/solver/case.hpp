@@ -19,6 +19,10 @@
 
 namespace pfm {
 
+/// The Poisson ratio from which solver.anti_locking defaults to "bbar" (a material at or above
+/// it is nearly incompressible).
+inline constexpr double kBbarPoissonRatio = 0.45;
+
 struct MaterialRecord {
   std::string name;
   Material model;
@@ -163,6 +167,7 @@ struct SolverSpec {
   double pic_fraction = 0.0;
   /// Anti-locking: the mean dilatation (B-bar) over each cell (MPM) or element (UL-FEM) in the
   /// stress update and the internal force (mean_dilatation_gradient, mpm/core/kinematics.hpp).
+  /// Set by the case reader: on by default when a material has nu >= kBbarPoissonRatio.
   bool mean_dilatation = false;
   /// Nodes whose mass is below this share of a full support's are tied to their interior
   /// neighbours (mpm/core/basis_extension.hpp); 0 leaves every node free. Set by the case

@@ -1,5 +1,6 @@
 // The case reader's material laws: the softening length (materials[].softening_length) scales
-// the cohesion law's plastic strains by length / cell size, and leaves the cohesions alone.
+// the cohesion law's plastic strains by length / cell size, and leaves the cohesions alone; the
+// anti-locking default follows the materials' Poisson ratios.
 #include <gtest/gtest.h>
 
 #include <variant>
@@ -47,6 +48,30 @@ TEST(CaseMaterials, SofteningLengthScalesThePlasticStrainsByLengthOverCellSize) 
     material.erase("softening_length");
     EXPECT_EQ(cohesion_of(block_with(material, 0.5)).x, (std::vector<double>{0.0, 0.05, 0.25}));
   }
+}
+
+// solver.anti_locking defaults to the mean dilatation where a material is nearly incompressible
+// (nu >= 0.45) and to none otherwise; a case that names it keeps its choice.
+TEST(CaseMaterials, AntiLockingDefaultsToTheMeanDilatationForNearlyIncompressibleSoil) {
+  nlohmann::json material = nlohmann::json::parse(R"({
+    "name": "soil", "model": "linear_elastic", "youngs_modulus": 1000.0, "unit_weight": 20.0
+  })");
+  for (const double nu : {0.3, 0.449, 0.45, 0.49}) {
+    SCOPED_TRACE(nu);
+    material["poisson_ratio"] = nu;
+    EXPECT_EQ(block_with(material, 0.5).solver.mean_dilatation, nu >= kBbarPoissonRatio);
+  }
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "grid": {"origin": [0, 0], "n_cells": [8, 8], "cell_size": 0.5},
+    "bodies": [{"name": "block", "material": "soil", "rectangle": [[0, 0], [2, 2]]}],
+    "time": {"end_time": 1.0}, "solver": {"anti_locking": "none"}
+  })");
+  j["materials"] = nlohmann::json::array({material});
+  EXPECT_FALSE(parse_case(j, "block").solver.mean_dilatation);
+  material["poisson_ratio"] = 0.3;
+  j["materials"] = nlohmann::json::array({material});
+  j["solver"]["anti_locking"] = "bbar";
+  EXPECT_TRUE(parse_case(j, "block").solver.mean_dilatation);
 }
 
 }  // namespace
