@@ -149,14 +149,21 @@ std::vector<Stress> recover_stress(std::span<const Vec2> position, std::span<con
       const Vec2 d = (s.x - x0) / h;
       const Eigen::Vector3d phi(1.0, d.x(), d.y());
       const double w2 = options.boundary_weight * options.boundary_weight * s.length / h;
-      // t_x = sxx n_x + sxy n_y, t_y = sxy n_x + syy n_y.
-      Vector9 row_x = Vector9::Zero(), row_y = Vector9::Zero();
-      row_x.segment<3>(0) = s.normal.x() * phi;
-      row_x.segment<3>(6) = s.normal.y() * phi;
-      row_y.segment<3>(3) = s.normal.y() * phi;
-      row_y.segment<3>(6) = s.normal.x() * phi;
-      normal += w2 * (row_x * row_x.transpose() + row_y * row_y.transpose());
-      rhs += w2 * (row_x * s.traction.x() + row_y * s.traction.y());
+      // The rows t_x = sxx n_x + sxy n_y and t_y = sxy n_x + syy n_y, squared, by blocks
+      // (sxx, syy, sxy) of phi phi^T.
+      const double nx = s.normal.x(), ny = s.normal.y();
+      const Eigen::Matrix3d outer = w2 * phi * phi.transpose();
+      normal.block<3, 3>(0, 0) += nx * nx * outer;
+      normal.block<3, 3>(3, 3) += ny * ny * outer;
+      normal.block<3, 3>(6, 6) += (nx * nx + ny * ny) * outer;
+      normal.block<3, 3>(0, 6) += nx * ny * outer;
+      normal.block<3, 3>(6, 0) += nx * ny * outer;
+      normal.block<3, 3>(3, 6) += nx * ny * outer;
+      normal.block<3, 3>(6, 3) += nx * ny * outer;
+      const Eigen::Vector3d wphi = w2 * phi;
+      rhs.segment<3>(0) += nx * s.traction.x() * wphi;
+      rhs.segment<3>(3) += ny * s.traction.y() * wphi;
+      rhs.segment<3>(6) += (ny * s.traction.x() + nx * s.traction.y()) * wphi;
     }
     const Eigen::ColPivHouseholderQR<Matrix9> solve(normal);
     if (solve.rank() == 9) {

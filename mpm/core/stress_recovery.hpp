@@ -26,7 +26,9 @@
 // 3 cells and the patch of 4: the points' own errors reach into the third cell (make
 // study-near_boundary); with a band of 2 cells the fit takes them in (a turned square at
 // h = 0.0625 m with linear functions: 4.0 % at worst in the second cell, against 0.4 % with 3).
-// Cost: one fit of a 9 x 9 normal system per point in the band, at output steps only.
+// Cost: one fit of a 9 x 9 normal system per point in the band, at output steps only (run.json's
+// summary.stress_recovery: calls and seconds; the default case, 1,200 points and 42 outputs,
+// spends 0.14 s of its 1.2 s there).
 #pragma once
 
 #include <span>

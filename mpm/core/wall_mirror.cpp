@@ -50,7 +50,10 @@ WallMirror::WallMirror(const Grid& grid, ShapeFunctionKind kind,
         if (!fixed_in(i, j, d)) continue;
         int found = 0;
         for (const auto& [sx, sy] : kAxes) {
-          if (inside(i + 2 * sx, j + 2 * sy) && fixed_in(i + sx, j + sy, d) &&
+          // Behind the wall: the node on I's far side is held too, or beyond the grid (a held
+          // region two nodes thick inside the body is a wall on both of its sides).
+          const bool behind = !inside(i - sx, j - sy) || fixed_in(i - sx, j - sy, d);
+          if (behind && inside(i + 2 * sx, j + 2 * sy) && fixed_in(i + sx, j + sy, d) &&
               !fixed_in(i + 2 * sx, j + 2 * sy, d)) {
             ++found;
             step_of(i, j, d) = {sx, sy};

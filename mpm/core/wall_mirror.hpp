@@ -24,14 +24,15 @@
 // acceleration of its own mass. After the update I's component is w times J's.
 //
 // Which nodes: I fixed in d at zero velocity (not by a moving condition), the next node in one
-// axis direction fixed in d (W) and the one after it free in d (J); in exactly one of the four
-// directions. Behind the inside corner of two walls that both hold d (a base and a wall), the
-// node diagonally behind the corner is mirrored across both, J = I + 2 (sx, sy), with the product
-// of the two weights, so that the field vanishes on both wall lines up to the corner. A node two
-// or more behind a wall reaches no point in the body (supports 3h and 4h). In a step where J is an
-// outer node (tied) or would keep less than half its mass (m_J + w m_I < m_J / 2: the top of a wall
-// with a sliver of material) the mirror is off and I stays fixed. Linear functions and uGIMP
-// interpolate at the wall and take no mirrors.
+// axis direction fixed in d (W), the one after it free in d (J), and the node on I's far side
+// fixed in d as well or beyond the grid (I is behind the wall, not the face of a held region two
+// nodes thick); in exactly one of the four directions. Behind the inside corner of two walls that
+// both hold d (a base and a wall), the node diagonally behind the corner is mirrored across both, J
+// = I + 2 (sx, sy), with the product of the two weights, so that the field vanishes on both wall
+// lines up to the corner. A node two or more behind a wall reaches no point in the body (supports
+// 3h and 4h). In a step where J is an outer node (tied) or would keep less than half its mass (m_J
+// + w m_I < m_J / 2: the top of a wall with a sliver of material) the mirror is off and I stays
+// fixed. Linear functions and uGIMP interpolate at the wall and take no mirrors.
 //
 // Cost: work proportional to the wall's nodes, per step.
 #pragma once

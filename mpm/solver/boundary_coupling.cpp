@@ -226,7 +226,10 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
   std::vector<boundary::CurvePoint> points;
   // The parts whose traction the loads give, and the constraints' parts (unknown traction).
   std::vector<Vec2> taken;
-  const auto add_part = [&](const boundary::BoundaryLoadSpec& spec, double factor, bool known) {
+  // One Gauss point per piece for linear functions (4 and 7 with B-splines): the samples stand
+  // for lengths, no integral is exact here.
+  const auto add_part = [&](boundary::BoundaryLoadSpec spec, double factor, bool known) {
+    spec.quadrature.gauss_points = 1;
     integrator_.quadrature_points(curves_for(spec.curve), spec, points);
     const boundary::TractionLaw law = spec.traction_law(factor);
     for (const boundary::CurvePoint& c : points) {
@@ -256,6 +259,7 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
   boundary::BoundaryLoadSpec all;
   all.type = boundary::BoundaryLoadType::kTraction;
   all.faces = boundary::LoadedFaces::kAll;
+  all.quadrature.gauss_points = 1;
   integrator_.quadrature_points(curves_for(boundary::CurveKind::kLinear), all, points);
   std::sort(taken.begin(), taken.end(), [](const Vec2& a, const Vec2& b) { return a.x() < b.x(); });
   const double near = 0.25 * h;

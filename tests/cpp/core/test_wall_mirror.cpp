@@ -158,6 +158,16 @@ TEST(WallMirror, UniformSplinesMirrorWithWeightMinusOneAndScaleToTheRowSum) {
   EXPECT_FALSE(prepared.active(static_cast<std::size_t>(image)));
 }
 
+// A held region two node columns thick inside the body (a rigid inclusion) has material on both
+// sides: each column is a wall for its side, and neither is mirrored.
+TEST(WallMirror, AHeldRegionTwoNodesThickIsAWallOnBothSides) {
+  Walls w = walls(-1, -1);
+  for (int j = 0; j < w.grid.n_nodes_y(); ++j) {
+    for (const int i : {6, 7}) w.fixed[static_cast<std::size_t>(w.grid.node_index(i, j))] = kFixXY;
+  }
+  EXPECT_TRUE(WallMirror(w.grid, ShapeFunctionKind::kQuadraticBspline, w.fixed).empty());
+}
+
 TEST(WallMirror, LinearFunctionsAndUgimpInterpolateAndTakeNone) {
   const Walls w = walls(2, 2);
   EXPECT_TRUE(WallMirror(w.grid, ShapeFunctionKind::kLinear, w.fixed).empty());
