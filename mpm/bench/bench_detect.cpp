@@ -28,11 +28,11 @@
 #include <vector>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/particle_bins.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/detect/loop_classes.hpp"
-#include "mpm/detect/particle_bins.hpp"
 #include "mpm/detect/vector_loops.hpp"
 #include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"

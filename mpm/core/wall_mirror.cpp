@@ -139,18 +139,7 @@ void WallMirror::prepare(std::span<const double> mass, const BasisExtension* tie
 }
 
 void WallMirror::gather(std::span<Vec2> values) const {
-  for (std::size_t k = 0; k < images_.size(); ++k) {
-    if (!active(k)) continue;
-    const Image& image = images_[k];
-    const int d = image.component;
-    double& x = values[static_cast<std::size_t>(image.node)][d];
-    for (const Source& s : image.sources) {
-      double& behind = values[static_cast<std::size_t>(s.behind)][d];
-      x += s.weight * behind;
-      behind = 0.0;
-    }
-    x *= scale_[k];
-  }
+  gather_onto(values, false);
 }
 
 void WallMirror::hold(std::span<const Vec2> values) {
@@ -160,18 +149,23 @@ void WallMirror::hold(std::span<const Vec2> values) {
 }
 
 void WallMirror::gather_added(std::span<Vec2> values) const {
+  gather_onto(values, true);
+}
+
+void WallMirror::gather_onto(std::span<Vec2> values, bool from_held) const {
   for (std::size_t k = 0; k < images_.size(); ++k) {
     if (!active(k)) continue;
     const Image& image = images_[k];
     const int d = image.component;
     double& x = values[static_cast<std::size_t>(image.node)][d];
-    double added = x - held_[k];
+    const double base = from_held ? held_[k] : 0.0;
+    double added = x - base;
     for (const Source& s : image.sources) {
       double& behind = values[static_cast<std::size_t>(s.behind)][d];
       added += s.weight * behind;
       behind = 0.0;
     }
-    x = held_[k] + scale_[k] * added;
+    x = base + scale_[k] * added;
   }
 }
 

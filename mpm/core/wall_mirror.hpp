@@ -95,6 +95,8 @@ class WallMirror {
   }
 
  private:
+  /// x_J = base + scale (x_J - base + sum w x_I), x_I = 0; base: held_ or 0.
+  void gather_onto(std::span<Vec2> values, bool from_held) const;
   static int at(const std::vector<int>& v, int node, int d) {
     return v.empty() ? -1 : v[static_cast<std::size_t>(2 * node + d)];
   }

@@ -17,10 +17,10 @@
 
 #include "mpm/core/grid.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/particle_bins.hpp"
 #include "mpm/core/types.hpp"
 #include "mpm/detect/contour.hpp"
 #include "mpm/detect/marching_squares.hpp"
-#include "mpm/detect/particle_bins.hpp"
 #include "mpm/detect/vector_loops.hpp"
 
 namespace pfm {

@@ -5,9 +5,9 @@
 #include <limits>
 #include <utility>
 
+#include "mpm/core/particle_bins.hpp"
 #include "mpm/core/polygon.hpp"
 #include "mpm/detect/detect_internal.hpp"
-#include "mpm/detect/particle_bins.hpp"
 
 namespace pfm {
 

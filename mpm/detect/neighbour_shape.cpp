@@ -5,9 +5,9 @@
 #include <memory>
 #include <vector>
 
+#include "mpm/core/particle_bins.hpp"
 #include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/kernel.hpp"
-#include "mpm/detect/particle_bins.hpp"
 
 namespace pfm::detail {
 

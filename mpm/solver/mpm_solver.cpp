@@ -707,20 +707,17 @@ void MpmSolver::tie_outer_nodes() {
     extension_.classify(grid_.mass, extension_density_, grid_.fixed, prescribed_.start(),
                         prescribed_.end());
   }
-  // The mirrors first: a node behind a wall may be tied too, by its free component.
+  // What the particles gave the nodes, gathered by the mirrors first (a node behind a wall may
+  // be tied too, by its free component), then by the ties.
+  const std::array<std::vector<Vec2>*, 4> gathered = {&grid_.momentum, &grid_.internal_force,
+                                                      &grid_.body_force, &grid_.external_force};
   if (!mirror_.empty()) {
     mirror_.prepare(grid_.mass, extension_.enabled() ? &extension_ : nullptr);
-    mirror_.gather(std::span<Vec2>(grid_.momentum));
-    mirror_.gather(std::span<Vec2>(grid_.internal_force));
-    mirror_.gather(std::span<Vec2>(grid_.body_force));
-    mirror_.gather(std::span<Vec2>(grid_.external_force));
+    for (std::vector<Vec2>* values : gathered) mirror_.gather(std::span<Vec2>(*values));
   }
   if (extension_.enabled()) {
     extension_.gather(std::span<double>(grid_.mass));
-    extension_.gather(std::span<Vec2>(grid_.momentum));
-    extension_.gather(std::span<Vec2>(grid_.internal_force));
-    extension_.gather(std::span<Vec2>(grid_.body_force));
-    extension_.gather(std::span<Vec2>(grid_.external_force));
+    for (std::vector<Vec2>* values : gathered) extension_.gather(std::span<Vec2>(*values));
   }
   // The loads come next (external_forces): the mirrors gather what they add.
   mirror_.hold(grid_.external_force);

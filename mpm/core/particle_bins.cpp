@@ -1,4 +1,4 @@
-#include "mpm/detect/particle_bins.hpp"
+#include "mpm/core/particle_bins.hpp"
 
 #include <algorithm>
 #include <cmath>

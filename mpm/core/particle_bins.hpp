@@ -1,5 +1,6 @@
 // Uniform binning of particles so a field evaluation visits only the particles whose kernel can
-// reach the evaluation point: O(neighbours) per evaluation instead of O(particles).
+// reach the evaluation point: O(neighbours) per evaluation instead of O(particles). Used by the
+// detectors (mpm/detect) and the stress recovery (stress_recovery.hpp).
 #pragma once
 
 #include <algorithm>
