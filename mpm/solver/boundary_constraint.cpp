@@ -64,8 +64,10 @@ inline bool in_box(const Vec2& x, const Vec2& lo, const Vec2& hi, double margin)
 
 }  // namespace
 
-void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, const Vec2& hi,
-                                  const std::optional<Vec2>& x_range) {
+void BoundaryConstraints::project(const Particles& particles,
+                                  std::span<const Vec2> detected_positions, const Vec2& lo,
+                                  const Vec2& hi, const std::optional<Vec2>& x_range) {
+  const bool moved = detected_positions.size() == particles.size();
   for (const int node : moments_list_) {
     moments_[static_cast<std::size_t>(node)] = NodeMoments{};
     moments_flag_[static_cast<std::size_t>(node)] = 0;
@@ -78,7 +80,8 @@ void BoundaryConstraints::project(const Particles& particles, const Vec2& lo, co
     if (x_range && (x.x() < x_range->x() || x.x() > x_range->y())) continue;
     const Stress& sigma = particles.stress[p];
     Fitted f;
-    f << x - particles.reference_position[p], sigma[kXX], sigma[kYY], sigma[kXY];
+    const Vec2 motion = moved ? Vec2(x - detected_positions[p]) : Vec2::Zero();
+    f << x - particles.reference_position[p], motion, sigma[kXX], sigma[kYY], sigma[kXY];
     const double m = particles.mass[p];
     functions_at(x);
     for_each_node([&](std::size_t node, double value, int i, int j) {
@@ -102,7 +105,7 @@ BoundaryConstraints::Fitted BoundaryConstraints::material_state(const Vec2& x, d
   Vec2 d = Vec2::Zero();
   Mat2 q = Mat2::Zero();
   Fitted f = Fitted::Zero();
-  Eigen::Matrix<double, 2, 5> c = Eigen::Matrix<double, 2, 5>::Zero();
+  Eigen::Matrix<double, 2, 7> c = Eigen::Matrix<double, 2, 7>::Zero();
   for_each_node([&](std::size_t node, double value, int i, int j) {
     const NodeMoments& m = moments_[node];
     if (!(m.mass > 0.0)) return;
@@ -122,7 +125,7 @@ BoundaryConstraints::Fitted BoundaryConstraints::material_state(const Vec2& x, d
   const double h2 = grid_.cell_size * grid_.cell_size;
   if (!(spread.determinant() > 1e-6 * (w * h2) * (w * h2))) return f / w;
   // [w d^T; d q] [a^T; B^T] = [f^T; c]: eliminate B^T = spread^-1 (c - d f^T / w).
-  const Eigen::Matrix<double, 2, 5> gradient_t = spread.inverse() * (c - d * f.transpose() / w);
+  const Eigen::Matrix<double, 2, 7> gradient_t = spread.inverse() * (c - d * f.transpose() / w);
   return (f - gradient_t.transpose() * d) / w;
 }
 
@@ -133,13 +136,24 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
   const double beta = spec.penalty;
   const bool nitsche = spec.method == ConstraintMethod::kNitsche;
   double gap_squared = 0.0;
-  for (const boundary::CurvePoint& q : points_[k]) {
-    if (!grid_.contains(q.x)) continue;
-    functions_at(q.x);
+  for (const boundary::CurvePoint& point : points_[k]) {
+    if (!grid_.contains(point.x)) continue;
+    functions_at(point.x);
     double mass = 0.0;
-    const Fitted state = material_state(q.x, mass);
+    Fitted state = material_state(point.x, mass);
     if (!(mass > 0.0)) continue;  // no material here
-    const Vec2 u = state.head<2>();
+    // The boundary has moved with the material since it was detected: the point moves with the
+    // material's motion along the normal (header comment).
+    boundary::CurvePoint q = point;
+    const Vec2 shift = q.normal.dot(state.segment<2>(kMotion)) * q.normal;
+    if (shift != Vec2::Zero()) {
+      q.x += shift;
+      if (!grid_.contains(q.x)) continue;
+      functions_at(q.x);
+      state = material_state(q.x, mass);
+      if (!(mass > 0.0)) continue;
+    }
+    const Vec2 u = state.segment<2>(kDisplacement);
     Mat2 projector = Mat2::Identity();
     Vec2 target = u_bar, velocity = rate;
     if (spec.normal_only) {
@@ -156,7 +170,9 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
     // P sigma n (header comment).
     Vec2 traction = Vec2::Zero();
     if (nitsche) {
-      const Mat2 sigma = (Mat2() << state[2], state[4], state[4], state[3]).finished();
+      const Mat2 sigma =
+          (Mat2() << state[kStress], state[kStress + 2], state[kStress + 2], state[kStress + 1])
+              .finished();
       traction = projector * (sigma * q.normal);
     }
     // The traction -beta g at the point (with Nitsche's, + P sigma n), shared by the nodes with
@@ -199,7 +215,8 @@ void BoundaryConstraints::collect(std::size_t k) {
 }
 
 void BoundaryConstraints::apply_all(const StepView& step, GridState& grid_state,
-                                    std::vector<Vec2>& force) {
+                                    std::vector<Vec2>& force,
+                                    std::span<const Vec2> detected_positions) {
   const double dt = step.dt;
   // The box of each part's points.
   std::vector<Vec2> part_lo(specs_.size()), part_hi(specs_.size());
@@ -229,7 +246,7 @@ void BoundaryConstraints::apply_all(const StepView& step, GridState& grid_state,
         lo = lo.cwiseMin(part_lo[other]);
         hi = hi.cwiseMax(part_hi[other]);
       }
-      project(step.particles, lo, hi, range);
+      project(step.particles, detected_positions, lo, hi, range);
       projected = true;
       projected_range = range;
     }

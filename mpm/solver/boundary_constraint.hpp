@@ -21,6 +21,12 @@
 // then hold both) or the curve's normal, for normal_only; else the identity. u_bar is the
 // prescribed displacement (value x time function), or for a velocity its integral over the steps
 // taken (midpoint rule; kept in the checkpoint).
+// Between two detections the part moves with the material: each of its points x_0 (on the
+// curves last detected) is taken at x_0 + n (n . d(x_0)), with n the curve's normal and d the
+// same fit to the particles' motion since that detection (x_p now less x_p then); sliding along
+// itself leaves the curve unchanged to first order. The gap under a stiff constraint is a small
+// fraction of a cell; read at the detected points it would lag by the strain times the motion
+// since the detection (up to max_motion x h), then jump back at the next detection.
 //
 // The penalty method. A traction t = -beta g acts on the part, integrated with the loads' rule
 // (BoundaryLoadIntegrator::quadrature_points, exact on the pieces between cell edges); each
@@ -112,6 +118,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "mpm/boundary/surface_load.hpp"
@@ -130,13 +137,15 @@ class BoundaryConstraints {
   /// Adds the constraints' forces of step `step` to `force` (the grid's external force, with
   /// the loads in it), each on the curves `curves_for(kind)` of its curve kind; records them
   /// for the work (LoadWorkRecorder index: the number of loads + the constraint's index).
+  /// detected_positions: the particles' positions at the detection the curves come from (empty:
+  /// the curves are the boundary now).
   template <class CurvesFor>
   void apply(const StepView& step, GridState& grid_state, std::vector<Vec2>& force,
-             CurvesFor&& curves_for) {
+             CurvesFor&& curves_for, std::span<const Vec2> detected_positions = {}) {
     if (specs_.empty()) return;
     for (std::size_t k = 0; k < specs_.size(); ++k)
       integrator_.quadrature_points(curves_for(specs_[k].part.curve), specs_[k].part, points_[k]);
-    apply_all(step, grid_state, force);
+    apply_all(step, grid_state, force, detected_positions);
   }
 
   const std::vector<ConstraintReport>& reports() const { return reports_; }
@@ -146,9 +155,10 @@ class BoundaryConstraints {
   void set_target(const std::vector<Vec2>& target) { target_ = target; }
 
  private:
-  /// What the fit carries per particle: the displacement (x, y) and the in-plane stress
-  /// (xx, yy, xy).
-  using Fitted = Eigen::Matrix<double, 5, 1>;
+  /// What the fit carries per particle: the displacement (x, y), the motion since the
+  /// detection (x, y) and the in-plane stress (xx, yy, xy), at these offsets.
+  using Fitted = Eigen::Matrix<double, 7, 1>;
+  static constexpr int kDisplacement = 0, kMotion = 2, kStress = 4;
   /// Per node J, over the particles with weights m_p N_J(x_p): the mass, the moments of
   /// d_p = x_p - x_J (first, second) and of the fitted values f_p (value, d_p f_p^T).
   struct NodeMoments {
@@ -156,7 +166,7 @@ class BoundaryConstraints {
     Vec2 first = Vec2::Zero();
     Mat2 second = Mat2::Zero();
     Fitted value = Fitted::Zero();
-    Eigen::Matrix<double, 2, 5> cross = Eigen::Matrix<double, 2, 5>::Zero();
+    Eigen::Matrix<double, 2, 7> cross = Eigen::Matrix<double, 2, 7>::Zero();
   };
   /// A force (or a force per unit mass), its stiffness and the stiffness times the
   /// prescribed velocity.
@@ -166,13 +176,14 @@ class BoundaryConstraints {
     Vec2 rate = Vec2::Zero();
   };
 
-  void apply_all(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
+  void apply_all(const StepView& step, GridState& grid_state, std::vector<Vec2>& force,
+                 std::span<const Vec2> detected_positions);
   /// The material's displacement and stress at x (header comment); `mass`: the weights' sum
   /// (0: no material within reach).
   Fitted material_state(const Vec2& x, double& mass) const;
   /// The moments of the particles within reach of the box [lo, hi] (and over x_range, if given).
-  void project(const Particles& particles, const Vec2& lo, const Vec2& hi,
-               const std::optional<Vec2>& x_range);
+  void project(const Particles& particles, std::span<const Vec2> detected_positions, const Vec2& lo,
+               const Vec2& hi, const std::optional<Vec2>& x_range);
   /// Constraint k's nodal terms (terms_dense_) and its report's gap; `rate`: the prescribed
   /// displacement's rate over the step.
   void gather(std::size_t k, const Vec2& rate);

@@ -75,8 +75,9 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
         if (!loads_.empty()) apply_loads(step, grid_state, force);
         if (!constraints_.empty()) {
           const auto start = Clock::now();
-          constraints_.apply(step, grid_state, force,
-                             [this](boundary::CurveKind kind) { return curves_for(kind); });
+          constraints_.apply(
+              step, grid_state, force,
+              [this](boundary::CurveKind kind) { return curves_for(kind); }, detected_positions_);
           times_.constraint += seconds_since(start);
         }
       });
