@@ -270,6 +270,39 @@ BENCHMARK(BM_DetectShaped)
     ->UseManualTime()
     ->MinTime(0.5);
 
+// A degenerate cloud: range(0) points in one straight row, 0.1 m apart (volume 0.01 m^2), on
+// the grid `pfm-mpm detect` makes for it (cells of twice the spacing, three around the points),
+// one thread. ms_per_1000_points stays flat when the cost is linear in the points.
+void BM_DetectCollinear(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  const double spacing = 0.1;
+  std::vector<pfm::Vec2> position;
+  for (std::size_t p = 0; p < n; ++p) position.emplace_back(spacing * static_cast<double>(p), 0.0);
+  const std::vector<double> volume(n, spacing * spacing);
+  const std::vector<pfm::Mat2> deformation(n, pfm::Mat2::Identity());
+  const pfm::ParticleCloud cloud{position, volume, deformation, spacing};
+  pfm::Grid grid;
+  grid.cell_size = 2.0 * spacing;
+  grid.origin = pfm::Vec2::Constant(-3.0 * grid.cell_size);
+  grid.n_cells_x =
+      static_cast<int>(std::ceil(spacing * static_cast<double>(n - 1) / grid.cell_size)) + 6;
+  grid.n_cells_y = 6;
+  omp_set_num_threads(1);
+  const pfm::DetectionTimings timings = time_detections_of(state, cloud, grid, 1.0, thread_seconds);
+  state.counters["ms_per_1000_points"] =
+      state.counters["detect_ms"] * 1000.0 / static_cast<double>(n);
+  set_improved_counters(state, timings);
+  state.SetLabel("improved, " + std::to_string(n) + " collinear points");
+}
+BENCHMARK(BM_DetectCollinear)
+    ->Arg(10000)
+    ->Arg(20000)
+    ->Arg(40000)
+    ->Arg(100000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->Iterations(1);
+
 // The median wall-clock seconds of one step of scale `scale` on `threads` threads, after a
 // warm-up.
 double step_wall_seconds(int scale, int threads) {

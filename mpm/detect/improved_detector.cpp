@@ -1002,13 +1002,28 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
   };
   // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the row
   // has none up to the grid edge (a contour cut by the edge), to the left, then in p's column
-  // upwards and downwards.
+  // upwards and downwards. That first cell, along each direction, is a function of the cell a
+  // walk starts from: it is remembered for every cell a walk passes (-1: none up to the grid's
+  // edge), so the particles of one row (a cloud of collinear points, whose row is inside from
+  // end to end) do not walk the same cells again.
+  std::array<std::unordered_map<int, int>, 4> first_change;
+  std::vector<int> walked;
   const auto seed_from = [&](std::size_t p) {
     int i0 = 0, j0 = 0;
     nodes.cell_of(positions[p], i0, j0);  // from the nearest cell for a particle off the grid
     const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-    for (const auto& [di, dj] : steps) {
+    for (int d = 0; d < 4; ++d) {
+      const auto [di, dj] = steps[d];
+      std::unordered_map<int, int>& memo = first_change[static_cast<std::size_t>(d)];
+      walked.clear();
+      int found = -1;
       for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y; i += di, j += dj) {
+        const int cell = j * n_fine_x + i;
+        if (const auto known = memo.find(cell); known != memo.end()) {
+          found = known->second;
+          break;
+        }
+        walked.push_back(cell);
         // Cells found interior by their volume are passed as inside without evaluation: the
         // particles deep inside them are not in the field, whose values there would be too low.
         if (!interior_by_volume.empty() &&
@@ -1016,9 +1031,14 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
           continue;
         }
         if (sign_change(i, j)) {
-          push(i, j);
-          return;
+          found = cell;
+          break;
         }
+      }
+      for (const int cell : walked) memo.emplace(cell, found);
+      if (found >= 0) {
+        push(found % n_fine_x, found / n_fine_x);
+        return;
       }
     }
   };

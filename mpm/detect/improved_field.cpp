@@ -449,9 +449,14 @@ void ImprovedField::add_bridges(std::span<const std::size_t> points,
     hi = hi.cwiseMax(g.a[s].cwiseMax(g.b[s]));
   }
   // Bins of the support's size (a segment is listed in each bin its box widened by the support
-  // meets), at most 128 along the bridges' box: an evaluation visits the few bridges near it.
+  // meets): an evaluation visits the few bridges near it. Where that would make more bins than
+  // four per bridge (and 16,384), they are widened evenly to that many. The value does not
+  // depend on the bins (the nearest segment within the support, whichever bin lists it).
   g.origin = lo - Vec2::Constant(support);
-  g.bin = std::max(support, ((hi - lo).maxCoeff() + 2.0 * support) / 128.0);
+  const Vec2 extent = hi - lo + Vec2::Constant(2.0 * support);
+  const double most = std::max(16384.0, 4.0 * static_cast<double>(g.a.size()));
+  const double count = std::ceil(extent.x() / support) * std::ceil(extent.y() / support);
+  g.bin = count > most ? support * std::sqrt(count / most) : support;
   g.n_x = static_cast<int>(std::floor((hi.x() + support - g.origin.x()) / g.bin)) + 1;
   g.n_y = static_cast<int>(std::floor((hi.y() + support - g.origin.y()) / g.bin)) + 1;
   std::vector<std::vector<int>> lists(static_cast<std::size_t>(g.n_x) * g.n_y);
