@@ -4,11 +4,11 @@ therefore also key the cache on the hash of the binary they execute."""
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import subprocess
 
 from studies.common.paths import repo_root
+from studies.common.memo import once
 
 
 def _git(*args: str) -> str:
@@ -24,17 +24,17 @@ def _git(*args: str) -> str:
     return done.stdout.decode("utf-8", "replace")
 
 
-@functools.lru_cache(maxsize=1)
+@once
 def revision() -> str:
     return _git("rev-parse", "HEAD").strip() or "unknown"
 
 
-@functools.lru_cache(maxsize=1)
+@once
 def diff_hash() -> str:
     """sha256 of ``git diff HEAD`` (empty diff -> hash of the empty string)."""
     return hashlib.sha256(_git("diff", "HEAD").encode()).hexdigest()
 
 
-@functools.lru_cache(maxsize=1)
+@once
 def is_dirty() -> bool:
     return bool(_git("status", "--porcelain", "--untracked-files=no").strip())

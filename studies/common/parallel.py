@@ -1,6 +1,11 @@
 """Run a function over a list of independent items (a sweep): serially, in a local process
 pool, or on a Dask distributed cluster when a scheduler address is given.
 
+On a cluster the function and the ``studies`` modules it uses are sent with the tasks (pickled
+by value), so the workers need Debian's Python packages but not the checkout; they find
+``pfm-mpm`` through ``PFM_MPM`` or on their PATH, and write their runs to ``PFM_CACHE``, which
+the client reads: a folder that client and workers share (studies/README.md).
+
 The result list keeps the order of ``items`` whatever the completion order.
 ``dask.distributed`` is imported only when a scheduler is given; if it is not installed the
 call fails with a message saying so (Debian: ``apt-get install python3-distributed``).
@@ -54,12 +59,29 @@ def parallel_map(
                     f"({error}); install it (Debian: apt-get install python3-distributed) or "
                     f"run without --scheduler"
                 ) from error
-            with Client(scheduler) as client:
-                futures = client.map(function, items, pure=False)
-                index = {future.key: i for i, future in enumerate(futures)}
-                for future in dask_as_completed(futures):
-                    results[index[future.key]] = future.result()
-                    bar.update()
+            # The workers need not have the checkout: the package's functions travel with the
+            # tasks, by value (cloudpickle), and with them every module of the package they use.
+            # Each module is registered by name: Dask pickles a function with cloudpickle only
+            # when the registry names the function's own module.
+            import cloudpickle
+
+            modules = [
+                module
+                for name, module in sorted(sys.modules.items())
+                if name == "studies" or name.startswith("studies.")
+            ]
+            for module in modules:
+                cloudpickle.register_pickle_by_value(module)
+            try:
+                with Client(scheduler) as client:
+                    futures = client.map(function, items, pure=False)
+                    index = {future.key: i for i, future in enumerate(futures)}
+                    for future in dask_as_completed(futures):
+                        results[index[future.key]] = future.result()
+                        bar.update()
+            finally:
+                for module in modules:
+                    cloudpickle.unregister_pickle_by_value(module)
             return results
         jobs = jobs or default_jobs()
         if jobs <= 1 or len(items) <= 1:

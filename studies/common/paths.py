@@ -5,7 +5,9 @@ Environment overrides (all optional):
 * ``PFM_RESULTS``   results root; a study writes to ``$PFM_RESULTS/<study>/``
                     (default ``<repo>/results/studies``);
 * ``PFM_MPM``       the ``pfm-mpm`` executable (default ``<repo>/build/bin/pfm-mpm``, or
-                    ``$PFM_BUILD_DIR/bin/pfm-mpm``). The one setting that picks the solver; the
+                    ``$PFM_BUILD_DIR/bin/pfm-mpm``, or where there is no build (a Dask worker
+                    on another machine) the one on the PATH). The one setting that picks the
+                    solver; the
                     other executables (``pfm-quadrature-map``, ``pfm-ulfem``) are taken from
                     ``PFM_BUILD_DIR`` when it is set, else from the directory of ``PFM_MPM``;
 * ``PFM_BUILD_DIR`` directory holding the binaries, either the build root (``.../build``, the
@@ -16,6 +18,7 @@ Environment overrides (all optional):
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -64,7 +67,11 @@ def build_dir() -> Path:
     mpm = os.environ.get("PFM_MPM")
     if mpm:
         return Path(mpm).resolve().parent
-    return _REPO_ROOT / "build" / "bin"
+    built = _REPO_ROOT / "build" / "bin"
+    installed = shutil.which("pfm-mpm")
+    if not built.is_dir() and installed:
+        return Path(installed).resolve().parent
+    return built
 
 
 def core():

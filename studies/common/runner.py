@@ -17,7 +17,6 @@ Each returns a ``RunResult`` whose ``out`` folder holds the tool's outputs; ``ca
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import os
@@ -33,6 +32,7 @@ from typing import Optional, Sequence
 
 from studies.common.cache import Cache, cache_key, file_sha256
 from studies.common.paths import PrerequisiteMissing, repo_root, tool_path
+from studies.common.memo import once
 
 MPM_EXECUTABLE = "pfm-mpm"
 EXIT_STOPPED = (
@@ -206,7 +206,7 @@ ULFEM_EXECUTABLE = (
 _NO_REVISION = {"revision": "-", "diff": "-"}
 
 
-@functools.lru_cache(maxsize=8)
+@once
 def _run_help(executable: str) -> str:
     try:
         done = subprocess.run(
