@@ -7,8 +7,8 @@ namespace pfm {
 /// to the system whenever more than 128 kB is free there, and serves each block above 128 kB by
 /// its own mapping, unmapped when freed (both limits rise only after a large block has been
 /// freed, so they depend on the process's history). A run frees and allocates the same scratch
-/// every step: the boundary detector's vectors came back as page faults on every call (30 per
-/// detection of the thesis slope, about 0.05 ms of 0.45 ms). With this policy freed memory stays
+/// every step: without this policy the boundary detector's vectors come back as page faults on
+/// every call (pfm-bench-detect counts page_faults per detection). With it freed memory stays
 /// for reuse: trimming above 512 MB of free top, own mappings only for blocks of 32 MB or more.
 /// Call once at the start of main(); does nothing with another C library.
 void keep_freed_memory();

@@ -23,9 +23,8 @@ double available_memory_bytes();
 
 /// The thread count for `cores` cores of which `busy` are kept busy by other processes: the
 /// cores left, at least one. Two threads sharing one core with another busy job are slower than
-/// one: a step waits at each of its dozen synchronisations for the thread the job delays
-/// (measured, pfm-bench BM_StepBesideABusyJob: 2.3 times one thread's time at 1.2k points, 1.2-1.4
-/// times at 19k, whether the threads spin or sleep while they wait).
+/// one: a step waits at each of its dozen synchronisations for the thread the job delays, whether
+/// the threads spin or sleep while they wait (pfm-bench BM_StepBesideABusyJob measures it).
 int threads_for_load(int cores, int busy);
 
 /// Sets the OpenMP threads of this process to `requested`, or for 0 to

@@ -42,8 +42,8 @@ double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b);
 /// pass; the last pass takes cells whose diagonal fits in the smallest guard, so that a guarded
 /// particle has the four corners of its fine cell inside (capped at max_refinement /
 /// sqrt(1 - neighbour_shape)). The first pass does not refine for the guards: a few guarded
-/// corner particles of a long face would refine the whole band (300k-point block: 13 ms at
-/// refinement 10, 8 ms at 4), and the containment check sends what it misses to the last pass.
+/// corner particles of a long face would refine the whole band, and the containment check sends
+/// what it misses to the last pass.
 int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h);
 /// The bridges of the second pass (ImprovedConfig::join_spurious_loops): from each particle of
 /// `left_out` to every particle within kContactSpacings initial spacings of it, and the contacts

@@ -100,8 +100,7 @@ struct ImprovedConfig {
   /// the guards. A particle with a larger phi is inside the exact level set, but the contour's
   /// chords can still cut it off where the level set curves within a fine cell, or miss an island
   /// smaller than a fine cell (a few stacked points): such particles are guarded for the second
-  /// pass (fuzz_detect found such islands, the 10,000 random clouds of the invariants test have
-  /// none).
+  /// pass (Invariants.StackedPointsSmallerThanAFineCellAreGuardedInASecondPass).
   double guard_factor = 0.6;
   double guard_margin = 0.02;
   /// Field cell = grid cell / refinement. 0 = automatic: 4 (the bridges' pass too), and if the
@@ -126,10 +125,11 @@ struct ImprovedConfig {
   /// from the guarded particles and the particles of islands that may hold no lattice node. Only
   /// particles outside the interior cells are tested for guards. The screenings and the lattice are
   /// heuristics: a hole smaller than the lattice, or an island without a particle, in an active
-  /// cell away from the guards would be missed (none found in the tests: the narrow band and the
-  /// reference detector agree bitwise on 22,000 random clouds, 432 cracked blocks and the
-  /// fuzzer's clouds). false: the reference detector (reference_detector.cpp), the definition
-  /// written plainly, which evaluates the field at every fine node of the grid (tens of times
+  /// cell away from the guards would be missed. The invariants test, the tests
+  /// Determinism.NarrowBandEqualsFullField* and fuzz_detect check that the narrow band and the
+  /// reference detector agree bitwise (random clouds, cracked blocks, windows of the failure
+  /// states, the fuzzer's corpus). false: the reference detector (reference_detector.cpp), the
+  /// definition written plainly, which evaluates the field at every fine node of the grid (much
   /// slower): the test oracle of the narrow band.
   double band_margin = 0.4;
   double root_tolerance = 1e-6;       ///< edge crossings to this fraction of the grid cell size

@@ -30,14 +30,14 @@ void placement_points_1d(Placement placement, int n, std::vector<double>& positi
 /// polygon's edges cut holds one point at the centroid of its part inside the polygon, with
 /// that part's area as its volume (a part below a quarter of a sub-square joins the nearest
 /// part of its cell, and a cell whose only part is that small, where the polygon clips its
-/// corner, gives it to the nearest part of a neighbouring cut cell: a point of 1-2 % of a full
-/// one, alone on its nodes, was flung by a constraint on a block turned 30 degrees). The points'
-/// volumes then add up to the polygon's area and their first moment to its first moment, and the
-/// point sums of the linear shape functions' gradients (linear within a sub-square) are the
-/// integrals over the polygon, exactly, where the staircase of whole sub-squares misses the area by
-/// up to 0.4 % (test_body_fill). On the free square of test_boundary_coupling (turned 20
-/// degrees, a follower pressure) the worst stress error one cell inside is 0.9 %, against 1.7 %
-/// with the equal placement.
+/// corner, gives it to the nearest part of a neighbouring cut cell: a sliver of a point, alone on
+/// its nodes, would be flung by a constraint). The points' volumes then add up to the polygon's
+/// area and their first moment to its first moment, and the point sums of the linear shape
+/// functions' gradients (linear within a sub-square) are the integrals over the polygon, exactly,
+/// where the staircase of whole sub-squares misses part of the area (test_body_fill checks the
+/// area and first moment against the polygon's). test_boundary_coupling runs
+/// its free square (turned 20 degrees, a follower pressure) with both placements and asserts the
+/// stress more than one cell inside within 3 % of the exact state.
 Particles fill_bodies(const Case& c);
 
 }  // namespace pfm

@@ -8,19 +8,17 @@
 // u_p = x_p - X_p, with weights w_p = m_p sum_J N_J(x) N_J(x_p) (the particles that share a node
 // with x; on a part with an x_range, only those over it: the material beside a part is not
 // the part's, and under a footing's edge it heaves while the material under the footing
-// follows the footing, so a fit across the edge reads a gap neither side has): exact wherever the
-// displacement is affine (a homogeneous strain, a translation), also on a face whose particles all
-// lie on one side of x, and blind to how distorted the particles' F are (the fit uses positions
-// only: a first version extrapolated each particle's field with G_p = I - F_p^-1 and was as
-// accurate on the turned block, but its gaps under a footing's edge were 15 times larger). The
-// fit's sums are per-node moments (the mass and the moments of x_p - x_J, u_p and the stress, for
-// Nitsche's method), taken once a step over the particles near the parts, and shifted to x; where
-// the points within reach lie on a line, the weighted mean is taken. N_J are the loads' grid
-// functions (bilinear for linear and uGIMP, the B-splines otherwise). The gap is g = P (u - u_bar):
-// P = n n^T with n the part's normal-window direction (a face: the corners of two constrained faces
-// then hold both) or the curve's normal, for normal_only; else the identity. u_bar is the
-// prescribed displacement (value x time function), or for a velocity its integral over the steps
-// taken (midpoint rule; kept in the checkpoint).
+// follows the footing, so a fit across the edge reads a gap neither side has). The fit is exact
+// wherever the displacement is affine (a homogeneous strain, a translation), also on a face
+// whose particles all lie on one side of x, and it uses positions only, not the particles' F.
+// Its sums are per-node moments (the mass and the moments of x_p - x_J, u_p, the motion since
+// the detection and the stress, for Nitsche's method), taken once a step over the particles
+// near the parts, and shifted to x; where the points within reach lie on a line, the weighted
+// mean is taken. N_J are the loads' grid functions (bilinear for linear and uGIMP, the B-splines
+// otherwise). The gap is g = P (u - u_bar): P = n n^T with n the part's normal-window direction
+// (a face: the corners of two constrained faces then hold both) or the curve's normal, for
+// normal_only; else the identity. u_bar is the prescribed displacement (value x time function),
+// or for a velocity its integral over the steps taken (midpoint rule; kept in the checkpoint).
 // Between two detections the part moves with the material: each of its points x_0 (on the
 // curves last detected) is taken at x_0 + n (n . d(x_0)), with n the curve's normal and d the
 // same fit to the particles' motion since that detection (x_p now less x_p then); sliding along
@@ -43,10 +41,8 @@
 // error h / (factor L) for a bar of length L falls as beta grows; a mode of the lumped
 // stiffness k_L and the consistent k has (m + dt^2 k_L) z^2 - (2 m + dt^2 (k_L - k)) z + m = 0,
 // with its roots in the unit disk for every beta since k_L >= k >= 0 (no time step limit
-// beyond the soil's). A block turned 30 degrees to the grid reaches its uniaxial strain (the rate
-// form's, ln 0.99 for 1 % of shortening) within 0.7 % in the interior and its reactions within
-// 0.6 %, at rest (test_boundary_constraint; penalty factor 1, 16, 100, 1000: -13.1, -1.2, -0.5,
-// +0.1 %).
+// beyond the soil's). test_boundary_constraint holds a block turned 30 degrees to the grid in
+// uniaxial strain and checks its interior stress and reactions at several factors.
 //
 // Nitsche's method (method "nitsche"). The penalty's traction gains the material's own traction
 // on the constrained directions, t = P sigma n - beta g, with n the curve's outward normal and
@@ -55,60 +51,16 @@
 // -int N_I sigma n along their edge (the divergence theorem), which this term cancels: what is
 // left drives the gap to zero whatever beta, so the method is consistent and beta is only its
 // stabilisation (the non-symmetric, "incomplete" form: no term in the test functions' stress).
-// The term is explicit; the penalty's stiffness stays implicit as above. The turned block
-// (test_boundary_constraint, 5 % PIC): reaction -0.28, -0.34, -0.39, +0.11 % at factors 4, 16, 100,
-// 1000, against the penalty's -3.8, -1.2, -0.53, +0.10 %; at factor 1 the interior is right
-// (-0.13 %) but the block does not come to rest (kinetic / elastic 0.04) and at 0.25 it blows
-// up: beta must dominate the explicit term, factor 4 or more. On the footing below it changes
-// nothing (1.09-1.10 at factors 2, 4 and 16 at 0.0375 m/s; at 1 the reaction swings by +-40):
-// the excess there is not the penalty's compliance.
+// The term is explicit; the penalty's stiffness stays implicit as above, and beta must dominate
+// the explicit term (a factor of 4 or more: below it the block does not come to rest).
 //
 // FLIP. The particles next to a constraint pick up velocities the grid does not see (FLIP keeps
 // them), which the constraint's stiff nodes feed back: a few per cent of PIC
-// (solver.pic_fraction 0.05) removes them, and constraint cases should take it. With FLIP the
-// turned block is not at rest at 0.4 s (kinetic / elastic 5e-4 against 1e-6), the same block
-// filled by the conforming placement turned 10 degrees has an interior spread of 21 % (3 % with
-// PIC) and at 30 degrees with h = L / 32 blows up (reaction -0.08 % with PIC), and a rigid footing
-// stops at a settlement of 0.05 b.
+// (solver.pic_fraction 0.05) removes them, and constraint cases should take it.
 //
-// Limits. With 5 % PIC a polygon body with the conforming placement (nodes it barely reaches
-// along its faces) is right turned 0, 10, 30 and 45 degrees at h = L / 16 and 10 and 30 degrees
-// at h = L / 32: reactions within 0.8 %, interior spread below 3 %. A rigid footing pushed into
-// weightless Tresca soil (the benchmarks study's footing, 8 cells under the half-width b, uGIMP,
-// B-bar, 5 % PIC; with FLIP its particles carry 0.3-10 m/s) runs to 0.14 b. Its reaction rises
-// along the settlement as the UL-FEM's does, the footing sinking into its own heave (over s / b
-// 0.01-0.03, 0.03-0.06, 0.06-0.09, 0.09-0.12, in units of (2 + pi) c: the UL-FEM 1.05, 1.09,
-// 1.12, 1.16 at 8 cells under b and 1.03, 1.07, 1.10, 1.13 at 16, where it inverts an element
-// at 0.13 b; the node support on the grid's top row falls instead, 0.98 to 0.90 at 16 cells,
-// once the surface sinks below that row; the dolfinx model, static and small-strain, is flat at
-// 1.03). The constraint at factor 16 gives 1.06, 1.11, 1.12, 1.06 at 8 cells under b and 1.04,
-// 1.05, 1.08, 1.11 at 16 (1.03, 1.04, 1.09, 1.11 at half the speed): at 8 cells its mean over
-// 0.03-0.12 b is 1.10 at 0.0375 m/s (factor 100: 1.11, Nitsche's at 16: 1.10) and 1.09, 1.08,
-// 1.07 at 1/2, 1/4 and 1/8 of the speed, the largest value 1.46 to 1.69; at 16 cells 1.08.
-// At 32 cells under b (footing_case(cells=32), not in the study: 27 minutes) the constraint
-// gives 1.01, 1.05, 1.05, 1.13 and the UL-FEM 1.01, 1.06 before it inverts an element at 0.07 b.
-// The least-squares line through the plateau, taken at s = 0 (the level without the rise), is
-// 1.16, 1.01 and 0.99 at 8, 16 and 32 cells (the UL-FEM's 1.05, 1.02 and, over 0.03-0.07 b,
-// 1.01): the level converges to (2 + pi) c; the rise is the large deformation's, not the
-// constraint's.
-// The fit over every particle within reach (before the x_range rule) gave 1.085 at the speed but
-// 1.02 at 1/8 of it with spikes past 0.09 b (factor 100: -18 to +12 times (2 + pi) c; the first,
-// at factor 16, a spring force of -425 kN/m on the node column at the footing's edge, against -5
-// to -15 on the others), and at 16 cells under b and 1/4 of the speed it stopped at 0.125 b (CFL)
-// where the fit over the part runs through at 1.06. Measured with that fit at 0.0375 m/s: PIC's
-// dissipation grows with the speed (1 % of PIC instead of 5 %: 1.05 and 1.08 over 0.01-0.03 and
-// 0.03-0.06 b, against 1.07 and 1.11); the lumped stiffness damps each node's own velocity v_I
-// towards v_bar, by dt K_I (v_I - v_bar), where the consistent matrix damps only the
-// interpolated velocity's mismatch on the curve (that mismatch taken explicitly: 1.06, 1.08,
-// 1.11 over the first three windows against 1.07, 1.11, 1.11). Tried there without removing the
-// excess: Nitsche's method, a consistent stiffness solved as one system, each point's force on
-// its nearest node row (swings of -4.6 to +6.2 as that row changes), the shares taken a quarter
-// or half a cell outward along the normal (unstable at half a cell), the shares weighted by the
-// nodes' masses, a normal window of 10 or 25 degrees instead of 45, no damping, linear
-// functions, the part lengthened by h / 2 (+11 %) or ended h / 2 inside the edge (1.05, then
-// factor 100 stops at 0.11 b), the force carried to the nodes through the fit's own particle
-// weights (a conservative spring, which loses Nitsche's consistency and the turned block's
-// accuracy: -2.7 % at factor 100).
+// The benchmarks study pushes a rigid footing into weightless Tresca soil through a constraint
+// on the detected top (studies/benchmarks.py, footing_case) beside the UL-FEM and dolfinx; its
+// figures are in that study's tables.
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);

@@ -190,8 +190,8 @@ struct OutputSpec {
   /// Write the nodal forces of the detected-boundary loads at each output step
   /// (nodal_loads_<step>.csv, thesis figure 6.6).
   bool nodal_loads = false;
-  /// gzip (level 1) + byte shuffle on the HDF5 datasets ("compression": "gzip"); off by default
-  /// (README "Outputs": 29 % fewer bytes for 18 ms per output of 3,384 points).
+  /// gzip (level 1) + byte shuffle on the HDF5 datasets ("compression": "gzip"); off by default:
+  /// it trades time at every output for fewer bytes (README "Outputs").
   bool compress = false;
   /// Also particles_<step>.vtu at each output step and particles.pvd (mpm/solver/vtk_output.hpp).
   bool vtk = false;
