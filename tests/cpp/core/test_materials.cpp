@@ -8,7 +8,6 @@
 
 #include <Eigen/Eigenvalues>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -593,37 +592,6 @@ TEST(Materials, PiecewiseSegmentsLandExactlyAcrossBreakpoints) {
   tresca.update(Strain(0.0, 0.0, gp + tau / kMu, 0.0), s2, state2);
   EXPECT_NEAR(state2.plastic_strain, gp, 1e-15);
   EXPECT_NEAR(s2[kXY], tau, 1e-11);
-}
-
-TEST(Materials, UpdateTimingPrintedNotAsserted) {
-  const Tresca tresca{soil_elastic(), thesis_cohesion()};
-  const MohrCoulomb mc{soil_elastic(), thesis_cohesion(), 30.0, 10.0, 5.0};
-  const int n = 1000000;
-  auto time_loop = [&](const auto& model, const Strain& d, const Stress& start, double eps0) {
-    double best = kInf;  // fastest of three runs: the machine is shared
-    for (int run = 0; run < 3; ++run) {
-      Stress s = start;
-      PointState state{eps0};
-      const auto t0 = std::chrono::steady_clock::now();
-      for (int k = 0; k < n; ++k) {
-        model.update(d, s, state);
-        if ((k & 1023) == 1023) s = start, state.plastic_strain = eps0;  // same regime
-      }
-      const auto t1 = std::chrono::steady_clock::now();
-      EXPECT_TRUE(s.allFinite());
-      best = std::min(best, std::chrono::duration<double, std::nano>(t1 - t0).count() / n);
-    }
-    return best;
-  };
-  const Strain tiny(1e-9, -1e-9, 1e-9, 0.0);
-  const Strain shear(0.0, 0.0, 1e-4, 0.0);
-  const Stress pure_shear(0.0, 0.0, 19.0, 0.0), compressed(-50.0, -60.0, 5.0, -55.0);
-  std::printf(
-      "update() ns/call: Tresca elastic %.1f, Tresca plastic %.1f, MC elastic %.1f, "
-      "MC plastic %.1f, linear elastic %.1f\n",
-      time_loop(tresca, tiny, compressed, 0.0), time_loop(tresca, shear, pure_shear, 0.02),
-      time_loop(mc, tiny, compressed, 0.0), time_loop(mc, shear, pure_shear, 0.02),
-      time_loop(LinearElastic{soil_elastic()}, tiny, compressed, 0.0));
 }
 
 }  // namespace
