@@ -17,7 +17,7 @@
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detector.hpp"
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace py = pybind11;
 using nlohmann::json;

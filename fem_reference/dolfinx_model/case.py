@@ -169,7 +169,7 @@ class Support:
 
 
 def time_function_factor(tf: dict, t: float) -> float:
-    """The time function's factor at time t (as TimeFunction::factor, mpm/solver/case.hpp):
+    """The time function's factor at time t (as TimeFunction::factor, mpm/step/case.hpp):
     1 (constant), t / t_r (ramp) or 10 u^3 - 15 u^4 + 6 u^5 with u = t / t_r (smooth ramp), and
     1 after t_r."""
     ramp = tf.get("ramp_time", 0.0)

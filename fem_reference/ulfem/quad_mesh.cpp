@@ -10,8 +10,8 @@
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
-#include "mpm/solver/body_fill.hpp"
-#include "mpm/solver/gmsh_surface.hpp"
+#include "mpm/step/body_fill.hpp"
+#include "mpm/step/gmsh_surface.hpp"
 
 namespace pfm::ulfem {
 

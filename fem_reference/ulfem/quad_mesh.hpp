@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "mpm/core/types.hpp"
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm::ulfem {
 

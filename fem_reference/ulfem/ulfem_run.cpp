@@ -9,10 +9,10 @@
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/provenance.hpp"
-#include "mpm/solver/hdf5_untimed.hpp"
-#include "mpm/solver/output.hpp"
-#include "mpm/solver/run_driver.hpp"
-#include "mpm/solver/vtk_output.hpp"
+#include "mpm/step/hdf5_untimed.hpp"
+#include "mpm/step/output.hpp"
+#include "mpm/step/run_driver.hpp"
+#include "mpm/step/vtk_output.hpp"
 
 namespace pfm::ulfem {
 

@@ -24,8 +24,8 @@
 #include <vector>
 
 #include "fem_reference/ulfem/quad_mesh.hpp"
-#include "mpm/solver/particles.hpp"
-#include "mpm/solver/run.hpp"
+#include "mpm/step/particles.hpp"
+#include "mpm/step/run_support.hpp"
 
 namespace pfm::ulfem {
 

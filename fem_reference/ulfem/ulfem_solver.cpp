@@ -10,8 +10,8 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/core/shape_functions.hpp"
-#include "mpm/solver/body_fill.hpp"
-#include "mpm/solver/stage_timer.hpp"
+#include "mpm/step/body_fill.hpp"
+#include "mpm/step/stage_timer.hpp"
 
 namespace pfm::ulfem {
 

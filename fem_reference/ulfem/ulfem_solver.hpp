@@ -9,7 +9,7 @@
 //                        grad N_I(x_p) on the current geometry
 //   external_forces      gravity m_I g, the case's loads on the current boundary edges
 //   update_nodes         local (Cundall) damping, acceleration, velocity, constraints
-//                        (update_node() of mpm/solver/energy_ledger.hpp, as the MPM's grid)
+//                        (update_node() of mpm/step/energy_ledger.hpp, as the MPM's grid)
 //   nodes_to_particles   particle velocity (FLIP, blended with PIC by solver.pic_fraction)
 //   remap_momentum       MUSL only: nodal velocity from the updated particle momentum
 //   update_stress        velocity gradient, Jaumann rotation, constitutive update, F
@@ -61,7 +61,10 @@
 #include <vector>
 
 #include "fem_reference/ulfem/quad_mesh.hpp"
-#include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/initial_stress.hpp"
+#include "mpm/step/prescribed_velocity.hpp"
+#include "mpm/step/step_scheme.hpp"
+#include "mpm/step/step_view.hpp"
 
 namespace pfm::ulfem {
 

@@ -34,8 +34,8 @@
 #include "mpm/detect/detector.hpp"
 #include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/vector_loops.hpp"
-#include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
 
 namespace {
 

@@ -114,7 +114,7 @@ struct BoundaryLoadSpec {
   /// The part of the mass of a full cell (the densest material's rho h^2) below which a node
   /// is too light to carry a load: a force f on a node of mass m accelerates it by f / m, and a
   /// node that a body barely reaches would be flung, and the load's work on it would be lost in
-  /// the next projection (the energy ledger's transfer_to_grid, mpm/solver/energy_ledger.hpp).
+  /// the next projection (the energy ledger's transfer_to_grid, mpm/step/energy_ledger.hpp).
   /// The default catches the nodes that a surface barely reaches; a larger fraction moves
   /// loads off nodes that carry them well, away from the boundary, and the stress next to the
   /// boundary suffers (tests/cpp/solver/test_boundary_coupling.cpp, the free square).

@@ -74,8 +74,8 @@
 #include <vector>
 
 #include "mpm/boundary/surface_load.hpp"
-#include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 

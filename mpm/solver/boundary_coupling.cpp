@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "mpm/solver/stage_timer.hpp"
+#include "mpm/step/stage_timer.hpp"
 
 namespace pfm {
 

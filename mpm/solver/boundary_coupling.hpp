@@ -44,9 +44,9 @@
 #include "mpm/core/stress_recovery.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/boundary_constraint.hpp"
-#include "mpm/solver/case.hpp"
 #include "mpm/solver/checkpoint.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 

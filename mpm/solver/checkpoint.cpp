@@ -12,7 +12,7 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/output_folder.hpp"
-#include "mpm/solver/hdf5_untimed.hpp"
+#include "mpm/step/hdf5_untimed.hpp"
 
 namespace pfm {
 

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "mpm/solver/energy_ledger.hpp"
-#include "mpm/solver/particles.hpp"
+#include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm {
 

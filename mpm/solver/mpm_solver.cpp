@@ -7,8 +7,8 @@
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"
-#include "mpm/solver/body_fill.hpp"
-#include "mpm/solver/stage_timer.hpp"
+#include "mpm/step/body_fill.hpp"
+#include "mpm/step/stage_timer.hpp"
 
 namespace pfm {
 

@@ -44,46 +44,16 @@
 #include <string>
 #include <vector>
 
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/energy_ledger.hpp"
-#include "mpm/solver/grid_stages.hpp"
-#include "mpm/solver/initial_stress.hpp"
-#include "mpm/solver/particles.hpp"
-#include "mpm/solver/prescribed_velocity.hpp"
-#include "mpm/solver/step_scheme.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/grid_stages.hpp"
+#include "mpm/step/initial_stress.hpp"
+#include "mpm/step/particles.hpp"
+#include "mpm/step/prescribed_velocity.hpp"
+#include "mpm/step/step_scheme.hpp"
+#include "mpm/step/step_view.hpp"
 
 namespace pfm {
-
-/// A run that cannot go on (NaN, CFL violation, particle leaving the grid, particle or element
-/// inversion).
-class SimulationError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-/// What a hook sees of the step it is called in: the time at the step's start, its size and
-/// count, the material points as the step found them, and where the external-force hook records
-/// each load's nodal forces (for the work of each load, EnergyLedger::load_work_by_load). The
-/// hooks see nothing else of the solver.
-struct StepView {
-  double time = 0.0;  ///< s
-  double dt = 0.0;    ///< s
-  long step = 0;
-  const Particles& particles;
-  LoadWorkRecorder& load_work;
-};
-
-/// Extra external forces added to the grid each step (the boundary-traction stage hooks in
-/// here). Called after particles_to_grid with the nodal masses and internal forces known (after
-/// the ties: a tied node shows no mass, and a force added to it goes through its tie); adds
-/// into `force` (grid_state.external_force). It may move internal forces between nodes,
-/// conserving their sum and moment (the lost-load rule of boundary_coupling.hpp).
-using ExternalForceHook =
-    std::function<void(const StepView& step, GridState& grid_state, std::vector<Vec2>& force)>;
-
-/// Observer of the updated grid velocities (after the grid update, before grid-to-particles):
-/// surface markers ride on them (thesis eq. 4.6-4.7).
-using GridVelocityHook = std::function<void(const StepView& step, const GridState& grid_state)>;
 
 class MpmSolver {
  public:
@@ -126,7 +96,7 @@ class MpmSolver {
       "locate", "particles_to_grid", "external_forces", "update_grid", "grid_to_particles", "remap",
       "stress"};
   /// Kinetic and elastic energy of the particles now and the energy ledger since time 0
-  /// (mpm/solver/energy_ledger.hpp).
+  /// (mpm/step/energy_ledger.hpp).
   EnergyBalance energy() const;
 
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }

@@ -43,7 +43,7 @@ def version() -> str:
 
 
 def read_case(path) -> dict:
-    """The case file at ``path`` validated by the C++ reader and resolved (mpm/solver/case.hpp,
+    """The case file at ``path`` validated by the C++ reader and resolved (mpm/step/case.hpp,
     resolved_case: every key with its value or default). Raises InputError."""
     return json.loads(_core.read_case_json(str(path)))
 

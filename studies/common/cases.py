@@ -23,7 +23,7 @@ def base_case(name: str) -> tuple[dict, Path]:
     return json.loads(path.read_text()), path
 
 
-# pfm-mpm's shape function when a case leaves solver.shape_function out (mpm/solver/case.cpp).
+# pfm-mpm's shape function when a case leaves solver.shape_function out (mpm/step/case.cpp).
 DEFAULT_SHAPE_FUNCTION = "quadratic_bspline"
 
 

@@ -1,5 +1,5 @@
 """The energy ledger of a run as a figure (timeseries.csv columns, kJ/m; the terms are those of
-mpm/solver/energy_ledger.hpp and the README's "energy ledger")."""
+mpm/step/energy_ledger.hpp and the README's "energy ledger")."""
 
 from __future__ import annotations
 

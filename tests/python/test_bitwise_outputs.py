@@ -1,7 +1,7 @@
 """Two runs of the same case give byte-identical files (issue "Outputs that survive", item 5).
 
 HDF5 stamps each dataset with the second it was made unless told not to; the writers turn the
-object times off (mpm/solver/hdf5_untimed.hpp). Every shipped case (MPM, and the column with the
+object times off (mpm/step/hdf5_untimed.hpp). Every shipped case (MPM, and the column with the
 UL-FEM) runs to its end time twice, on 1 and on 2 threads, more
 than a second apart: every output file but run.json (which records the times and the thread
 counts of its run) must be the same bytes.

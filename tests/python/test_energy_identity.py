@@ -1,6 +1,6 @@
 """The energy ledger closes on every shipped case run to its end time, collapsing ones included
 (issue "Loads through failure", must-show 1): at every row of timeseries.csv, |energy_error| is
-at most 1e-6 of the largest energy or ledger term of that row (mpm/solver/energy_ledger.hpp;
+at most 1e-6 of the largest energy or ledger term of that row (mpm/step/energy_ledger.hpp;
 measured: 2e-14 at worst). The MPM runs of every case are checked by test_bitwise_outputs.py;
 this file runs the UL-FEM on the cases that it does not."""
 

@@ -7,6 +7,7 @@ import os
 import sys
 
 import json
+import re
 import subprocess
 from pathlib import Path
 
@@ -67,6 +68,15 @@ def test_an_installed_prefix_runs_a_case_and_serves_a_cmake_project(
     assert run["status"] == "completed"
     for name in ("LICENSE", "CHANGELOG.md"):
         assert list(prefix.glob(f"share/doc/*/{name}")), name
+    # The UL-FEM is built on the step library, not on the MPM solver (issue 46, must-show 2).
+    (targets,) = prefix.glob("lib/cmake/pfm_mpm/pfm_mpmTargets.cmake")
+    links = re.search(
+        r"set_target_properties\(pfm::ulfem .*?INTERFACE_LINK_LIBRARIES \"([^\"]*)\"",
+        targets.read_text(),
+        re.S,
+    )
+    assert links and "pfm::step" in links.group(1).split(";")
+    assert "pfm::solver" not in links.group(1).split(";")
 
     # The Python module from the prefix alone: the repository and the build are not on the
     # path (a scratch working directory, PYTHONPATH only the prefix's package folder).

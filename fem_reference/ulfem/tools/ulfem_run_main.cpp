@@ -3,7 +3,7 @@
 //
 //   pfm-ulfem CASE.json OUT_DIR [THREADS]
 //
-// Exit codes as pfm-mpm (mpm/solver/run.hpp): 0 done, 2 bad input, 3 the simulation stopped,
+// Exit codes as pfm-mpm (mpm/step/run_support.hpp): 0 done, 2 bad input, 3 the simulation stopped,
 // 4 a write failed.
 #include <hdf5.h>
 
@@ -14,7 +14,7 @@
 #include "fem_reference/ulfem/ulfem_run.hpp"
 #include "mpm/core/heap_policy.hpp"
 #include "mpm/core/json_input.hpp"
-#include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/step_view.hpp"
 
 int main(int argc, char** argv) {
   H5dont_atexit();           // as pfm-mpm (apps/main.cpp)

@@ -7,6 +7,7 @@
 
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/solver/mpm_solver.hpp"
 #include "ulfem_test_util.hpp"
 
 namespace pfm::ulfem {

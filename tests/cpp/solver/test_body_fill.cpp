@@ -7,7 +7,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "mpm/solver/body_fill.hpp"
+#include "mpm/step/body_fill.hpp"
 
 namespace pfm {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
-#include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "mpm/detect/detector.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
-#include "mpm/solver/case.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
 #include "tests/cpp/detect/detect_test_support.hpp"
 
 namespace pfm {

@@ -6,7 +6,7 @@
 #include <variant>
 
 #include "mpm/core/json_input.hpp"
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 namespace {

@@ -1,4 +1,4 @@
-// The energy ledger (mpm/solver/energy_ledger.hpp): each term is exact for its stage, and the
+// The energy ledger (mpm/step/energy_ledger.hpp): each term is exact for its stage, and the
 // identity kinetic + elastic + dissipation = initial + supplied closes to rounding over whole
 // runs of both solvers, MUSL and USL, elastic and plastic.
 #include <gtest/gtest.h>
@@ -12,9 +12,9 @@
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/solver/boundary_coupling.hpp"
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/energy_ledger.hpp"
 #include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/energy_ledger.hpp"
 
 namespace pfm {
 namespace {

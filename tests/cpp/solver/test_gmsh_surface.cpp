@@ -1,9 +1,9 @@
-// The outline of a body given as a mesh (mpm/solver/gmsh_surface.hpp).
+// The outline of a body given as a mesh (mpm/step/gmsh_surface.hpp).
 #include <gtest/gtest.h>
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/polygon.hpp"
-#include "mpm/solver/gmsh_surface.hpp"
+#include "mpm/step/gmsh_surface.hpp"
 
 namespace pfm {
 namespace {

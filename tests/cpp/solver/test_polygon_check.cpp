@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "mpm/core/polygon.hpp"
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 namespace {

@@ -15,7 +15,7 @@
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/shape_functions.hpp"
 #include "mpm/detect/detector.hpp"
-#include "mpm/solver/energy_ledger.hpp"
+#include "mpm/step/energy_ledger.hpp"
 
 namespace pfm {
 
@@ -42,7 +42,7 @@ struct BodySpec {
   int points_per_cell = 2;    ///< n: n x n points per cell
   Placement placement = Placement::kEqual;
   /// A body read from a particle file (bodies[].particles: x, y, volume, optionally the stress
-  /// and the material; mpm/solver/particle_input.hpp): its points as they are, each a square of
+  /// and the material; mpm/step/particle_input.hpp): its points as they are, each a square of
   /// its volume (polygon empty, points_per_cell and placement unused). Empty for a rectangle or
   /// polygon body.
   std::vector<Vec2> point_position;  ///< m
@@ -51,7 +51,7 @@ struct BodySpec {
   std::vector<int> point_material;   ///< index into Case::materials; empty: `material`
   bool from_file() const { return !point_position.empty(); }
   /// A body given as a gmsh mesh (bodies[].mesh): the file and its physical group (empty: all
-  /// 2D elements); polygon is the mesh's outline (mpm/solver/gmsh_surface.hpp). The UL-FEM
+  /// 2D elements); polygon is the mesh's outline (mpm/step/gmsh_surface.hpp). The UL-FEM
   /// meshes such a body with the file's elements.
   std::string mesh_file;
   std::string physical_group;
@@ -193,7 +193,7 @@ struct OutputSpec {
   /// gzip (level 1) + byte shuffle on the HDF5 datasets ("compression": "gzip"); off by default:
   /// it trades time at every output for fewer bytes (README "Outputs").
   bool compress = false;
-  /// Also particles_<step>.vtu at each output step and particles.pvd (mpm/solver/vtk_output.hpp).
+  /// Also particles_<step>.vtu at each output step and particles.pvd (mpm/step/vtk_output.hpp).
   bool vtk = false;
 };
 

@@ -15,7 +15,7 @@
 #include "mpm/core/kinematics.hpp"
 #include "mpm/core/materials.hpp"
 #include "mpm/core/types.hpp"
-#include "mpm/solver/energy_ledger.hpp"
+#include "mpm/step/energy_ledger.hpp"
 
 namespace pfm {
 

@@ -1,4 +1,4 @@
-#include "mpm/solver/output.hpp"
+#include "mpm/step/output.hpp"
 
 #include <hdf5.h>
 
@@ -12,7 +12,7 @@
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
-#include "mpm/solver/hdf5_untimed.hpp"
+#include "mpm/step/hdf5_untimed.hpp"
 
 namespace pfm {
 

@@ -2,8 +2,8 @@
 // UL-FEM alike, with the wall-clock time of each.
 #pragma once
 
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/stage_timer.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/stage_timer.hpp"
 
 namespace pfm {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 

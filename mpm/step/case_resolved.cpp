@@ -3,7 +3,7 @@
 #include <numbers>
 #include <variant>
 
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 namespace pfm {
 

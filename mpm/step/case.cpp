@@ -1,4 +1,4 @@
-#include "mpm/solver/case.hpp"
+#include "mpm/step/case.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,8 +13,8 @@
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
-#include "mpm/solver/gmsh_surface.hpp"
-#include "mpm/solver/particle_input.hpp"
+#include "mpm/step/gmsh_surface.hpp"
+#include "mpm/step/particle_input.hpp"
 
 namespace pfm {
 

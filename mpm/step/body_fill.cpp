@@ -1,4 +1,4 @@
-#include "mpm/solver/body_fill.hpp"
+#include "mpm/step/body_fill.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -10,10 +10,10 @@
 
 #include "mpm/core/output_folder.hpp"
 #include "mpm/core/provenance.hpp"
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/mpm_solver.hpp"
-#include "mpm/solver/output.hpp"
-#include "mpm/solver/run.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/output.hpp"
+#include "mpm/step/run_support.hpp"
+#include "mpm/step/step_view.hpp"
 
 namespace pfm {
 

@@ -1,10 +1,10 @@
-#include "mpm/solver/initial_stress.hpp"
+#include "mpm/step/initial_stress.hpp"
 
 #include <algorithm>
 #include <string>
 
-#include "mpm/solver/body_fill.hpp"
-#include "mpm/solver/mpm_solver.hpp"
+#include "mpm/step/body_fill.hpp"
+#include "mpm/step/step_view.hpp"
 
 namespace pfm {
 

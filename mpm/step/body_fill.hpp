@@ -3,8 +3,8 @@
 
 #include <vector>
 
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/particles.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm {
 

@@ -1,4 +1,4 @@
-#include "mpm/solver/particle_input.hpp"
+#include "mpm/step/particle_input.hpp"
 
 #include <hdf5.h>
 
@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "mpm/core/json_input.hpp"
-#include "mpm/solver/hdf5_untimed.hpp"
+#include "mpm/step/hdf5_untimed.hpp"
 
 namespace pfm {
 

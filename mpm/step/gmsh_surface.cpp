@@ -1,4 +1,4 @@
-#include "mpm/solver/gmsh_surface.hpp"
+#include "mpm/step/gmsh_surface.hpp"
 
 #include <gmsh.h>
 

@@ -4,9 +4,9 @@
 
 #include <functional>
 
-#include "mpm/solver/case.hpp"
-#include "mpm/solver/energy_ledger.hpp"
-#include "mpm/solver/particles.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm {
 

@@ -1,4 +1,4 @@
-#include "mpm/solver/vtk_output.hpp"
+#include "mpm/step/vtk_output.hpp"
 
 #include <zlib.h>
 
@@ -9,7 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "mpm/solver/output.hpp"
+#include "mpm/step/output.hpp"
 
 namespace pfm {
 

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "mpm/core/output_folder.hpp"
-#include "mpm/solver/particles.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm {
 

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "mpm/core/output_folder.hpp"
-#include "mpm/solver/energy_ledger.hpp"
-#include "mpm/solver/particles.hpp"
+#include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm {
 
@@ -46,7 +46,7 @@ inline constexpr const char* kClose = "</Grid>\n</Domain>\n</Xdmf>\n";
 /// damping_work, momentum_x, momentum_y; with surface loads the resultants of the loads
 /// (load_target, load_applied, load_lost, load_off_grid, each _fx and _fy), the numbers of
 /// loaded and lost nodes and the lost moment (load_lost_moment, kN m/m about (0, 0)); then the
-/// energy ledger (mpm/solver/energy_ledger.hpp): elastic_energy, plastic_dissipation, gravity_work,
+/// energy ledger (mpm/step/energy_ledger.hpp): elastic_energy, plastic_dissipation, gravity_work,
 /// load_work, constraint_work, transfer_to_grid, transfer_to_particles, internal_force_work,
 /// rotation_work, volume_work and energy_error (internal_work is the ledger's stress_power,
 /// external_work gravity_work + load_work); last, the work of each of the case's loads,
