@@ -32,6 +32,7 @@
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/vector_loops.hpp"
 #include "mpm/solver/mpm_solver.hpp"

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "mpm/detect/detector.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/loop_classes.hpp"
 
 namespace pfm {

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/marching_squares.hpp"
 #include "mpm/detect/vector_loops.hpp"

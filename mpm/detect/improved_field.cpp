@@ -1,5 +1,7 @@
 // The improved detector's exact field (see detector.hpp): max(phi, guard), the volume-normalised
 // kernel sums with the particle guards, their slots and bins, and the root finder of the edges.
+#include "mpm/detect/improved_field.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

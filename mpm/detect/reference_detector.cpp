@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/kernel.hpp"
 #include "mpm/detect/loop_classes.hpp"
 #include "mpm/detect/marching_squares.hpp"

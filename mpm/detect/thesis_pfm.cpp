@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/improved_field.hpp"
 
 namespace pfm::detail {
 

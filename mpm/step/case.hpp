@@ -14,7 +14,7 @@
 #include "mpm/core/materials.hpp"
 #include "mpm/core/polygon.hpp"
 #include "mpm/core/shape_functions.hpp"
-#include "mpm/detect/detector.hpp"
+#include "mpm/detect/detector_config.hpp"
 #include "mpm/step/energy_ledger.hpp"
 
 namespace pfm {

@@ -16,6 +16,7 @@
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detect_internal.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/step/case.hpp"
 #include "tests/cpp/detect/detect_test_support.hpp"
 

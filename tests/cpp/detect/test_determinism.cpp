@@ -9,6 +9,7 @@
 #include <numbers>
 #include <random>
 
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/vector_loops.hpp"
 #include "random_clouds.hpp"
 

@@ -16,6 +16,7 @@
 #include "detect_test_support.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detect_internal.hpp"
+#include "mpm/detect/improved_field.hpp"
 #include "mpm/detect/loop_classes.hpp"
 
 namespace pfm::test {

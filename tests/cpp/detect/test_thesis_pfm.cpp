@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "detect_test_support.hpp"
+#include "mpm/detect/improved_field.hpp"
 
 namespace pfm::test {
 namespace {
