@@ -30,10 +30,8 @@ DetectedBoundary detect_improved(const ParticleCloud& cloud, const Grid& grid,
 DetectedBoundary detect_improved_reference(const ParticleCloud& cloud, const Grid& grid,
                                            const ImprovedConfig& config, DetectionTimings& timings);
 
-// ---- pieces of the improved detector's definition that both of them call (in
-// reference_detector.cpp; the bridges' pairs and the removal of spurious loops in
-// loop_classes.cpp, the curvature correction, a filter on the contours, in
-// improved_detector.cpp) ----
+// ---- pieces of the improved detector's definition that both of them call (in definition.cpp;
+// the bridges' pairs and the removal of spurious loops in loop_classes.cpp) ----
 
 /// Chebyshev (max-norm) distance from x to the segment a-b (a point: a == b), m.
 double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b);

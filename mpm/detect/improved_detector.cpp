@@ -48,43 +48,6 @@ std::size_t rows_per_chunk(int width) {
 
 }  // namespace
 
-void correct_curvature(DetectedBoundary& boundary, double moment, double arc) {
-  for (auto& contour : boundary.contours) {
-    const int n = static_cast<int>(contour.points.size());
-    if (n < 3) continue;
-    const auto& pts = contour.points;
-    std::vector<Vec2> moved = pts;
-    for (int k = 0; k < n; ++k) {
-      if (!contour.closed && (k == 0 || k == n - 1)) continue;
-      // Walk back and forth until the chord length reaches `arc` (or the walk runs out).
-      int back = k, ahead = k;
-      double length = 0.0;
-      for (int step = 0; step < n - 1 && length < arc; ++step) {
-        const int next = contour.closed ? (back - 1 + n) % n : back - 1;
-        if (next < 0) break;
-        length += (pts[back] - pts[next]).norm();
-        back = next;
-      }
-      length = 0.0;
-      for (int step = 0; step < n - 1 && length < arc; ++step) {
-        const int next = contour.closed ? (ahead + 1) % n : ahead + 1;
-        if (next >= n) break;
-        length += (pts[next] - pts[ahead]).norm();
-        ahead = next;
-      }
-      if (back == k || ahead == k || back == ahead) continue;
-      const Vec2 u = pts[k] - pts[back], v = pts[ahead] - pts[k], w = pts[ahead] - pts[back];
-      const double denominator = u.norm() * v.norm() * w.norm();
-      if (denominator <= 0.0) continue;
-      const double kappa = 2.0 * (u.x() * v.y() - u.y() * v.x()) / denominator;  // left turn > 0
-      const Vec2 tangent = w.normalized();
-      const Vec2 left_normal(-tangent.y(), tangent.x());  // points into the material
-      moved[k] = pts[k] - 0.5 * kappa * moment * left_normal;
-    }
-    contour.points = std::move(moved);
-  }
-}
-
 // Values of type T on the fine field grid stored in blocks of r x r, one per coarse (grid) cell,
 // allocated on first use: the narrow band touches few blocks of a large refined grid. Block
 // (bi, bj) holds the fine indices [bi r, bi r + r) x [bj r, bj r + r); the blocks run one past
@@ -1312,29 +1275,6 @@ std::atomic<bool> keep_nodes{true};
 
 bool keep_nodes_between_passes(bool on) {
   return keep_nodes.exchange(on);
-}
-
-void cap_stretch(std::vector<Mat2>& deformation, double cap, std::span<double> volume) {
-  const double floor = 1.0 / cap;
-  for (std::size_t p = 0; p < deformation.size(); ++p) {
-    Mat2& f = deformation[p];
-    double largest = 0.0, smallest = 0.0;
-    singular_values(f, largest, smallest);
-    if (largest <= cap && smallest >= floor) continue;
-    // F' = F (k1 P1 + k2 P2), k the clamped singular values over the raw ones (not zero: det F
-    // is checked to be > 0) and P the projectors on the right singular vectors: P1 + P2 = I and,
-    // where the singular values differ, P1 = (F^T F - s2^2 I) / (s1^2 - s2^2) (where they do not,
-    // k1 = k2). No angle, so no trigonometric function.
-    const double k1 = std::clamp(largest, floor, cap) / largest;
-    const double k2 = std::clamp(smallest, floor, cap) / smallest;
-    Mat2 m = k2 * Mat2::Identity();
-    if (k1 != k2) {
-      m += (k1 - k2) / ((largest - smallest) * (largest + smallest)) *
-           (f.transpose() * f - smallest * smallest * Mat2::Identity());
-    }
-    f = f * m;
-    if (!volume.empty()) volume[p] *= k1 * k2;
-  }
 }
 
 // The pipeline: survey (0), band (0), field setup, coarse screening (1), guards (2), then per

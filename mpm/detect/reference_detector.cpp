@@ -7,12 +7,11 @@
 // narrow band, the coarse screening, the bins, the sums in vector registers, the nodes kept
 // between passes and the threads there give bitwise the same contours as this file
 // (tests/cpp/detect, Determinism.* and Invariants.*). detect() runs this file for
-// `narrow_band: false`. The pieces that are definitions, not accelerations, are here and the
-// fast path calls them: the refinement of a pass, what the contours of a pass call for next, the
-// containment check. Defined elsewhere: the kernel in kernel.hpp; the wall rule in ImprovedField
-// (find_wall_contacts(), mirror_sides()); the loops' classes, the bridges' pairs and the removal
-// of spurious loops in loop_classes.cpp; the optional curvature correction (a filter on the
-// contours) in improved_detector.cpp.
+// `narrow_band: false`. The pieces of the definition that the fast path shares with it (the
+// refinement of a pass, what the contours of a pass call for next, the containment check's
+// geometry) are in definition.cpp; the kernel is in kernel.hpp, the wall rule in ImprovedField,
+// the loops' classes and the bridges' pairs in loop_classes.cpp.
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -30,119 +29,6 @@
 #include "mpm/detect/marching_squares.hpp"
 
 namespace pfm::detail {
-
-double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b) {
-  // max(|e_x - t d_x|, |e_y - t d_y|) (e = x - a, d = b - a) is convex and piecewise linear in t:
-  // least on [0, 1] at an end or where a term vanishes or the two are equal.
-  const Vec2 e = x - a, d = b - a;
-  const auto at = [&](double t) {
-    t = std::clamp(t, 0.0, 1.0);
-    return std::max(std::abs(e.x() - t * d.x()), std::abs(e.y() - t * d.y()));
-  };
-  double best = std::min(at(0.0), at(1.0));
-  if (d.x() != 0.0) best = std::min(best, at(e.x() / d.x()));
-  if (d.y() != 0.0) best = std::min(best, at(e.y() / d.y()));
-  if (d.x() != d.y()) best = std::min(best, at((e.x() - e.y()) / (d.x() - d.y())));
-  if (d.x() != -d.y()) best = std::min(best, at((e.x() + e.y()) / (d.x() + d.y())));
-  return best;
-}
-
-int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h) {
-  if (config.refinement > 0) return config.refinement;
-  // Joining the spurious loops, the second pass (the bridges) keeps the first's refinement.
-  const int base_passes = config.join_spurious_loops ? 2 : 1;
-  const double axis =
-      pass < base_passes ? std::numeric_limits<double>::infinity() : smallest_guard_axis;
-  // (Capped before the conversion: a guard squeezed to nothing asks for any refinement.)
-  const int refinement = std::isfinite(axis)
-                             ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
-                             : 4;
-  // Kernels shaped by the neighbours narrow their guards by up to sqrt(1 - beta) across: the cap
-  // grows as much, so that it covers the guards of F as it does without the option.
-  const int cap = static_cast<int>(
-      std::ceil(std::max(1, config.max_refinement) / std::sqrt(1.0 - config.neighbour_shape)));
-  return std::clamp(std::max(refinement, 4), 1, cap);
-}
-
-std::optional<NextPass> next_pass(const ImprovedConfig& config, int pass,
-                                  const DetectedBoundary& boundary, std::span<const Vec2> positions,
-                                  std::span<const std::size_t> left_out, double spacing,
-                                  std::optional<LoopClasses>& classes, DetectionTimings& timings) {
-  if (config.guard_factor <= 0.0) return std::nullopt;
-  const bool join = config.join_spurious_loops && config.guard_factor > 0.0;
-  NextPass next;
-  next.bridging = pass == 0 && join;
-  if (next.bridging) {
-    if (boundary.contours.size() > 1) classes = classify_loops(boundary, positions, spacing);
-    next.pairs = bridge_pairs(positions, left_out, classes.value_or(LoopClasses{}), spacing);
-    if (left_out.empty() && next.pairs.empty()) return std::nullopt;
-  } else if (left_out.empty() || pass == (join ? 2 : 1)) {
-    return std::nullopt;
-  } else {
-    timings.guard_refinement_passes += 1;
-  }
-  if (pass == 0) timings.particles_outside_first_contours = static_cast<long>(left_out.size());
-  return next;
-}
-
-void remove_unresolved_loops(const ImprovedConfig& config, DetectedBoundary& boundary,
-                             std::span<const Vec2> positions, double spacing,
-                             std::optional<LoopClasses>& classes, DetectionTimings& timings) {
-  if (!config.join_spurious_loops || !(config.guard_factor > 0.0)) return;
-  if (boundary.contours.size() <= 1) return;
-  if (!classes) classes = classify_loops(boundary, positions, spacing);
-  timings.spurious_loops_removed = remove_spurious_loops(boundary, *classes);
-}
-
-bool fine_cell(const NodalField& nodes, const Vec2& x, int& i, int& j) {
-  const double u = std::floor((x.x() - nodes.origin.x()) / nodes.spacing);
-  const double v = std::floor((x.y() - nodes.origin.y()) / nodes.spacing);
-  i = static_cast<int>(std::clamp(u, 0.0, nodes.n_x - 2.0));
-  j = static_cast<int>(std::clamp(v, 0.0, nodes.n_y - 2.0));
-  return u >= 0.0 && v >= 0.0 && u < nodes.n_x - 1 && v < nodes.n_y - 1;
-}
-
-std::vector<CellSegment> segments_by_cell(const DetectedBoundary& boundary,
-                                          const NodalField& nodes) {
-  std::vector<CellSegment> segments;
-  for (const Contour& c : boundary.contours) {
-    const std::size_t n = c.points.size();
-    for (std::size_t k = 0; k + 1 < n || (c.closed && k < n); ++k) {
-      const Vec2& a = c.points[k];
-      const Vec2& b = c.points[(k + 1) % n];
-      int i = 0, j = 0;
-      fine_cell(nodes, 0.5 * (a + b), i, j);
-      segments.push_back({j * (nodes.n_x - 1) + i, a, b});
-    }
-  }
-  std::stable_sort(segments.begin(), segments.end(),
-                   [](const CellSegment& x, const CellSegment& y) { return x.cell < y.cell; });
-  return segments;
-}
-
-std::span<const CellSegment> segments_in(const std::vector<CellSegment>& segments, int cell) {
-  const auto by_cell = [](const CellSegment& x, const CellSegment& y) { return x.cell < y.cell; };
-  const auto [first, last] =
-      std::equal_range(segments.begin(), segments.end(), CellSegment{cell, {}, {}}, by_cell);
-  return {first, last};
-}
-
-bool outside_nearest_segment(std::span<const CellSegment> segments, const Vec2& x) {
-  const CellSegment* nearest = nullptr;
-  double best = std::numeric_limits<double>::infinity();
-  for (const CellSegment& s : segments) {
-    const Vec2 d = s.b - s.a;
-    const double t = std::clamp((x - s.a).dot(d) / std::max(d.squaredNorm(), 1e-300), 0.0, 1.0);
-    const double distance = (s.a + t * d - x).squaredNorm();
-    if (distance < best) {
-      best = distance;
-      nearest = &s;
-    }
-  }
-  if (nearest == nullptr) return false;
-  const Vec2 d = nearest->b - nearest->a, e = x - nearest->a;
-  return d.x() * e.y() - d.y() * e.x() < 0.0;
-}
 
 namespace {
 
