@@ -481,116 +481,112 @@ void parse_manufactured(const JsonView& m, const JsonView& root, Case& c) {
 
 }  // namespace
 
-Case parse_case(const nlohmann::json& document, const std::string& file) {
-  Case c;
-  c.file = file;
-  c.source = document;
-  const JsonView root(document, file);
-  root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
-                      "node_sets", "boundary_conditions", "loads", "constraints", "solver", "time",
-                      "output", "detection", "manufactured_solution"});
-  if (root.has("title")) c.title = root.at("title").as_string();
+namespace {
 
-  // Grid.
-  {
-    const JsonView g = root.at("grid");
-    g.expect_object({"origin", "cell_size", "n_cells", "max_nodes"});
-    if (g.has("origin")) c.grid.origin = g.at("origin").as_vec2();
-    c.grid.cell_size = g.at("cell_size").as_number();
-    g.at("cell_size").require(c.grid.cell_size > 0.0, "must be > 0");
-    const JsonView n = g.at("n_cells");
-    n.require(n.array_size() == 2, "expected [nx, ny]");
-    c.grid.n_cells_x = n.at(std::size_t{0}).as_int();
-    c.grid.n_cells_y = n.at(std::size_t{1}).as_int();
-    n.at(std::size_t{0}).require(c.grid.n_cells_x >= 1, "must be >= 1");
-    n.at(std::size_t{1}).require(c.grid.n_cells_y >= 1, "must be >= 1");
-    c.max_grid_nodes = g.number_or("max_nodes", c.max_grid_nodes);
-    if (g.has("max_nodes")) {
-      g.at("max_nodes")
-          .require(c.max_grid_nodes >= 1.0 && c.max_grid_nodes <= 2e9,
-                   "must be in [1, 2e9] (node indices are 32-bit)");
-    }
-    const double nodes = (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0);
-    if (!(nodes <= c.max_grid_nodes)) {
-      char text[200];
-      std::snprintf(text, sizeof text,
-                    "%.3g grid nodes, more than grid.max_nodes (%.3g): a unit mistake? (raise "
-                    "grid.max_nodes for a grid that large)",
-                    nodes, c.max_grid_nodes);
-      n.fail(text);
-    }
+/// The grid: origin, cell size, cell counts and the node limit.
+void parse_grid(const JsonView& root, Case& c) {
+  const JsonView g = root.at("grid");
+  g.expect_object({"origin", "cell_size", "n_cells", "max_nodes"});
+  if (g.has("origin")) c.grid.origin = g.at("origin").as_vec2();
+  c.grid.cell_size = g.at("cell_size").as_number();
+  g.at("cell_size").require(c.grid.cell_size > 0.0, "must be > 0");
+  const JsonView n = g.at("n_cells");
+  n.require(n.array_size() == 2, "expected [nx, ny]");
+  c.grid.n_cells_x = n.at(std::size_t{0}).as_int();
+  c.grid.n_cells_y = n.at(std::size_t{1}).as_int();
+  n.at(std::size_t{0}).require(c.grid.n_cells_x >= 1, "must be >= 1");
+  n.at(std::size_t{1}).require(c.grid.n_cells_y >= 1, "must be >= 1");
+  c.max_grid_nodes = g.number_or("max_nodes", c.max_grid_nodes);
+  if (g.has("max_nodes")) {
+    g.at("max_nodes")
+        .require(c.max_grid_nodes >= 1.0 && c.max_grid_nodes <= 2e9,
+                 "must be in [1, 2e9] (node indices are 32-bit)");
   }
-
-  // Materials.
-  {
-    const JsonView m = root.at("materials");
-    m.require(m.array_size() >= 1, "at least one material is required");
-    std::set<std::string> names;
-    for (std::size_t k = 0; k < m.array_size(); ++k) {
-      c.materials.push_back(parse_material(m.at(k), c.grid.cell_size));
-      m.at(k).at("name").require(names.insert(c.materials.back().name).second,
-                                 "duplicate material name");
-    }
+  const double nodes = (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0);
+  if (!(nodes <= c.max_grid_nodes)) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "%.3g grid nodes, more than grid.max_nodes (%.3g): a unit mistake? (raise "
+                  "grid.max_nodes for a grid that large)",
+                  nodes, c.max_grid_nodes);
+    n.fail(text);
   }
+}
 
-  // Bodies.
-  {
-    const JsonView b = root.at("bodies");
-    b.require(b.array_size() >= 1, "at least one body is required");
-    std::set<std::string> names;
-    for (std::size_t k = 0; k < b.array_size(); ++k) {
-      const JsonView v = b.at(k);
-      v.expect_object({"name", "material", "rectangle", "polygon", "particles", "mesh",
-                       "physical_group", "points_per_cell", "placement"});
-      BodySpec body;
-      body.name = v.at("name").as_string();
-      v.at("name").require(names.insert(body.name).second, "duplicate body name");
-      const std::string material = v.at("material").as_string();
-      int index = -1;
-      for (std::size_t i = 0; i < c.materials.size(); ++i) {
-        if (c.materials[i].name == material) index = static_cast<int>(i);
-      }
-      v.at("material").require(index >= 0, "no material named \"" + material + "\"");
-      body.material = index;
-      if (v.has("particles")) {
-        read_body_particles(v, c, body);
-        c.bodies.push_back(std::move(body));
-        continue;
-      }
-      if (v.has("mesh")) {
-        read_body_mesh(v, c, body);
-      } else {
-        if (v.has("physical_group"))
-          v.at("physical_group").fail("used only with \"mesh\" (a gmsh file)");
-        body.polygon = parse_polygon(v, c.grid);
-      }
-      body.points_per_cell = v.int_or("points_per_cell", 2);
-      if (v.has("points_per_cell")) {
-        v.at("points_per_cell")
-            .require(body.points_per_cell >= 1 && body.points_per_cell <= 8, "must be in 1..8");
-      }
-      const std::string placement =
-          v.choice_or("placement", {"equal", "gauss", "conforming"}, "equal");
-      body.placement = placement == "gauss"        ? Placement::kGauss
-                       : placement == "conforming" ? Placement::kConforming
-                                                   : Placement::kEqual;
+/// The materials, by unique name.
+void parse_materials(const JsonView& root, Case& c) {
+  const JsonView m = root.at("materials");
+  m.require(m.array_size() >= 1, "at least one material is required");
+  std::set<std::string> names;
+  for (std::size_t k = 0; k < m.array_size(); ++k) {
+    c.materials.push_back(parse_material(m.at(k), c.grid.cell_size));
+    m.at(k).at("name").require(names.insert(c.materials.back().name).second,
+                               "duplicate material name");
+  }
+}
+
+/// The bodies: a rectangle, a polygon, a particle file or a mesh each, with its material.
+void parse_bodies(const JsonView& root, Case& c) {
+  const JsonView b = root.at("bodies");
+  b.require(b.array_size() >= 1, "at least one body is required");
+  std::set<std::string> names;
+  for (std::size_t k = 0; k < b.array_size(); ++k) {
+    const JsonView v = b.at(k);
+    v.expect_object({"name", "material", "rectangle", "polygon", "particles", "mesh",
+                     "physical_group", "points_per_cell", "placement"});
+    BodySpec body;
+    body.name = v.at("name").as_string();
+    v.at("name").require(names.insert(body.name).second, "duplicate body name");
+    const std::string material = v.at("material").as_string();
+    int index = -1;
+    for (std::size_t i = 0; i < c.materials.size(); ++i) {
+      if (c.materials[i].name == material) index = static_cast<int>(i);
+    }
+    v.at("material").require(index >= 0, "no material named \"" + material + "\"");
+    body.material = index;
+    if (v.has("particles")) {
+      read_body_particles(v, c, body);
       c.bodies.push_back(std::move(body));
+      continue;
     }
-  }
-  {
-    // Before a byte of the run is allocated: the machine must hold it.
-    const double need = estimated_memory_bytes(c), have = available_memory_bytes();
-    if (need > have) {
-      char text[240];
-      std::snprintf(text, sizeof text,
-                    "the run would need about %.3g GB of memory (%.3g grid nodes, about %.3g "
-                    "material points), more than the %.3g GB this machine has available",
-                    need / 1e9, (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0),
-                    estimated_particles(c), have / 1e9);
-      root.at("grid").at("n_cells").fail(text);
+    if (v.has("mesh")) {
+      read_body_mesh(v, c, body);
+    } else {
+      if (v.has("physical_group"))
+        v.at("physical_group").fail("used only with \"mesh\" (a gmsh file)");
+      body.polygon = parse_polygon(v, c.grid);
     }
+    body.points_per_cell = v.int_or("points_per_cell", 2);
+    if (v.has("points_per_cell")) {
+      v.at("points_per_cell")
+          .require(body.points_per_cell >= 1 && body.points_per_cell <= 8, "must be in 1..8");
+    }
+    const std::string placement =
+        v.choice_or("placement", {"equal", "gauss", "conforming"}, "equal");
+    body.placement = placement == "gauss"        ? Placement::kGauss
+                     : placement == "conforming" ? Placement::kConforming
+                                                 : Placement::kEqual;
+    c.bodies.push_back(std::move(body));
   }
+}
 
+/// Refuses a run the machine cannot hold, before a byte of it is allocated.
+void check_memory(const JsonView& root, const Case& c) {
+  // Before a byte of the run is allocated: the machine must hold it.
+  const double need = estimated_memory_bytes(c), have = available_memory_bytes();
+  if (need > have) {
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  "the run would need about %.3g GB of memory (%.3g grid nodes, about %.3g "
+                  "material points), more than the %.3g GB this machine has available",
+                  need / 1e9, (c.grid.n_cells_x + 1.0) * (c.grid.n_cells_y + 1.0),
+                  estimated_particles(c), have / 1e9);
+    root.at("grid").at("n_cells").fail(text);
+  }
+}
+
+/// Gravity and its ramp.
+void parse_gravity(const JsonView& root, Case& c) {
   if (const auto g = root.find("gravity")) {
     g->expect_object({"g", "ramp_time"});
     c.gravity.g = g->number_or("g", 9.81);
@@ -598,7 +594,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     c.gravity.ramp_time = g->number_or("ramp_time", 0.0);
     if (g->has("ramp_time")) g->at("ramp_time").require(c.gravity.ramp_time >= 0.0, "must be >= 0");
   }
+}
 
+/// The initial stress procedure, and what it cannot take (stresses from a file, K0 without a top).
+void parse_initial_stress(const JsonView& root, Case& c) {
   if (const auto s = root.find("initial_stress")) {
     s->expect_object({"method", "k0", "kinetic_energy_ratio", "damping", "max_time"});
     const std::string method = s->at("method").as_choice({"zero", "k0", "gravity"});
@@ -652,7 +651,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       }
     }
   }
+}
 
+/// The node sets (boxes or mesh groups).
+void parse_node_sets(const JsonView& root, Case& c) {
   if (const auto ns = root.find("node_sets")) {
     for (std::size_t k = 0; k < ns->array_size(); ++k) {
       const JsonView v = ns->at(k);
@@ -681,7 +683,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       c.node_sets.push_back(set);
     }
   }
+}
 
+/// The supports and prescribed velocities on node sets.
+void parse_boundary_conditions(const JsonView& root, Case& c) {
   if (const auto bcs = root.find("boundary_conditions")) {
     for (std::size_t k = 0; k < bcs->array_size(); ++k) {
       const JsonView v = bcs->at(k);
@@ -709,7 +714,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       c.boundary_conditions.push_back(bc);
     }
   }
+}
 
+/// The loads on grid-top nodes and on the detected boundary.
+void parse_loads(const JsonView& root, Case& c) {
   if (const auto loads = root.find("loads")) {
     for (std::size_t k = 0; k < loads->array_size(); ++k) {
       const JsonView v = loads->at(k);
@@ -752,7 +760,10 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       c.loads.push_back(std::move(load));
     }
   }
+}
 
+/// The essential conditions on the detected boundary.
+void parse_constraints(const JsonView& root, Case& c) {
   if (const auto constraints = root.find("constraints")) {
     // The stiffest material's constrained modulus, the scale of the default penalty.
     double modulus = 0.0;
@@ -809,7 +820,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       c.constraints.push_back(std::move(constraint));
     }
   }
+}
 
+/// The solver settings and their defaults (which depend on the materials, the constraints and the
+/// shape function), with the checks that need the shape function.
+void parse_solver(const JsonView& root, Case& c) {
   // The mean dilatation by default where a material is nearly incompressible: without it such a
   // soil locks (a smooth footing on Tresca soil with nu = 0.49 shows no collapse up to
   // 1.2 (2 + pi) c, test_anti_locking); with it the stresses of a compressible one converge at
@@ -910,23 +925,26 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
       }
     }
   }
+}
 
-  {
-    const JsonView t = root.at("time");
-    t.expect_object({"end_time", "cfl", "dt", "max_steps"});
-    c.time.end_time = t.at("end_time").as_number();
-    t.at("end_time").require(c.time.end_time > 0.0, "must be > 0");
-    c.time.cfl = t.number_or("cfl", 0.5);
-    if (t.has("cfl"))
-      t.at("cfl").require(c.time.cfl > 0.0 && c.time.cfl <= 1.0, "must be in (0, 1]");
-    if (t.has("dt")) {
-      c.time.dt = t.at("dt").as_number();
-      t.at("dt").require(*c.time.dt > 0.0, "must be > 0");
-    }
-    c.time.max_steps = t.number_or("max_steps", c.time.max_steps);
-    if (t.has("max_steps")) t.at("max_steps").require(c.time.max_steps >= 1.0, "must be >= 1");
+/// The end time and the time step.
+void parse_time(const JsonView& root, Case& c) {
+  const JsonView t = root.at("time");
+  t.expect_object({"end_time", "cfl", "dt", "max_steps"});
+  c.time.end_time = t.at("end_time").as_number();
+  t.at("end_time").require(c.time.end_time > 0.0, "must be > 0");
+  c.time.cfl = t.number_or("cfl", 0.5);
+  if (t.has("cfl")) t.at("cfl").require(c.time.cfl > 0.0 && c.time.cfl <= 1.0, "must be in (0, 1]");
+  if (t.has("dt")) {
+    c.time.dt = t.at("dt").as_number();
+    t.at("dt").require(*c.time.dt > 0.0, "must be > 0");
   }
+  c.time.max_steps = t.number_or("max_steps", c.time.max_steps);
+  if (t.has("max_steps")) t.at("max_steps").require(c.time.max_steps >= 1.0, "must be >= 1");
+}
 
+/// The output intervals and formats (the default interval is a twentieth of the end time).
+void parse_output(const JsonView& root, Case& c) {
   c.output.interval = c.time.end_time / 20.0;
   if (const auto o = root.find("output")) {
     o->expect_object({"interval", "timeseries_interval", "nodal_loads", "compression", "vtk"});
@@ -944,7 +962,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   } else {
     c.output.timeseries_interval = c.output.interval / 10.0;
   }
+}
 
+/// The detection settings; a default detection where loads or constraints need the detected
+/// boundary.
+void parse_detection(const JsonView& root, Case& c) {
   if (const auto d = root.find("detection")) {
     d->require(d->is_object(), "expected an object");
     DetectionSpec detection;
@@ -972,6 +994,34 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
     }
     if (!c.constraints.empty()) c.detection = DetectionSpec{};
   }
+}
+
+}  // namespace
+
+Case parse_case(const nlohmann::json& document, const std::string& file) {
+  Case c;
+  c.file = file;
+  c.source = document;
+  const JsonView root(document, file);
+  root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
+                      "node_sets", "boundary_conditions", "loads", "constraints", "solver", "time",
+                      "output", "detection", "manufactured_solution"});
+  if (root.has("title")) c.title = root.at("title").as_string();
+
+  parse_grid(root, c);
+  parse_materials(root, c);
+  parse_bodies(root, c);
+  check_memory(root, c);
+  parse_gravity(root, c);
+  parse_initial_stress(root, c);
+  parse_node_sets(root, c);
+  parse_boundary_conditions(root, c);
+  parse_loads(root, c);
+  parse_constraints(root, c);
+  parse_solver(root, c);
+  parse_time(root, c);
+  parse_output(root, c);
+  parse_detection(root, c);
   if (const auto m = root.find("manufactured_solution")) parse_manufactured(*m, root, c);
   return c;
 }
