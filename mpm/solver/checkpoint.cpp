@@ -323,4 +323,33 @@ EnergyLedger get_energy_ledger(const CheckpointFile& file, std::size_t n_loads) 
   return ledger;
 }
 
+void put_solver_counters(CheckpointFile& file, const SolverCounters& counters) {
+  file.put("solver/time", counters.time);
+  file.put("solver/step", static_cast<double>(counters.step));
+  file.put("solver/dt", counters.dt);
+  file.put("solver/damping", counters.damping);
+  file.put("solver/loads_active", counters.loads_active ? 1.0 : 0.0);
+  file.put("solver/gravity_full", counters.gravity_full ? 1.0 : 0.0);
+  file.put("solver/initial_stress_steps", static_cast<double>(counters.initial_stress_steps));
+  put_energy_ledger(file, counters.energy);
+}
+
+SolverCounters get_solver_counters(const CheckpointFile& file, const Case& c, double dt,
+                                   long n_steps) {
+  SolverCounters n;
+  n.dt = file.scalar("solver/dt");
+  if (n.dt != dt) file.fail("solver/dt", "is not the case's time step");
+  n.step = file.integer("solver/step", 0, n_steps - 1);
+  n.time = file.scalar("solver/time", 0.0, c.time.end_time);
+  if (std::abs(n.time - static_cast<double>(n.step) * n.dt) > 1e-6 * (n.time + n.dt))
+    file.fail("solver/time", "is not the step count times the time step");
+  n.damping = file.scalar("solver/damping", 0.0, 1e300);
+  n.loads_active = file.integer("solver/loads_active", 0, 1) == 1;
+  n.gravity_full = file.integer("solver/gravity_full", 0, 1) == 1;
+  n.initial_stress_steps =
+      file.integer("solver/initial_stress_steps", 0, static_cast<long>(c.time.max_steps));
+  n.energy = get_energy_ledger(file, c.loads.size());
+  return n;
+}
+
 }  // namespace pfm

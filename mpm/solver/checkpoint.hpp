@@ -19,7 +19,9 @@
 #include <string>
 #include <vector>
 
+#include "mpm/step/case.hpp"
 #include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/initial_stress.hpp"
 #include "mpm/step/particles.hpp"
 
 namespace pfm {
@@ -70,6 +72,16 @@ void put_energy_ledger(CheckpointFile& file, const EnergyLedger& ledger);
 /// Restores it (with the work of each of the case's n_loads loads); InputError naming the
 /// dataset when a term is missing.
 EnergyLedger get_energy_ledger(const CheckpointFile& file, std::size_t n_loads);
+
+/// The solver's counters (SolverCounters: time, step, time step, damping, load switches,
+/// initial-stress steps) under "solver/<name>", with the energy ledger.
+void put_solver_counters(CheckpointFile& file, const SolverCounters& counters);
+/// Restores them for case `c` run with time step `dt` for `n_steps` steps, each value checked as
+/// the case reader would check it: InputError naming the dataset when the time step is not the
+/// case's, the step is not before the last, the time is not the step count times the time step,
+/// or a value is out of its range.
+SolverCounters get_solver_counters(const CheckpointFile& file, const Case& c, double dt,
+                                   long n_steps);
 
 /// Flattens arrays of Eigen fixed-size vectors/matrices (column-major) and back.
 template <typename T>

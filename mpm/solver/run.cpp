@@ -26,6 +26,136 @@ namespace pfm {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+/// An output step's detected boundary: boundary_<step>.csv, the step of boundary.h5 (and of the
+/// VTK series with output.vtk), and the loops' classes, recorded in the output's `entry`.
+void write_boundary_output(OutputFolder& folder, const Case& c, BoundaryCoupling& coupling,
+                           MpmSolver& solver,
+                           std::unique_ptr<BoundarySeriesWriter>& boundary_writer,
+                           std::unique_ptr<VtkSeriesWriter>& boundary_vtk, nlohmann::json& entry) {
+  const DetectedBoundary& boundary = coupling.current_boundary(solver.step_view());
+  char name[40];
+  std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
+  write_file_atomically(folder.file(name), boundary_csv(boundary));
+  std::vector<std::vector<Vec2>> loops;
+  std::vector<bool> closed;
+  for (const Contour& contour : boundary.contours) {
+    loops.push_back(contour.points);
+    closed.push_back(contour.closed);
+  }
+  if (!boundary_writer)
+    boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress);
+  boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
+  if (c.output.vtk) {
+    if (!boundary_vtk) boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary");
+    boundary_vtk->write(solver.time(), solver.step_count(), boundary_vtu(loops, closed));
+  }
+  entry["boundary"] = name;
+  // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
+  // for a free disk and an island's contacts cost more than a step where they occur).
+  const LoopClasses classes =
+      classify_loops(boundary, solver.particles().position, coupling.initial_spacing());
+  for (const auto& [kind, count] : classes.counts()) entry["loop_classes"][kind] = count;
+}
+
+/// An output step's nodal loads (output.nodal_loads): nodal_loads_<step>.csv, recorded in `entry`.
+void write_nodal_loads(OutputFolder& folder, const Case& c, const BoundaryCoupling& coupling,
+                       const MpmSolver& solver, nlohmann::json& entry) {
+  // The forces applied in the last step (thesis figure 6.6), with the nodal masses then.
+  std::ostringstream csv;
+  csv << "node,i,j,x,y,fx,fy,mass\n";
+  const int nnx = c.grid.n_nodes_x();
+  for (const auto& f : coupling.nodal_forces()) {
+    const int i = f.node % nnx, j = f.node / nnx;
+    const Vec2 x = c.grid.node_position(i, j);
+    csv << f.node << ',' << i << ',' << j << ',' << format_exact(x.x()) << ','
+        << format_exact(x.y()) << ',' << format_exact(f.force.x()) << ','
+        << format_exact(f.force.y()) << ','
+        << format_exact(solver.grid_state().mass[static_cast<std::size_t>(f.node)]) << '\n';
+  }
+  char name[40];
+  std::snprintf(name, sizeof name, "nodal_loads_%08ld.csv", solver.step_count());
+  write_file_atomically(folder.file(name), csv.str());
+  entry["nodal_loads"] = name;
+}
+
+/// run.json's summary of the detected boundary: the stages' seconds outside the step's, the
+/// stress recovery's calls and seconds, the detector's counters, the loops' classes at the output
+/// steps, and the particles that end the loads' intervals.
+void summarise_detection(nlohmann::json& summary, const Case& c, const BoundaryCoupling& coupling,
+                         const nlohmann::json& outputs, long recoveries, double recovery_seconds) {
+  // The in-step parts of these run inside external_forces (the hook); detections for output
+  // steps run outside the step.
+  const CouplingTimes& ct = coupling.times();
+  summary["stage_seconds"]["detect"] = ct.detect;
+  summary["stage_seconds"]["bezier"] = ct.bezier;
+  summary["stage_seconds"]["traction"] = ct.traction;
+  if (!c.constraints.empty()) summary["stage_seconds"]["constraints"] = ct.constraint;
+  summary["stress_recovery"] = {{"calls", recoveries}, {"seconds", recovery_seconds}};
+  summary["detection"] = {{"calls", ct.detections},
+                          {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
+                          {"every_steps", c.detection->every_steps},
+                          {"max_motion", c.detection->max_motion},
+                          {"kept_calls", ct.kept},
+                          {"most_loops", ct.most_loops},
+                          {"bridged_calls", ct.bridged_detections},
+                          {"bridges", ct.bridges},
+                          {"spurious_loops_removed", ct.spurious_loops_removed},
+                          {"guard_refinement_passes", ct.guard_refinement_passes}};
+  // The loops' classes at the output steps, summed.
+  nlohmann::json totals = nlohmann::json::object();
+  for (const auto& entry : outputs) {
+    if (!entry.contains("loop_classes")) continue;
+    for (const auto& [kind, count] : entry["loop_classes"].items()) {
+      totals[kind] = totals.value(kind, 0L) + count.get<long>();
+    }
+  }
+  summary["detection"]["loop_classes_at_outputs"] = totals;
+  nlohmann::json ends = nlohmann::json::array();
+  for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
+  if (coupling.has_surface_loads()) summary["load_interval_particles"] = ends;
+}
+
+/// run.json as a run starts: a new run's provenance and case, or for --restart the run.json in
+/// the folder (read under the folder's lock: a restart that waited for another to end finds it
+/// done, and refuses a completed run); "running", and the checkpoint settings --restart takes
+/// again unless it is given others.
+nlohmann::json running_run_json(const Case& c, const RunOptions& options, int threads) {
+  nlohmann::json run;
+  if (options.restart) {
+    run = read_json_file(options.out_dir + "/run.json");
+    if (run.value("status", "") == "completed")
+      throw InputError("--restart " + options.out_dir +
+                       ": the run has completed; nothing to restart");
+    run["status"] = "running";
+    run.erase("error");
+  } else {
+    run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
+    run["case"] = c.source;
+    run["status"] = "running";
+  }
+  run["checkpoint"] = {{"steps", options.checkpoint_steps},
+                       {"seconds", options.checkpoint_seconds}};
+  return run;
+}
+
+/// The list of output steps a checkpoint keeps ("run/outputs"), each an object with its step (at
+/// most `last_step`) and time; InputError naming the dataset otherwise.
+nlohmann::json get_outputs(const CheckpointFile& file, long last_step) {
+  nlohmann::json outputs = nlohmann::json::parse(file.text("run/outputs"), nullptr, false);
+  bool valid = outputs.is_array();
+  for (const auto& entry : valid ? outputs : nlohmann::json::array()) {
+    valid = valid && entry.is_object() && entry.contains("step") && entry.contains("time") &&
+            entry["step"].is_number_integer() && entry["time"].is_number() &&
+            entry["step"].get<long>() >= 0 && entry["step"].get<long>() <= last_step;
+  }
+  if (!valid) file.fail("run/outputs", "is not the list of output steps before the checkpoint");
+  return outputs;
+}
+
+}  // namespace
+
 int run_case(const Case& c, const RunOptions& options) {
   ThreadGovernor governor(options.threads);
   const int threads = governor.threads();
@@ -37,22 +167,7 @@ int run_case(const Case& c, const RunOptions& options) {
   const std::string dir = options.out_dir;
   const std::string checkpoint_path = dir + "/checkpoint.h5";
 
-  nlohmann::json run;
-  if (options.restart) {
-    // Read under the folder's lock: a restart that waited for another to end finds it done.
-    run = read_json_file(dir + "/run.json");
-    if (run.value("status", "") == "completed")
-      throw InputError("--restart " + dir + ": the run has completed; nothing to restart");
-    run["status"] = "running";
-    run.erase("error");
-  } else {
-    run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, threads);
-    run["case"] = c.source;
-    run["status"] = "running";
-  }
-  // What --restart takes again unless it is given other settings.
-  run["checkpoint"] = {{"steps", options.checkpoint_steps},
-                       {"seconds", options.checkpoint_seconds}};
+  nlohmann::json run = running_run_json(c, options, threads);
 
   TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size(),
                          reaction_names(c.boundary_conditions), c.constraints.size());
@@ -67,15 +182,7 @@ int run_case(const Case& c, const RunOptions& options) {
   auto save_checkpoint = [&]() {
     CheckpointFile file;
     put_particles(file, solver.particles());
-    const SolverCounters n = solver.counters();
-    file.put("solver/time", n.time);
-    file.put("solver/step", static_cast<double>(n.step));
-    file.put("solver/dt", n.dt);
-    file.put("solver/damping", n.damping);
-    file.put("solver/loads_active", n.loads_active ? 1.0 : 0.0);
-    file.put("solver/gravity_full", n.gravity_full ? 1.0 : 0.0);
-    file.put("solver/initial_stress_steps", static_cast<double>(n.initial_stress_steps));
-    put_energy_ledger(file, n.energy);
+    put_solver_counters(file, solver.counters());
     coupling.save(file);
     file.put("run/next_output", next_output);
     file.put("run/next_series", next_series);
@@ -92,19 +199,7 @@ int run_case(const Case& c, const RunOptions& options) {
     // Every value as the case reader would check it (checkpoint.hpp): a damaged checkpoint is
     // refused with the dataset's name, never continued.
     get_particles(file, solver.mutable_particles());  // the case's fill is there to compare
-    SolverCounters n;
-    n.dt = file.scalar("solver/dt");
-    if (n.dt != solver.dt()) file.fail("solver/dt", "is not the case's time step");
-    n.step = file.integer("solver/step", 0, n_steps - 1);
-    n.time = file.scalar("solver/time", 0.0, c.time.end_time);
-    if (std::abs(n.time - static_cast<double>(n.step) * n.dt) > 1e-6 * (n.time + n.dt))
-      file.fail("solver/time", "is not the step count times the time step");
-    n.damping = file.scalar("solver/damping", 0.0, 1e300);
-    n.loads_active = file.integer("solver/loads_active", 0, 1) == 1;
-    n.gravity_full = file.integer("solver/gravity_full", 0, 1) == 1;
-    n.initial_stress_steps =
-        file.integer("solver/initial_stress_steps", 0, static_cast<long>(c.time.max_steps));
-    n.energy = get_energy_ledger(file, c.loads.size());
+    const SolverCounters n = get_solver_counters(file, c, solver.dt(), n_steps);
     solver.restore(n);
     coupling.attach(solver);
     coupling.restore(file, solver.step_view());
@@ -117,14 +212,7 @@ int run_case(const Case& c, const RunOptions& options) {
     if (table.compare(0, header.size(), header) != 0)
       file.fail("run/timeseries", "does not start with this run's column names");
     series.restore(table);
-    outputs = nlohmann::json::parse(file.text("run/outputs"), nullptr, false);
-    bool valid = outputs.is_array();
-    for (const auto& entry : valid ? outputs : nlohmann::json::array()) {
-      valid = valid && entry.is_object() && entry.contains("step") && entry.contains("time") &&
-              entry["step"].is_number_integer() && entry["time"].is_number() &&
-              entry["step"].get<long>() >= 0 && entry["step"].get<long>() <= n.step;
-    }
-    if (!valid) file.fail("run/outputs", "is not the list of output steps before the checkpoint");
+    outputs = get_outputs(file, n.step);
   };
   // The stresses next to the boundary's known tractions, recovered (stress_recovery.hpp), at
   // output steps, once per step (the last output's serve final_particles.csv); timed apart from
@@ -153,47 +241,10 @@ int run_case(const Case& c, const RunOptions& options) {
     }
     nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
     if (coupling.detection_enabled()) {
-      const DetectedBoundary& boundary = coupling.current_boundary(solver.step_view());
-      char name[40];
-      std::snprintf(name, sizeof name, "boundary_%08ld.csv", solver.step_count());
-      write_file_atomically(folder.file(name), boundary_csv(boundary));
-      std::vector<std::vector<Vec2>> loops;
-      std::vector<bool> closed;
-      for (const Contour& contour : boundary.contours) {
-        loops.push_back(contour.points);
-        closed.push_back(contour.closed);
-      }
-      if (!boundary_writer)
-        boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress);
-      boundary_writer->write(solver.time(), solver.step_count(), loops, closed);
-      if (c.output.vtk) {
-        if (!boundary_vtk) boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary");
-        boundary_vtk->write(solver.time(), solver.step_count(), boundary_vtu(loops, closed));
-      }
-      entry["boundary"] = name;
-      // What each loop is (loop_classes.hpp), counted at the output steps only (a hole's search
-      // for a free disk and an island's contacts cost more than a step where they occur).
-      const LoopClasses classes =
-          classify_loops(boundary, solver.particles().position, coupling.initial_spacing());
-      for (const auto& [kind, count] : classes.counts()) entry["loop_classes"][kind] = count;
+      write_boundary_output(folder, c, coupling, solver, boundary_writer, boundary_vtk, entry);
     }
     if (c.output.nodal_loads && coupling.has_surface_loads()) {
-      // The forces applied in the last step (thesis figure 6.6), with the nodal masses then.
-      std::ostringstream csv;
-      csv << "node,i,j,x,y,fx,fy,mass\n";
-      const int nnx = c.grid.n_nodes_x();
-      for (const auto& f : coupling.nodal_forces()) {
-        const int i = f.node % nnx, j = f.node / nnx;
-        const Vec2 x = c.grid.node_position(i, j);
-        csv << f.node << ',' << i << ',' << j << ',' << format_exact(x.x()) << ','
-            << format_exact(x.y()) << ',' << format_exact(f.force.x()) << ','
-            << format_exact(f.force.y()) << ','
-            << format_exact(solver.grid_state().mass[static_cast<std::size_t>(f.node)]) << '\n';
-      }
-      char name[40];
-      std::snprintf(name, sizeof name, "nodal_loads_%08ld.csv", solver.step_count());
-      write_file_atomically(folder.file(name), csv.str());
-      entry["nodal_loads"] = name;
+      write_nodal_loads(folder, c, coupling, solver, entry);
     }
     outputs.push_back(entry);
   };
@@ -254,37 +305,7 @@ int run_case(const Case& c, const RunOptions& options) {
   };
   hooks.summarise = [&](nlohmann::json& ended) {
     if (coupling.detection_enabled()) {
-      // The in-step parts of these run inside external_forces (the hook); detections for output
-      // steps run outside the step.
-      const CouplingTimes& ct = coupling.times();
-      ended["summary"]["stage_seconds"]["detect"] = ct.detect;
-      ended["summary"]["stage_seconds"]["bezier"] = ct.bezier;
-      ended["summary"]["stage_seconds"]["traction"] = ct.traction;
-      if (!c.constraints.empty()) ended["summary"]["stage_seconds"]["constraints"] = ct.constraint;
-      ended["summary"]["stress_recovery"] = {{"calls", recoveries}, {"seconds", recovery_seconds}};
-      ended["summary"]["detection"] = {
-          {"calls", ct.detections},
-          {"seconds_per_call", ct.detections > 0 ? ct.detect / ct.detections : 0.0},
-          {"every_steps", c.detection->every_steps},
-          {"max_motion", c.detection->max_motion},
-          {"kept_calls", ct.kept},
-          {"most_loops", ct.most_loops},
-          {"bridged_calls", ct.bridged_detections},
-          {"bridges", ct.bridges},
-          {"spurious_loops_removed", ct.spurious_loops_removed},
-          {"guard_refinement_passes", ct.guard_refinement_passes}};
-      // The loops' classes at the output steps, summed.
-      nlohmann::json totals = nlohmann::json::object();
-      for (const auto& entry : outputs) {
-        if (!entry.contains("loop_classes")) continue;
-        for (const auto& [kind, count] : entry["loop_classes"].items()) {
-          totals[kind] = totals.value(kind, 0L) + count.get<long>();
-        }
-      }
-      ended["summary"]["detection"]["loop_classes_at_outputs"] = totals;
-      nlohmann::json ends = nlohmann::json::array();
-      for (const auto& ids : coupling.interval_particles()) ends.push_back({ids[0], ids[1]});
-      if (coupling.has_surface_loads()) ended["summary"]["load_interval_particles"] = ends;
+      summarise_detection(ended["summary"], c, coupling, outputs, recoveries, recovery_seconds);
     }
     ended["outputs"] = outputs;
   };
