@@ -154,6 +154,25 @@ nlohmann::json get_outputs(const CheckpointFile& file, long last_step) {
   return outputs;
 }
 
+/// The output series of a restarted run, rebuilt with its output steps up to the checkpoint
+/// (`outputs`): the particles' and, with a detected boundary, the boundary's (HDF5, and VTK with
+/// output.vtk).
+void reopen_series(OutputFolder& folder, const Case& c, bool detection,
+                   const nlohmann::json& outputs, std::unique_ptr<ParticleSeriesWriter>& particles,
+                   std::unique_ptr<VtkSeriesWriter>& particles_vtk,
+                   std::unique_ptr<BoundarySeriesWriter>& boundary,
+                   std::unique_ptr<VtkSeriesWriter>& boundary_vtk) {
+  std::vector<std::pair<double, long>> keep;
+  for (const auto& entry : outputs)
+    keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
+  particles = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
+  if (c.output.vtk) {
+    particles_vtk = std::make_unique<VtkSeriesWriter>(folder, "particles", keep);
+    if (detection) boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary", keep);
+  }
+  if (detection) boundary = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
+}
+
 }  // namespace
 
 int run_case(const Case& c, const RunOptions& options) {
@@ -261,18 +280,8 @@ int run_case(const Case& c, const RunOptions& options) {
   RunHooks hooks;
   hooks.prepare_outputs = [&] {
     if (!options.restart) return;
-    // The series of the restarted run, rebuilt with its output steps up to the checkpoint.
-    std::vector<std::pair<double, long>> keep;
-    for (const auto& entry : outputs)
-      keep.emplace_back(entry.at("time").get<double>(), entry.at("step").get<long>());
-    writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress, keep);
-    if (c.output.vtk) {
-      vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles", keep);
-      if (coupling.detection_enabled())
-        boundary_vtk = std::make_unique<VtkSeriesWriter>(folder, "boundary", keep);
-    }
-    if (coupling.detection_enabled())
-      boundary_writer = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
+    reopen_series(folder, c, coupling.detection_enabled(), outputs, writer_owner, vtk_writer,
+                  boundary_writer, boundary_vtk);
   };
   hooks.start = [&] {
     if (!options.restart) {

@@ -163,6 +163,153 @@ void placement_points_1d(Placement placement, int n, std::vector<double>& positi
   }
 }
 
+namespace {
+
+/// The points of body `b` from its particle file, each the square of its volume; a point inside
+/// an earlier body is that body's, as for the cells' points.
+void add_file_points(const Case& c, std::size_t b, double g, Particles& particles) {
+  const BodySpec& body = c.bodies[b];
+  for (std::size_t k = 0; k < body.point_position.size(); ++k) {
+    const Vec2& x = body.point_position[k];
+    const double v = body.point_volume[k];
+    bool taken = false;
+    for (std::size_t other = 0; other < b && !taken; ++other)
+      taken = point_in_polygon(c.bodies[other].polygon, x);
+    if (taken) continue;
+    const double half = 0.5 * std::sqrt(v);
+    const int material = body.point_material.empty() ? body.material : body.point_material[k];
+    particles.add(x, v, c.materials[static_cast<std::size_t>(material)].unit_weight / g,
+                  Vec2(half, half), material, static_cast<int>(b));
+    if (!body.point_stress.empty()) particles.stress.back() = body.point_stress[k];
+  }
+}
+
+/// The grid cells [i0, i1] x [j0, j1] of a polygon's bounding box, numbered row by row.
+struct CellBox {
+  int i0 = 0, i1 = 0, j0 = 0, j1 = 0;
+  int columns() const { return i1 - i0 + 1; }
+  std::size_t size() const { return static_cast<std::size_t>(columns()) * (j1 - j0 + 1); }
+  std::size_t index(int i, int j) const {
+    return static_cast<std::size_t>((j - j0) * columns() + (i - i0));
+  }
+};
+
+CellBox cell_box(const Grid& grid, const std::vector<Vec2>& polygon) {
+  Vec2 lo = polygon.front(), hi = polygon.front();
+  for (const Vec2& v : polygon) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  return {std::max(0, grid.cell_i(lo.x())), std::min(grid.n_cells_x - 1, grid.cell_i(hi.x())),
+          std::max(0, grid.cell_j(lo.y())), std::min(grid.n_cells_y - 1, grid.cell_j(hi.y()))};
+}
+
+/// The cells of `box` that the polygon's edges touch (1), the others 0.
+std::vector<char> cut_cells(const Grid& grid, const std::vector<Vec2>& polygon,
+                            const CellBox& box) {
+  std::vector<char> cut(box.size(), 0);
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Vec2& a = polygon[k];
+    const Vec2& e = polygon[(k + 1) % polygon.size()];
+    const Vec2 low = a.cwiseMin(e), high = a.cwiseMax(e);
+    for (int j = std::max(box.j0, grid.cell_j(low.y()));
+         j <= std::min(box.j1, grid.cell_j(high.y())); ++j) {
+      for (int i = std::max(box.i0, grid.cell_i(low.x()));
+           i <= std::min(box.i1, grid.cell_i(high.x())); ++i) {
+        if (segment_meets_box(a, e, grid.node_position(i, j), grid.node_position(i + 1, j + 1)))
+          cut[box.index(i, j)] = 1;
+      }
+    }
+  }
+  return cut;
+}
+
+/// Conforming placement: the sub-squares' parts inside the polygon in each cut cell; a part below
+/// a quarter of a sub-square (`small_part`) joins the nearest other part of its cell (areas and
+/// first moments add, so the sums stay exact), lest a sliver make a point of almost no mass.
+/// `local`: the sub-squares' centres in the cell (fractions of h), n per axis.
+std::vector<std::vector<Piece>> cut_cell_pieces(const Grid& grid, const std::vector<Vec2>& polygon,
+                                                const CellBox& box, const std::vector<char>& cut,
+                                                const std::vector<double>& local, int n,
+                                                double small_part) {
+  const double h = grid.cell_size;
+  const double full = h * h / (n * n);
+  std::vector<std::vector<Piece>> cut_pieces(cut.size());
+  for (int j = box.j0; j <= box.j1 && !cut.empty(); ++j) {
+    for (int i = box.i0; i <= box.i1; ++i) {
+      if (!cut[box.index(i, j)]) continue;
+      const Vec2 corner = grid.node_position(i, j);
+      const std::vector<Vec2> in_cell =
+          clip_to_box(polygon, corner, grid.node_position(i + 1, j + 1));
+      std::vector<Piece>& pieces = cut_pieces[box.index(i, j)];
+      for (int bj = 0; bj < n && !in_cell.empty(); ++bj) {
+        for (int ai = 0; ai < n; ++ai) {
+          const Vec2 sub = corner + h / n * Vec2(ai, bj);
+          Piece piece = piece_of(clip_to_box(in_cell, sub, sub + Vec2(h / n, h / n)));
+          if (!(piece.area > 1e-12 * full)) continue;  // outside, or a rounding sliver
+          piece.whole = piece.area >= (1.0 - 1e-12) * full;
+          piece.centre = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
+                                           local[static_cast<std::size_t>(bj)]);
+          pieces.push_back(piece);
+        }
+      }
+      while (pieces.size() > 1) {
+        std::size_t small = 0;
+        for (std::size_t k = 1; k < pieces.size(); ++k)
+          if (pieces[k].area < pieces[small].area) small = k;
+        if (pieces[small].area >= small_part) break;
+        const Vec2 at = pieces[small].moment / pieces[small].area;
+        std::size_t nearest = small == 0 ? 1 : 0;
+        for (std::size_t k = 0; k < pieces.size(); ++k) {
+          if (k != small && (pieces[k].moment / pieces[k].area - at).squaredNorm() <
+                                (pieces[nearest].moment / pieces[nearest].area - at).squaredNorm())
+            nearest = k;
+        }
+        pieces[nearest].area += pieces[small].area;
+        pieces[nearest].moment += pieces[small].moment;
+        pieces[nearest].whole = false;
+        pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(small));
+      }
+    }
+  }
+  return cut_pieces;
+}
+
+/// A cell whose only part is still below `small_part` (the polygon clips its corner) gives it to
+/// the nearest part of a neighbouring cut cell, cells in row order: alone on its nodes, a point
+/// that light would be flung by any force there.
+void merge_lone_slivers(std::vector<std::vector<Piece>>& cut_pieces, const CellBox& box,
+                        double small_part) {
+  for (int j = box.j0; j <= box.j1 && !cut_pieces.empty(); ++j) {
+    for (int i = box.i0; i <= box.i1; ++i) {
+      std::vector<Piece>& pieces = cut_pieces[box.index(i, j)];
+      if (pieces.size() != 1 || pieces[0].area >= small_part) continue;
+      const Vec2 at = pieces[0].moment / pieces[0].area;
+      Piece* nearest = nullptr;
+      double best = std::numeric_limits<double>::infinity();
+      for (int nj = std::max(box.j0, j - 1); nj <= std::min(box.j1, j + 1); ++nj) {
+        for (int ni = std::max(box.i0, i - 1); ni <= std::min(box.i1, i + 1); ++ni) {
+          if (ni == i && nj == j) continue;
+          for (Piece& other : cut_pieces[box.index(ni, nj)]) {
+            const double d = (other.moment / other.area - at).squaredNorm();
+            if (d < best) {
+              best = d;
+              nearest = &other;
+            }
+          }
+        }
+      }
+      if (nearest == nullptr) continue;
+      nearest->area += pieces[0].area;
+      nearest->moment += pieces[0].moment;
+      nearest->whole = false;
+      pieces.clear();
+    }
+  }
+}
+
+}  // namespace
+
 Particles fill_bodies(const Case& c) {
   Particles particles;
   const Grid& grid = c.grid;
@@ -172,141 +319,33 @@ Particles fill_bodies(const Case& c) {
     const BodySpec& body = c.bodies[b];
     const double density = c.materials[static_cast<std::size_t>(body.material)].unit_weight / g;
     if (body.from_file()) {
-      // The file's points as they are, each the square of its volume; a point inside an
-      // earlier body is that body's, as for the cells' points.
-      for (std::size_t k = 0; k < body.point_position.size(); ++k) {
-        const Vec2& x = body.point_position[k];
-        const double v = body.point_volume[k];
-        bool taken = false;
-        for (std::size_t other = 0; other < b && !taken; ++other)
-          taken = point_in_polygon(c.bodies[other].polygon, x);
-        if (taken) continue;
-        const double half = 0.5 * std::sqrt(v);
-        const int material = body.point_material.empty() ? body.material : body.point_material[k];
-        particles.add(x, v, c.materials[static_cast<std::size_t>(material)].unit_weight / g,
-                      Vec2(half, half), material, static_cast<int>(b));
-        if (!body.point_stress.empty()) particles.stress.back() = body.point_stress[k];
-      }
+      add_file_points(c, b, g, particles);
       continue;
     }
     std::vector<double> local, weight;
     placement_points_1d(body.placement, body.points_per_cell, local, weight);
     const Vec2 half_size(0.5 * h / body.points_per_cell, 0.5 * h / body.points_per_cell);
-    Vec2 lo = body.polygon.front(), hi = body.polygon.front();
-    for (const Vec2& v : body.polygon) {
-      lo = lo.cwiseMin(v);
-      hi = hi.cwiseMax(v);
-    }
-    const int i0 = std::max(0, grid.cell_i(lo.x())),
-              i1 = std::min(grid.n_cells_x - 1, grid.cell_i(hi.x()));
-    const int j0 = std::max(0, grid.cell_j(lo.y())),
-              j1 = std::min(grid.n_cells_y - 1, grid.cell_j(hi.y()));
-    const int n = body.points_per_cell, columns = i1 - i0 + 1;
+    const CellBox box = cell_box(grid, body.polygon);
+    const int n = body.points_per_cell;
     const double full = h * h / (n * n);  // a sub-square (equal and conforming placement)
     // Conforming placement: the cells that the polygon's edges touch are filled with the pieces
     // of their sub-squares inside the polygon.
     std::vector<char> cut;
-    if (body.placement == Placement::kConforming) {
-      cut.assign(static_cast<std::size_t>(columns) * static_cast<std::size_t>(j1 - j0 + 1), 0);
-      for (std::size_t k = 0; k < body.polygon.size(); ++k) {
-        const Vec2& a = body.polygon[k];
-        const Vec2& e = body.polygon[(k + 1) % body.polygon.size()];
-        const Vec2 low = a.cwiseMin(e), high = a.cwiseMax(e);
-        for (int j = std::max(j0, grid.cell_j(low.y())); j <= std::min(j1, grid.cell_j(high.y()));
-             ++j) {
-          for (int i = std::max(i0, grid.cell_i(low.x())); i <= std::min(i1, grid.cell_i(high.x()));
-               ++i) {
-            if (segment_meets_box(a, e, grid.node_position(i, j), grid.node_position(i + 1, j + 1)))
-              cut[static_cast<std::size_t>((j - j0) * columns + (i - i0))] = 1;
-          }
-        }
-      }
-    }
+    if (body.placement == Placement::kConforming) cut = cut_cells(grid, body.polygon, box);
     const auto add = [&](const Vec2& x, double v) {
       for (std::size_t other = 0; other < b; ++other)
         if (point_in_polygon(c.bodies[other].polygon, x)) return;  // the first body's
       particles.add(x, v, density, half_size, body.material, static_cast<int>(b));
     };
-    // Conforming placement: the sub-squares' parts inside the polygon in each cut cell; a part
-    // below a quarter of a sub-square joins the nearest other part of its cell (areas and first
-    // moments add, so the sums stay exact), lest a sliver make a point of almost no mass.
-    const auto cell_of = [&](int i, int j) {
-      return static_cast<std::size_t>((j - j0) * columns + (i - i0));
-    };
     const double small_part = 0.25 * full;
-    std::vector<std::vector<Piece>> cut_pieces(cut.size());
-    for (int j = j0; j <= j1 && !cut.empty(); ++j) {
-      for (int i = i0; i <= i1; ++i) {
-        if (!cut[cell_of(i, j)]) continue;
-        const Vec2 corner = grid.node_position(i, j);
-        const std::vector<Vec2> in_cell =
-            clip_to_box(body.polygon, corner, grid.node_position(i + 1, j + 1));
-        std::vector<Piece>& pieces = cut_pieces[cell_of(i, j)];
-        for (int bj = 0; bj < n && !in_cell.empty(); ++bj) {
-          for (int ai = 0; ai < n; ++ai) {
-            const Vec2 sub = corner + h / n * Vec2(ai, bj);
-            Piece piece = piece_of(clip_to_box(in_cell, sub, sub + Vec2(h / n, h / n)));
-            if (!(piece.area > 1e-12 * full)) continue;  // outside, or a rounding sliver
-            piece.whole = piece.area >= (1.0 - 1e-12) * full;
-            piece.centre = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
-                                             local[static_cast<std::size_t>(bj)]);
-            pieces.push_back(piece);
-          }
-        }
-        while (pieces.size() > 1) {
-          std::size_t small = 0;
-          for (std::size_t k = 1; k < pieces.size(); ++k)
-            if (pieces[k].area < pieces[small].area) small = k;
-          if (pieces[small].area >= small_part) break;
-          const Vec2 at = pieces[small].moment / pieces[small].area;
-          std::size_t nearest = small == 0 ? 1 : 0;
-          for (std::size_t k = 0; k < pieces.size(); ++k) {
-            if (k != small &&
-                (pieces[k].moment / pieces[k].area - at).squaredNorm() <
-                    (pieces[nearest].moment / pieces[nearest].area - at).squaredNorm())
-              nearest = k;
-          }
-          pieces[nearest].area += pieces[small].area;
-          pieces[nearest].moment += pieces[small].moment;
-          pieces[nearest].whole = false;
-          pieces.erase(pieces.begin() + static_cast<std::ptrdiff_t>(small));
-        }
-      }
-    }
-    // A cell whose only part is still below a quarter of a sub-square (the polygon clips its
-    // corner) gives it to the nearest part of a neighbouring cut cell, cells in row order: alone
-    // on its nodes, a point that light would be flung by any force there.
-    for (int j = j0; j <= j1 && !cut.empty(); ++j) {
-      for (int i = i0; i <= i1; ++i) {
-        std::vector<Piece>& pieces = cut_pieces[cell_of(i, j)];
-        if (pieces.size() != 1 || pieces[0].area >= small_part) continue;
-        const Vec2 at = pieces[0].moment / pieces[0].area;
-        Piece* nearest = nullptr;
-        double best = std::numeric_limits<double>::infinity();
-        for (int nj = std::max(j0, j - 1); nj <= std::min(j1, j + 1); ++nj) {
-          for (int ni = std::max(i0, i - 1); ni <= std::min(i1, i + 1); ++ni) {
-            if (ni == i && nj == j) continue;
-            for (Piece& other : cut_pieces[cell_of(ni, nj)]) {
-              const double d = (other.moment / other.area - at).squaredNorm();
-              if (d < best) {
-                best = d;
-                nearest = &other;
-              }
-            }
-          }
-        }
-        if (nearest == nullptr) continue;
-        nearest->area += pieces[0].area;
-        nearest->moment += pieces[0].moment;
-        nearest->whole = false;
-        pieces.clear();
-      }
-    }
+    std::vector<std::vector<Piece>> cut_pieces =
+        cut_cell_pieces(grid, body.polygon, box, cut, local, n, small_part);
+    merge_lone_slivers(cut_pieces, box, small_part);
     // Cell by cell, row by row, so particle ids follow the cells (good memory locality).
-    for (int j = j0; j <= j1; ++j) {
-      for (int i = i0; i <= i1; ++i) {
+    for (int j = box.j0; j <= box.j1; ++j) {
+      for (int i = box.i0; i <= box.i1; ++i) {
         const Vec2 corner = grid.node_position(i, j);
-        if (cut.empty() || !cut[cell_of(i, j)]) {
+        if (cut.empty() || !cut[box.index(i, j)]) {
           for (int bj = 0; bj < n; ++bj) {
             for (int ai = 0; ai < n; ++ai) {
               const Vec2 x = corner + h * Vec2(local[static_cast<std::size_t>(ai)],
@@ -319,7 +358,7 @@ Particles fill_bodies(const Case& c) {
           }
           continue;
         }
-        for (const Piece& piece : cut_pieces[cell_of(i, j)]) {
+        for (const Piece& piece : cut_pieces[box.index(i, j)]) {
           if (piece.whole) {
             add(piece.centre, full);  // a whole sub-square: as the equal placement
           } else {
