@@ -242,6 +242,157 @@ void median_filter(std::vector<double>& v, int nx, int ny, const int weights[3])
 
 }  // namespace
 
+namespace {
+
+/// The nodes of the 9-node cells' lattice (spacing half a field cell) from `origin`, m.
+Vec2 lattice_node(const Vec2& origin, double spacing, int i, int j) {
+  return Vec2(origin.x() + i * spacing, origin.y() + j * spacing);
+}
+
+/// Adds each particle's kernel to the lattice nodes it reaches (k_value, nx x ny, row by row),
+/// marking them `covered`.
+void scatter_kernels(const ProximityField& field, const Vec2& origin, double spacing, int nx,
+                     int ny, std::vector<double>& k_value, std::vector<char>& covered) {
+  const auto node_pos = [&](int i, int j) { return lattice_node(origin, spacing, i, j); };
+  const auto positions = field.positions();
+  for (std::size_t p = 0; p < positions.size(); ++p) {
+    const double reach = field.reach(p);
+    const int i0 =
+        std::max(static_cast<int>(std::ceil((positions[p].x() - reach - origin.x()) / spacing)), 0);
+    const int i1 = std::min(
+        static_cast<int>(std::floor((positions[p].x() + reach - origin.x()) / spacing)), nx - 1);
+    const int j0 =
+        std::max(static_cast<int>(std::ceil((positions[p].y() - reach - origin.y()) / spacing)), 0);
+    const int j1 = std::min(
+        static_cast<int>(std::floor((positions[p].y() + reach - origin.y()) / spacing)), ny - 1);
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        const double k = field.kernel(p, node_pos(i, j));
+        if (k > 0.0) {
+          k_value[static_cast<std::size_t>(j) * nx + i] += k;
+          covered[static_cast<std::size_t>(j) * nx + i] = 1;
+        }
+      }
+    }
+  }
+}
+
+/// negative_outside: each node no kernel reaches takes the kernel of its closest material point
+/// (negative there), found by vector propagation (two raster passes over the node lattice,
+/// Danielsson 1980): O(nodes) instead of a search per node.
+void fill_uncovered_nodes(const ProximityField& field, const Vec2& origin, double spacing, int nx,
+                          int ny, const std::vector<char>& covered, std::vector<double>& k_value) {
+  const auto node_pos = [&](int i, int j) { return lattice_node(origin, spacing, i, j); };
+  const auto positions = field.positions();
+  // Closest material point of every node by vector propagation (two raster passes over the
+  // node grid, Danielsson 1980): O(nodes) instead of a search per node.
+  std::vector<int> nearest(k_value.size(), -1);
+  std::vector<double> best(k_value.size(), std::numeric_limits<double>::infinity());
+  const auto offer = [&](std::size_t n, int p, const Vec2& x) {
+    const double d = (positions[p] - x).squaredNorm();
+    if (d < best[n] || (d == best[n] && p < nearest[n])) {
+      best[n] = d;
+      nearest[n] = p;
+    }
+  };
+  for (std::size_t p = 0; p < positions.size(); ++p) {
+    const int ic = static_cast<int>(std::floor((positions[p].x() - origin.x()) / spacing));
+    const int jc = static_cast<int>(std::floor((positions[p].y() - origin.y()) / spacing));
+    for (int j = std::max(jc - 1, 0); j <= std::min(jc + 2, ny - 1); ++j) {
+      for (int i = std::max(ic - 1, 0); i <= std::min(ic + 2, nx - 1); ++i) {
+        offer(static_cast<std::size_t>(j) * nx + i, static_cast<int>(p), node_pos(i, j));
+      }
+    }
+  }
+  if (std::all_of(nearest.begin(), nearest.end(), [](int p) { return p < 0; })) {
+    nearest[0] = 0;  // every particle off the grid: seed one node
+    best[0] = (positions[0] - node_pos(0, 0)).squaredNorm();
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    const int step = pass == 0 ? 1 : -1;
+    for (int j = pass == 0 ? 0 : ny - 1; j >= 0 && j < ny; j += step) {
+      for (int i = pass == 0 ? 0 : nx - 1; i >= 0 && i < nx; i += step) {
+        const std::size_t n = static_cast<std::size_t>(j) * nx + i;
+        const Vec2 x = node_pos(i, j);
+        for (const auto& [di, dj] : {std::pair{-step, 0}, std::pair{0, -step},
+                                     std::pair{-step, -step}, std::pair{step, -step}}) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= nx || jj >= ny) continue;
+          const int p = nearest[static_cast<std::size_t>(jj) * nx + ii];
+          if (p >= 0) offer(n, p, x);
+        }
+      }
+      // Same row, the other way, so values also travel against the raster direction.
+      for (int i = pass == 0 ? nx - 2 : 1; i >= 0 && i < nx; i -= step) {
+        const std::size_t n = static_cast<std::size_t>(j) * nx + i;
+        const int p = nearest[n + step];
+        if (p >= 0) offer(n, p, node_pos(i, j));
+      }
+    }
+  }
+  for (std::size_t n = 0; n < k_value.size(); ++n) {
+    if (!covered[n]) {
+      const int i = static_cast<int>(n % nx), j = static_cast<int>(n / nx);
+      k_value[n] = field.kernel(nearest[n], node_pos(i, j));
+    }
+  }
+}
+
+/// A piece of the Triangle Connection Algorithm's contours, and whether both its ends lie on one
+/// cell edge.
+struct TcaSegment {
+  int from, to;
+  bool along_cell_edge;
+};
+
+/// The segments without the straight holes along vertices (5.3.4): a segment along a cell edge
+/// whose reverse is also present (from the neighbouring cell) encloses nothing; both go.
+std::vector<DirectedSegment> without_vertex_holes(const std::vector<TcaSegment>& segments,
+                                                  std::size_t n_points) {
+  std::vector<DirectedSegment> kept;
+  kept.reserve(segments.size());
+  std::vector<int> along_from(n_points, -1);  // along-edge segment starting at a point
+  for (const auto& s : segments) {
+    if (s.along_cell_edge) along_from[s.from] = s.to;
+  }
+  for (const auto& s : segments) {
+    if (s.along_cell_edge && along_from[s.to] == s.from) continue;
+    kept.push_back({s.from, s.to});
+  }
+  return kept;
+}
+
+/// Bisection for the sign change of g on [0, 1] (4.4.5, Fig. 4.18), `a_in` whether g > 0 at 0:
+/// at most `steps` halvings, ending where |g| < tolerance or the bracket is below 1e-15; counts
+/// the evaluations.
+template <class G>
+double bisect(const G& g, bool a_in, int steps, double tolerance, long& evaluations) {
+  double lo = 0.0, hi = 1.0, t = 0.5;
+  for (int step = 0; step < steps; ++step) {
+    t = 0.5 * (lo + hi);
+    const double ht = g(t);
+    ++evaluations;
+    if (std::abs(ht) < tolerance || hi - lo < 1e-15) break;
+    ((ht > 0.0) == a_in ? lo : hi) = t;
+  }
+  return t;
+}
+
+/// The thesis's filters on the node values (nx x ny), the Gaussian then the median one, as
+/// configured; whether any ran.
+bool apply_filters(const ThesisPfmConfig& config, int nx, int ny, std::vector<double>& k_value) {
+  const bool median =
+      config.median_weights[0] > 0 || config.median_weights[1] > 0 || config.median_weights[2] > 0;
+  if (config.gaussian_sigma > 0.0) {
+    gaussian_filter(k_value, nx, ny,
+                    thesis_gaussian_weights(config.gaussian_sigma, config.gaussian_size));
+  }
+  if (median) median_filter(k_value, nx, ny, config.median_weights);
+  return config.gaussian_sigma > 0.0 || median;
+}
+
+}  // namespace
+
 DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
                                    const ThesisPfmConfig& config, DetectorState& state,
                                    DetectionTimings& timings) {
@@ -259,97 +410,15 @@ DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
   // Particle-loop scatter to the nodes each kernel reaches (5.2.3).
   std::vector<double> k_value(static_cast<std::size_t>(nx) * ny, 0.0);
   std::vector<char> covered(k_value.size(), 0);
-  const auto positions = field.positions();
-  for (std::size_t p = 0; p < positions.size(); ++p) {
-    const double reach = field.reach(p);
-    const int i0 = std::max(
-        static_cast<int>(std::ceil((positions[p].x() - reach - grid.origin.x()) / spacing)), 0);
-    const int i1 = std::min(
-        static_cast<int>(std::floor((positions[p].x() + reach - grid.origin.x()) / spacing)),
-        nx - 1);
-    const int j0 = std::max(
-        static_cast<int>(std::ceil((positions[p].y() - reach - grid.origin.y()) / spacing)), 0);
-    const int j1 = std::min(
-        static_cast<int>(std::floor((positions[p].y() + reach - grid.origin.y()) / spacing)),
-        ny - 1);
-    for (int j = j0; j <= j1; ++j) {
-      for (int i = i0; i <= i1; ++i) {
-        const double k = field.kernel(p, node_pos(i, j));
-        if (k > 0.0) {
-          k_value[static_cast<std::size_t>(j) * nx + i] += k;
-          covered[static_cast<std::size_t>(j) * nx + i] = 1;
-        }
-      }
-    }
-  }
-  if (config.negative_outside && !positions.empty()) {
-    // Closest material point of every node by vector propagation (two raster passes over the
-    // node grid, Danielsson 1980): O(nodes) instead of a search per node.
-    std::vector<int> nearest(k_value.size(), -1);
-    std::vector<double> best(k_value.size(), std::numeric_limits<double>::infinity());
-    const auto offer = [&](std::size_t n, int p, const Vec2& x) {
-      const double d = (positions[p] - x).squaredNorm();
-      if (d < best[n] || (d == best[n] && p < nearest[n])) {
-        best[n] = d;
-        nearest[n] = p;
-      }
-    };
-    for (std::size_t p = 0; p < positions.size(); ++p) {
-      const int ic = static_cast<int>(std::floor((positions[p].x() - grid.origin.x()) / spacing));
-      const int jc = static_cast<int>(std::floor((positions[p].y() - grid.origin.y()) / spacing));
-      for (int j = std::max(jc - 1, 0); j <= std::min(jc + 2, ny - 1); ++j) {
-        for (int i = std::max(ic - 1, 0); i <= std::min(ic + 2, nx - 1); ++i) {
-          offer(static_cast<std::size_t>(j) * nx + i, static_cast<int>(p), node_pos(i, j));
-        }
-      }
-    }
-    if (std::all_of(nearest.begin(), nearest.end(), [](int p) { return p < 0; })) {
-      nearest[0] = 0;  // every particle off the grid: seed one node
-      best[0] = (positions[0] - node_pos(0, 0)).squaredNorm();
-    }
-    for (int pass = 0; pass < 2; ++pass) {
-      const int step = pass == 0 ? 1 : -1;
-      for (int j = pass == 0 ? 0 : ny - 1; j >= 0 && j < ny; j += step) {
-        for (int i = pass == 0 ? 0 : nx - 1; i >= 0 && i < nx; i += step) {
-          const std::size_t n = static_cast<std::size_t>(j) * nx + i;
-          const Vec2 x = node_pos(i, j);
-          for (const auto& [di, dj] : {std::pair{-step, 0}, std::pair{0, -step},
-                                       std::pair{-step, -step}, std::pair{step, -step}}) {
-            const int ii = i + di, jj = j + dj;
-            if (ii < 0 || jj < 0 || ii >= nx || jj >= ny) continue;
-            const int p = nearest[static_cast<std::size_t>(jj) * nx + ii];
-            if (p >= 0) offer(n, p, x);
-          }
-        }
-        // Same row, the other way, so values also travel against the raster direction.
-        for (int i = pass == 0 ? nx - 2 : 1; i >= 0 && i < nx; i -= step) {
-          const std::size_t n = static_cast<std::size_t>(j) * nx + i;
-          const int p = nearest[n + step];
-          if (p >= 0) offer(n, p, node_pos(i, j));
-        }
-      }
-    }
-    for (std::size_t n = 0; n < k_value.size(); ++n) {
-      if (!covered[n]) {
-        const int i = static_cast<int>(n % nx), j = static_cast<int>(n / nx);
-        k_value[n] = field.kernel(nearest[n], node_pos(i, j));
-      }
-    }
+  scatter_kernels(field, grid.origin, spacing, nx, ny, k_value, covered);
+  if (config.negative_outside && !field.positions().empty()) {
+    fill_uncovered_nodes(field, grid.origin, spacing, nx, ny, covered, k_value);
   }
   timings.field = seconds_since(start);
   timings.field_evaluations = static_cast<long>(k_value.size());
 
   start = Clock::now();
-  const bool filtered = config.gaussian_sigma > 0.0 || config.median_weights[0] > 0 ||
-                        config.median_weights[1] > 0 || config.median_weights[2] > 0;
-  if (config.gaussian_sigma > 0.0) {
-    gaussian_filter(k_value, nx, ny,
-                    thesis_gaussian_weights(config.gaussian_sigma, config.gaussian_size));
-  }
-  if (config.median_weights[0] > 0 || config.median_weights[1] > 0 ||
-      config.median_weights[2] > 0) {
-    median_filter(k_value, nx, ny, config.median_weights);
-  }
+  const bool filtered = apply_filters(config, nx, ny, k_value);
   timings.filters = seconds_since(start);
 
   // H = K - z (eq. 4.20); material where H > 0.
@@ -375,7 +444,7 @@ DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
     const Vec2 a = node_pos(ia, ja), b = node_pos(ib, jb);
     const double ha = h_at(ia, ja);
     const bool a_in = ha > 0.0;
-    double lo = 0.0, hi = 1.0, t = 0.5;
+    double t = 0.5;
     if (use_shape_functions) {
       // Quadratic through the three nodes of the full cell edge (8-node cell, 5.2.2), in the
       // half-edge parameter: the edge runs from node e0 to e0 + 2 along the same line.
@@ -388,21 +457,11 @@ DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
         const double xi = offset - 1.0 + s;  // position on [-1, 1] of the full edge
         return 0.5 * xi * (xi - 1.0) * h0 + (1.0 - xi * xi) * h1 + 0.5 * xi * (xi + 1.0) * h2;
       };
-      for (int step = 0; step < config.bisection_steps; ++step) {
-        t = 0.5 * (lo + hi);
-        const double ht = quadratic(t);
-        ++root_evaluations;
-        if (std::abs(ht) < config.bisection_tolerance || hi - lo < 1e-15) break;
-        ((ht > 0.0) == a_in ? lo : hi) = t;
-      }
+      t = bisect(quadratic, a_in, config.bisection_steps, config.bisection_tolerance,
+                 root_evaluations);
     } else {
-      for (int step = 0; step < config.bisection_steps; ++step) {  // 4.4.5, Fig. 4.18
-        t = 0.5 * (lo + hi);
-        const double ht = field(a + t * (b - a)) - z;
-        ++root_evaluations;
-        if (std::abs(ht) < config.bisection_tolerance || hi - lo < 1e-15) break;
-        ((ht > 0.0) == a_in ? lo : hi) = t;
-      }
+      const auto along = [&](double s) { return field(a + s * (b - a)) - z; };
+      t = bisect(along, a_in, config.bisection_steps, config.bisection_tolerance, root_evaluations);
     }
     slot = static_cast<int>(points.size());
     points.push_back(a + t * (b - a));
@@ -413,11 +472,7 @@ DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
   };
 
   // Triangle Connection Algorithm (5.1.3) per field cell.
-  struct Segment {
-    int from, to;
-    bool along_cell_edge;
-  };
-  std::vector<Segment> segments;
+  std::vector<TcaSegment> segments;
   double edge_seconds = 0.0;
   const int n_cells_x = r * grid.n_cells_x, n_cells_y = r * grid.n_cells_y;
   // Boundary nodes counter-clockwise from the lower-left corner, in half-node offsets.
@@ -464,20 +519,12 @@ DetectedBoundary detect_thesis_pfm(const ParticleCloud& cloud, const Grid& grid,
       }
     }
   }
-  // Removal of straight holes along vertices (5.3.4): a segment along a cell edge whose reverse
-  // is also present (from the neighbouring cell) encloses nothing; both go.
+  // Removal of straight holes along vertices (5.3.4).
   std::vector<DirectedSegment> kept;
-  kept.reserve(segments.size());
   if (config.remove_vertex_holes) {
-    std::vector<int> along_from(points.size(), -1);  // along-edge segment starting at a point
-    for (const auto& s : segments) {
-      if (s.along_cell_edge) along_from[s.from] = s.to;
-    }
-    for (const auto& s : segments) {
-      if (s.along_cell_edge && along_from[s.to] == s.from) continue;
-      kept.push_back({s.from, s.to});
-    }
+    kept = without_vertex_holes(segments, points.size());
   } else {
+    kept.reserve(segments.size());
     for (const auto& s : segments) kept.push_back({s.from, s.to});
   }
   DetectedBoundary boundary = assemble_contours(points, kept);
