@@ -44,6 +44,52 @@ double wall_along(int w, const Vec2& x, const Vec2& g0) {
   return w < 2 ? x.y() - g0.y() : x.x() - g0.x();
 }
 
+/// A particle's mirror image across a grid edge (in_x: x = ex) or two (in_y: y = ey), m.
+struct MirrorImage {
+  std::size_t particle;
+  bool in_x, in_y;
+  double ex, ey;  ///< the mirror lines x = ex, y = ey, m
+};
+
+/// The mirror images across the edges of `walls` that no particle lies beyond: the reflection
+/// R (x - e) + e of the position and R F R of the deformation, R = diag(-1, 1) or diag(1, -1);
+/// near a corner across both edges too. `contacts`: the wall contacts if known (else found
+/// here). Appends each image's position to `all_positions`.
+std::vector<MirrorImage> mirror_images(const std::vector<Vec2>& position,
+                                       const std::vector<Vec2>& reach_box,
+                                       const std::vector<double>& particle_reach, const Grid& walls,
+                                       double spacing, const ImprovedField::WallContacts* contacts,
+                                       std::vector<Vec2>& all_positions) {
+  std::vector<MirrorImage> images;
+  const Vec2 g0 = walls.origin, g1 = walls.upper_corner();
+  ImprovedField::WallContacts own;
+  if (contacts == nullptr) {
+    Vec2 lo = position[0], hi = position[0];
+    for (const Vec2& x : position) {
+      lo = lo.cwiseMin(x);
+      hi = hi.cwiseMax(x);
+    }
+    own = ImprovedField::find_wall_contacts(position, lo, hi, walls, spacing);
+    contacts = &own;
+  }
+  for (std::size_t p = 0; p < position.size(); ++p) {
+    const Vec2& x = position[p];
+    const double half_x = std::max(reach_box[p].x(), particle_reach[p]);
+    const double half_y = std::max(reach_box[p].y(), particle_reach[p]);
+    const auto [side_x, side_y] =
+        ImprovedField::mirror_sides(*contacts, walls, x, half_x, half_y, spacing);
+    if (side_x < 0 && side_y < 0) continue;
+    const double ex = side_x == 1 ? g1.x() : g0.x(), ey = side_y == 1 ? g1.y() : g0.y();
+    const std::pair<bool, bool> kinds[3] = {{true, false}, {false, true}, {true, true}};
+    for (const auto& [in_x, in_y] : kinds) {
+      if ((in_x && side_x < 0) || (in_y && side_y < 0)) continue;
+      images.push_back({p, in_x, in_y, ex, ey});
+      all_positions.emplace_back(in_x ? 2.0 * ex - x.x() : x.x(), in_y ? 2.0 * ey - x.y() : x.y());
+    }
+  }
+  return images;
+}
+
 }  // namespace
 
 ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& config,
@@ -102,45 +148,12 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     particle_reach_[p] = reach;
   });
   for (std::size_t p = 0; p < n; ++p) reach_ = std::max(reach_, particle_reach_[p]);
-  // Mirror images across the grid edges that no particle lies beyond (walls): the reflection
-  // R (x - e) + e of the position and R F R of the deformation, R = diag(-1, 1) or diag(1, -1);
-  // near a corner across both edges too. Images are never guarded.
-  struct Image {
-    std::size_t particle;
-    bool in_x, in_y;
-    double ex, ey;  ///< the mirror lines x = ex, y = ey, m
-  };
-  std::vector<Image> images;
+  // Mirror images across the grid edges that no particle lies beyond (walls); never guarded.
   std::vector<Vec2> all_positions = position_;
-  if (walls != nullptr && n > 0) {
-    const Vec2 g0 = walls->origin, g1 = walls->upper_corner();
-    const double spacing = cloud.initial_spacing;
-    WallContacts own;
-    if (contacts == nullptr) {
-      Vec2 lo = position_[0], hi = position_[0];
-      for (const Vec2& x : position_) {
-        lo = lo.cwiseMin(x);
-        hi = hi.cwiseMax(x);
-      }
-      own = find_wall_contacts(position_, lo, hi, *walls, spacing);
-      contacts = &own;
-    }
-    for (std::size_t p = 0; p < n; ++p) {
-      const Vec2& x = position_[p];
-      const double half_x = std::max(reach_box_[p].x(), particle_reach_[p]);
-      const double half_y = std::max(reach_box_[p].y(), particle_reach_[p]);
-      const auto [side_x, side_y] = mirror_sides(*contacts, *walls, x, half_x, half_y, spacing);
-      if (side_x < 0 && side_y < 0) continue;
-      const double ex = side_x == 1 ? g1.x() : g0.x(), ey = side_y == 1 ? g1.y() : g0.y();
-      const std::pair<bool, bool> kinds[3] = {{true, false}, {false, true}, {true, true}};
-      for (const auto& [in_x, in_y] : kinds) {
-        if ((in_x && side_x < 0) || (in_y && side_y < 0)) continue;
-        images.push_back({p, in_x, in_y, ex, ey});
-        all_positions.emplace_back(in_x ? 2.0 * ex - x.x() : x.x(),
-                                   in_y ? 2.0 * ey - x.y() : x.y());
-      }
-    }
-  }
+  const std::vector<MirrorImage> images =
+      walls != nullptr && n > 0 ? mirror_images(position_, reach_box_, particle_reach_, *walls,
+                                                cloud.initial_spacing, contacts, all_positions)
+                                : std::vector<MirrorImage>();
   // Bins of the largest reach / kBinRings, searched kBinRings rings out.
   rings_ = kBinRings;
   bins_ = ParticleBins(all_positions, reach_ > 0.0 ? reach_ / rings_ : 1.0);
@@ -155,7 +168,7 @@ ImprovedField::ImprovedField(const ParticleCloud& cloud, const ImprovedConfig& c
     const std::size_t q = static_cast<std::size_t>(bins_.particle_at(static_cast<int>(k)));
     detail::KernelSlot m = kernel_of(q < n ? q : images[q - n].particle);
     if (q >= n) {
-      const Image& image = images[q - n];
+      const MirrorImage& image = images[q - n];
       if (image.in_x) {
         m.x = 2.0 * image.ex - m.x;
         m.k01 = -m.k01;
