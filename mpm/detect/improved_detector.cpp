@@ -351,6 +351,41 @@ struct Band {
 // more. Where the volume alone cannot tell, the field screening decides (screen_cells()). Only
 // the particles within reach (particle_reach, m) of the cells that are not interior enter the
 // field; kernel_reach (m) is the largest kernel semi-axis.
+// The band's particles: those of the cells it needs (band.needed) and those outside the grid,
+// copied in the survey's run order. Selected indices first, then the copies; the selection run
+// by run, each chunk of the survey's runs on its own, joined in order.
+void copy_needed_particles(const ParticleCloud& cloud, const CloudSurvey& survey, Band& band) {
+  const bool deformed = !cloud.deformation_gradient.empty();
+  std::vector<std::vector<std::uint32_t>> chunk_selected(survey.runs.size());
+  for_each_on_threads(survey.runs.size(), 1, [&](std::size_t chunk) {
+    const Runs& runs = survey.runs[chunk];
+    if (runs.cell.empty()) return;
+    std::vector<std::uint32_t>& chosen = chunk_selected[chunk];
+    chosen.resize(runs.start.back() - runs.start.front());
+    std::size_t m = 0;
+    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
+      const int c = runs.cell[r];
+      if (c >= 0 && !band.needed[static_cast<std::size_t>(c)]) continue;
+      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) chosen[m++] = p;
+    }
+    chosen.resize(m);
+  });
+  std::vector<std::uint32_t> selected;
+  for (std::size_t chunk = 0; chunk < survey.runs.size(); ++chunk) {
+    selected.insert(selected.end(), chunk_selected[chunk].begin(), chunk_selected[chunk].end());
+  }
+  const std::size_t m = selected.size();
+  band.position.resize(m);
+  band.volume.resize(m);
+  if (deformed) band.deformation.resize(m);
+  for_each_on_threads(m, kBandChunk, [&](std::size_t k) {
+    const std::size_t p = selected[k];
+    band.position[k] = cloud.position[p];
+    band.volume[k] = cloud.volume[p];
+    if (deformed) band.deformation[k] = cloud.deformation_gradient[p];
+  });
+}
+
 Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedConfig& config,
                  const CloudSurvey& survey, double kernel_reach, double particle_reach) {
   const double h = grid.cell_size;
@@ -480,37 +515,7 @@ Band select_band(const ParticleCloud& cloud, const Grid& grid, const ImprovedCon
     std::copy_n(interior_in + padded, ncx, interior_out + row * ncx);
     std::copy_n(needed_in + padded, ncx, needed_out + row * ncx);
   });
-  const bool deformed = !cloud.deformation_gradient.empty();
-  // Selected indices first, then the copies; the selection run by run, each chunk of the survey's
-  // runs on its own, joined in order.
-  std::vector<std::vector<std::uint32_t>> chunk_selected(survey.runs.size());
-  for_each_on_threads(survey.runs.size(), 1, [&](std::size_t chunk) {
-    const Runs& runs = survey.runs[chunk];
-    if (runs.cell.empty()) return;
-    std::vector<std::uint32_t>& chosen = chunk_selected[chunk];
-    chosen.resize(runs.start.back() - runs.start.front());
-    std::size_t m = 0;
-    for (std::size_t r = 0; r < runs.cell.size(); ++r) {
-      const int c = runs.cell[r];
-      if (c >= 0 && !band.needed[static_cast<std::size_t>(c)]) continue;
-      for (std::uint32_t p = runs.start[r]; p < runs.start[r + 1]; ++p) chosen[m++] = p;
-    }
-    chosen.resize(m);
-  });
-  std::vector<std::uint32_t> selected;
-  for (std::size_t chunk = 0; chunk < survey.runs.size(); ++chunk) {
-    selected.insert(selected.end(), chunk_selected[chunk].begin(), chunk_selected[chunk].end());
-  }
-  const std::size_t m = selected.size();
-  band.position.resize(m);
-  band.volume.resize(m);
-  if (deformed) band.deformation.resize(m);
-  for_each_on_threads(m, kBandChunk, [&](std::size_t k) {
-    const std::size_t p = selected[k];
-    band.position[k] = cloud.position[p];
-    band.volume[k] = cloud.volume[p];
-    if (deformed) band.deformation[k] = cloud.deformation_gradient[p];
-  });
+  copy_needed_particles(cloud, survey, band);
   return band;
 }
 
