@@ -851,6 +851,69 @@ class FineNodes {
   std::span<const double> coarse_;
 };
 
+// The seed from a particle: the first fine cell with a sign change in its row, from its cell to
+// the right; if the row has none up to the grid edge (a contour cut by the edge), to the left,
+// then in its column upwards and downwards. Cells found interior by their volume are passed as
+// inside without evaluation: the particles deep inside them are not in the field, whose values
+// there would be too low. That first cell, along each direction, is a function of the cell a
+// walk starts from: it is remembered for every cell a walk passes (-1: none up to the grid's
+// edge), so the particles of one row (a cloud of collinear points, whose row is inside from end
+// to end) do not walk the same cells again.
+class SeedWalk {
+ public:
+  SeedWalk(FineNodes& nodes, std::span<const char> interior_by_volume, int ncx)
+      : nodes_(nodes),
+        interior_by_volume_(interior_by_volume),
+        ncx_(ncx),
+        r_(nodes.refinement()),
+        n_fine_x_(nodes.n_cells_x()),
+        n_fine_y_(nodes.n_cells_y()) {}
+  /// The seed cell (j n_fine_x + i) from x's fine cell (the nearest one for x off the grid), or -1.
+  int first_cell(const Vec2& x) {
+    int i0 = 0, j0 = 0;
+    nodes_.cell_of(x, i0, j0);
+    const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    for (int d = 0; d < 4; ++d) {
+      const auto [di, dj] = steps[d];
+      std::unordered_map<int, int>& memo = first_change_[static_cast<std::size_t>(d)];
+      walked_.clear();
+      int found = -1;
+      for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x_ && j < n_fine_y_;
+           i += di, j += dj) {
+        const int cell = j * n_fine_x_ + i;
+        if (const auto known = memo.find(cell); known != memo.end()) {
+          found = known->second;
+          break;
+        }
+        walked_.push_back(cell);
+        if (!interior_by_volume_.empty() &&
+            interior_by_volume_[static_cast<std::size_t>(j / r_) * ncx_ + i / r_]) {
+          continue;
+        }
+        if (sign_change(i, j)) {
+          found = cell;
+          break;
+        }
+      }
+      for (const int cell : walked_) memo.emplace(cell, found);
+      if (found >= 0) return found;
+    }
+    return -1;
+  }
+
+ private:
+  bool sign_change(int i, int j) {
+    const bool a = nodes_.inside(i, j);
+    return a != nodes_.inside(i + 1, j) || a != nodes_.inside(i, j + 1) ||
+           a != nodes_.inside(i + 1, j + 1);
+  }
+  FineNodes& nodes_;
+  std::span<const char> interior_by_volume_;
+  int ncx_, r_, n_fine_x_, n_fine_y_;
+  std::array<std::unordered_map<int, int>, 4> first_change_;
+  std::vector<int> walked_;
+};
+
 // Step 3 (narrow band): the fine cells to contour, traced from seeds, fine cell by fine cell: a
 // cell with a sign change passes its contour on through every edge whose nodes differ, so a
 // contour is followed wherever it goes. Seeds: (a) in the active coarse cells (screen), the field
@@ -965,51 +1028,10 @@ std::vector<int> trace_band_cells(FineNodes& nodes, const Grid& grid, const Impr
     if (i == 0) seed_segment(0, j * r, 0, 1, r);
     if (end == ncx) seed_segment(n_fine_x, j * r, 0, 1, r);
   });
-  const auto sign_change = [&](int i, int j) {
-    const bool a = inside(i, j);
-    return a != inside(i + 1, j) || a != inside(i, j + 1) || a != inside(i + 1, j + 1);
-  };
-  // Seeds the first cell with a sign change in p's row, from p's cell to the right; if the row
-  // has none up to the grid edge (a contour cut by the edge), to the left, then in p's column
-  // upwards and downwards. That first cell, along each direction, is a function of the cell a
-  // walk starts from: it is remembered for every cell a walk passes (-1: none up to the grid's
-  // edge), so the particles of one row (a cloud of collinear points, whose row is inside from
-  // end to end) do not walk the same cells again.
-  std::array<std::unordered_map<int, int>, 4> first_change;
-  std::vector<int> walked;
+  SeedWalk walk(nodes, interior_by_volume, ncx);
   const auto seed_from = [&](std::size_t p) {
-    int i0 = 0, j0 = 0;
-    nodes.cell_of(positions[p], i0, j0);  // from the nearest cell for a particle off the grid
-    const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-    for (int d = 0; d < 4; ++d) {
-      const auto [di, dj] = steps[d];
-      std::unordered_map<int, int>& memo = first_change[static_cast<std::size_t>(d)];
-      walked.clear();
-      int found = -1;
-      for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x && j < n_fine_y; i += di, j += dj) {
-        const int cell = j * n_fine_x + i;
-        if (const auto known = memo.find(cell); known != memo.end()) {
-          found = known->second;
-          break;
-        }
-        walked.push_back(cell);
-        // Cells found interior by their volume are passed as inside without evaluation: the
-        // particles deep inside them are not in the field, whose values there would be too low.
-        if (!interior_by_volume.empty() &&
-            interior_by_volume[static_cast<std::size_t>(j / r) * ncx + i / r]) {
-          continue;
-        }
-        if (sign_change(i, j)) {
-          found = cell;
-          break;
-        }
-      }
-      for (const int cell : walked) memo.emplace(cell, found);
-      if (found >= 0) {
-        push(found % n_fine_x, found / n_fine_x);
-        return;
-      }
-    }
+    const int cell = walk.first_cell(positions[p]);
+    if (cell >= 0) push(cell % n_fine_x, cell / n_fine_x);
   };
   for (std::size_t p = 0; p < positions.size(); ++p) {
     if (field.guarded(p)) seed_from(p);
