@@ -1304,6 +1304,73 @@ bool keep_nodes_between_passes(bool on) {
   return keep_nodes.exchange(on);
 }
 
+namespace {
+
+// The deformation of the field's particles with their kernels shaped by their neighbours: for the
+// band, the neighbours in the cells within a kernel reach of its particles' (the sums do not
+// depend on which other particles the search holds).
+std::vector<Mat2> shaped_kernels(const ParticleCloud& cloud, const Grid& grid,
+                                 const CloudSurvey& survey, const std::optional<Band>& band,
+                                 const ParticleCloud& field_cloud, const ImprovedConfig& config,
+                                 double kernel_reach) {
+  NeighbourCloud near;
+  if (band) near = neighbours_of_band(cloud, grid, survey, *band, kernel_reach);
+  const NeighbourSearch search(
+      band ? ParticleCloud{near.position, near.volume, {}, cloud.initial_spacing} : cloud,
+      kernel_reach);
+  return neighbour_shaped_deformation(search, field_cloud, config);
+}
+
+// The fine nodes of a pass at refinement r: the pass before's, raised by the guards and bridges
+// added where the field changed (`changed`), when it had the same refinement (its edge roots kept
+// outside those cells: `memo`); else new ones.
+FineNodes& pass_nodes(std::optional<FineNodes>& kept_nodes, EdgeRoots::Memo& memo,
+                      const std::vector<char>& changed, int r, const Grid& grid,
+                      const ImprovedField& field, const ImprovedConfig& config,
+                      double initial_spacing, long& field_evaluations) {
+  const double h = grid.cell_size;
+  if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
+    kept_nodes->raise(changed);
+    memo.index();
+  } else {
+    kept_nodes.emplace(grid, r,
+                       FineNodes::gather_square(r, h, config.radius_factor * initial_spacing),
+                       field, config.level, field_evaluations);
+    memo.clear();
+  }
+  return *kept_nodes;
+}
+
+// The contours of the fine cells `cells` by marching squares, their edge points Brent's roots
+// (`roots`) and the saddles decided on the exact field.
+DetectedBoundary contour_cells(FineNodes& nodes, const ImprovedField& field,
+                               const ImprovedConfig& config, const std::vector<int>& cells,
+                               EdgeRoots& roots, long& field_evaluations) {
+  const std::function<double(const Vec2&)> exact_sample = [&](const Vec2& x) {
+    ++field_evaluations;
+    return field(x);
+  };
+  return marching_squares_cells(
+      nodes.geometry(), [&nodes](int i, int j) { return nodes.value(i, j); }, cells, config.level,
+      config.saddle_rule, std::ref(roots), exact_sample);
+}
+
+// The passes' totals in the timings: the edge points' and the contours' seconds and counts, and
+// the field evaluations (nodes, screening, guards and roots), the field's parts summed.
+void record_pass_totals(double edge_seconds, double connection_seconds, long edge_points,
+                        long root_evaluations, long field_evaluations, DetectionTimings& timings) {
+  const auto& parts = timings.field_parts;
+  timings.edge_points = edge_seconds;
+  timings.connection = connection_seconds;
+  timings.edge_point_count = edge_points;
+  timings.root_evaluations = root_evaluations;
+  timings.field_evaluations = field_evaluations + root_evaluations;
+  timings.field = parts.survey + parts.band + parts.shape + parts.setup + parts.screening +
+                  parts.guards + parts.nodes;
+}
+
+}  // namespace
+
 // The pipeline: survey (0), band (0), field setup, coarse screening (1), guards (2), then per
 // contour pass the fine cells (3), the contours with their edge points (4) and the containment
 // check (5); a second pass, with bridges (join_spurious_loops) or the particles left outside
@@ -1319,28 +1386,18 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   //    cloud's largest weight, so that a field built on part of the particles gives bitwise the
   //    sums of one built on all of them (the sums are of integers: any order gives the same).
   CloudSurvey survey = survey_cloud(input, grid, config.max_stretch);
-  //    The kernels' stretch cap (ImprovedConfig::max_stretch): a copy of F with the singular
-  //    values clamped to [1 / cap, cap] where any lies outside.
-  //    A particle's volume is V0 det F, and it follows the capped F both ways, V' = V det F' /
-  //    det F (= V0 det F'): every kernel holds the volume of its own capped ellipse, so a
-  //    stretched particle does not overfill it and a compacted one (a collapse's det F falls to
-  //    1e-3 while its points stay about a spacing apart) does not open a hole around itself.
-  //    The survey's cell volumes, which the band's solid cells read, take the capped volumes
-  //    where they shrank but not where they grew: a cell is solid only if its particles fill it
-  //    without a raised volume, and phi can only grow as volumes do (the kernels do not depend on
-  //    them), so a cell the band calls interior is interior for the field too. (With the raised
-  //    volumes, a cell whose compacted points leave part of it empty passes for solid: on the 150
-  //    kPa collapse from zero stress at 2.5 s a guard went missing there and a point was left in a
-  //    hole.)
+  //    The kernels' stretch cap (ImprovedConfig::max_stretch, cap_stretch()): F with its
+  //    singular values clamped to [1 / cap, cap], the volume following det F both ways, so that
+  //    a kernel holds the volume of its own capped ellipse. The survey's cell volumes, which the
+  //    band's solid cells read, take the capped volumes where they shrank but not where they
+  //    grew: a cell the band calls interior is then interior for the field too. The cap is taken
+  //    only when some F may be outside it: by the narrow band on its own copies (the particles
+  //    away from the boundary are neither copied nor capped); without the band, or with kernels
+  //    shaped by the neighbours (which read the capped volumes outside the band), on a copy of
+  //    all. The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
   ParticleCloud cloud = input;
   std::vector<Mat2> capped;
   std::vector<double> capped_volume;
-  //    The cap is taken only when some F may be outside it. The narrow band
-  //    (below) takes it on its own copies of the particles, so that the particles away from the
-  //    boundary are not copied and capped at every call (at 241k points of a collapse 7.1 ms of a
-  //    25 ms detection went there); without the band, or with kernel shapes from the neighbours
-  //    (whose windows read the capped volumes of particles outside the band), on a copy of all.
-  //    The weight bound V / det F (weight_bound()) holds for V' / det F' = V / det F.
   const bool capping =
       !input.deformation_gradient.empty() &&
       may_exceed_stretch_cap(survey.largest_stretch, survey.smallest_det, config.max_stretch);
@@ -1379,17 +1436,9 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   const std::span<const char> interior_by_volume =
       band ? std::span<const char>(band->interior_by_volume) : std::span<const char>();
   lap(parts.band);
-  //    The kernels of the field's particles shaped by their neighbours: for the band, those in
-  //    the cells within a kernel reach of its particles' (the sums do not depend on which other
-  //    particles the search holds).
   std::vector<Mat2> shaped;
   if (config.neighbour_shape > 0.0) {
-    NeighbourCloud near;
-    if (band) near = neighbours_of_band(cloud, grid, survey, *band, kernel_reach);
-    const NeighbourSearch search(
-        band ? ParticleCloud{near.position, near.volume, {}, cloud.initial_spacing} : cloud,
-        kernel_reach);
-    shaped = neighbour_shaped_deformation(search, field_cloud, config);
+    shaped = shaped_kernels(cloud, grid, survey, band, field_cloud, config, kernel_reach);
     field_cloud.deformation_gradient = shaped;
   }
   lap(parts.shape);
@@ -1419,10 +1468,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   double edge_seconds = 0.0, connection_seconds = 0.0;
   long root_evaluations = 0, edge_points = 0;
   DetectedBoundary boundary;
-  // A pass at the refinement of the pass before keeps that pass's fine nodes, raised by the
-  // guards and bridges added where the field changed (`changed`: their supports), and its edge
-  // roots outside those cells; the contours are bitwise those of a pass that evaluates
-  // everything anew.
+  // The fine nodes and edge roots a pass keeps from the one before (pass_nodes()).
   std::optional<FineNodes> kept_nodes;
   EdgeRoots::Memo memo;
   std::vector<char> changed;
@@ -1433,16 +1479,8 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     lap.restart();
     const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h);
     timings.refinement = r;
-    if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
-      kept_nodes->raise(changed);
-      memo.index();
-    } else {
-      kept_nodes.emplace(
-          grid, r, FineNodes::gather_square(r, h, config.radius_factor * cloud.initial_spacing),
-          field, config.level, field_evaluations);
-      memo.clear();
-    }
-    FineNodes& nodes = *kept_nodes;
+    FineNodes& nodes = pass_nodes(kept_nodes, memo, changed, r, grid, field, config,
+                                  cloud.initial_spacing, field_evaluations);
     // Without guards the field is phi, which the screening evaluated at the grid nodes.
     const bool phi_alone = field.n_guarded() == 0 && field.n_bridges() == 0;
     nodes.reuse_grid_nodes(phi_alone ? std::span<const double>(screen.coarse)
@@ -1455,13 +1493,7 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     // 4. Edge points and contours.
     const auto contour_start = std::chrono::steady_clock::now();
     EdgeRoots roots(field, nodes, config.level, config.root_tolerance, &memo, &changed);
-    const std::function<double(const Vec2&)> exact_sample = [&](const Vec2& x) {
-      ++field_evaluations;
-      return field(x);
-    };
-    boundary = marching_squares_cells(
-        nodes.geometry(), [&nodes](int i, int j) { return nodes.value(i, j); }, cells, config.level,
-        config.saddle_rule, std::ref(roots), exact_sample);
+    boundary = contour_cells(nodes, field, config, cells, roots, field_evaluations);
     timings.processed_cells = static_cast<long>(cells.size());
 
     // 5. Containment; the particles left outside get their guard and the contours are found
@@ -1483,13 +1515,8 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
     changed = cells_changed_by(grid, positions, left_out, next->pairs, guard_reach, h / r);
   }
   remove_unresolved_loops(config, boundary, positions, cloud.initial_spacing, classes, timings);
-  timings.edge_points = edge_seconds;
-  timings.connection = connection_seconds;
-  timings.edge_point_count = edge_points;
-  timings.root_evaluations = root_evaluations;
-  timings.field_evaluations = field_evaluations + root_evaluations;
-  timings.field = parts.survey + parts.band + parts.shape + parts.setup + parts.screening +
-                  parts.guards + parts.nodes;
+  record_pass_totals(edge_seconds, connection_seconds, edge_points, root_evaluations,
+                     field_evaluations, timings);
   if (config.curvature_correction) {
     const auto start = std::chrono::steady_clock::now();
     correct_curvature(boundary, field.curvature_moment(),
