@@ -858,9 +858,12 @@ class FineNodes {
 // there would be too low. That first cell, along each direction, is a function of the cell a
 // walk starts from: it is remembered for every cell a walk passes (-1: none up to the grid's
 // edge), so the particles of one row (a cloud of collinear points, whose row is inside from end
-// to end) do not walk the same cells again.
+// to end) do not walk the same cells again. Only walks longer than kRememberedWalk cells are
+// remembered: a body's particles find their sign change within a few cells, where the table
+// would cost more than the walk.
 class SeedWalk {
  public:
+  static constexpr std::size_t kRememberedWalk = 16;
   SeedWalk(FineNodes& nodes, std::span<const char> interior_by_volume, int ncx)
       : nodes_(nodes),
         interior_by_volume_(interior_by_volume),
@@ -881,9 +884,11 @@ class SeedWalk {
       for (int i = i0, j = j0; i >= 0 && j >= 0 && i < n_fine_x_ && j < n_fine_y_;
            i += di, j += dj) {
         const int cell = j * n_fine_x_ + i;
-        if (const auto known = memo.find(cell); known != memo.end()) {
-          found = known->second;
-          break;
+        if (!memo.empty()) {
+          if (const auto known = memo.find(cell); known != memo.end()) {
+            found = known->second;
+            break;
+          }
         }
         walked_.push_back(cell);
         if (!interior_by_volume_.empty() &&
@@ -895,7 +900,9 @@ class SeedWalk {
           break;
         }
       }
-      for (const int cell : walked_) memo.emplace(cell, found);
+      if (walked_.size() > kRememberedWalk) {
+        for (const int cell : walked_) memo.emplace(cell, found);
+      }
       if (found >= 0) return found;
     }
     return -1;
