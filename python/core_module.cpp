@@ -6,6 +6,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -14,10 +16,15 @@
 #include "mpm/boundary/load_input.hpp"
 #include "mpm/boundary/surface_load.hpp"
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/output_folder.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
 #include "mpm/detect/detector.hpp"
+#include "mpm/solver/boundary_coupling.hpp"
+#include "mpm/solver/mpm_solver.hpp"
+#include "mpm/solver/run.hpp"
 #include "mpm/step/case.hpp"
+#include "mpm/step/step_view.hpp"
 
 namespace py = pybind11;
 using nlohmann::json;
@@ -50,6 +57,14 @@ Array array_from(const std::vector<pfm::Vec2>& points) {
     w(k, 1) = points[k].y();
   }
   return out;
+}
+
+py::list loops_of(const pfm::DetectedBoundary& boundary) {
+  py::list loops;
+  for (const pfm::Contour& c : boundary.contours) {
+    loops.append(py::make_tuple(array_from(c.points), c.closed));
+  }
+  return loops;
 }
 
 std::string read_case_json(const std::string& path) {
@@ -98,11 +113,7 @@ py::list detect(const Array& position, const Array& volume, double initial_spaci
     py::gil_scoped_release release;
     boundary = pfm::detect(cloud, grid, config, state);
   }
-  py::list loops;
-  for (const pfm::Contour& c : boundary.contours) {
-    loops.append(py::make_tuple(array_from(c.points), c.closed));
-  }
-  return loops;
+  return loops_of(boundary);
 }
 
 // A composite curve's segments as (n_segments, 4, 2) control points (unused rows zero) and
@@ -196,11 +207,147 @@ py::tuple nodal_forces(const std::string& grid_json, const py::list& curves,
   return py::make_tuple(array_from(force), totals);
 }
 
+// A run of the explicit MPM driven from Python (pfm_mpm.Simulation): pfm::MpmRun, begun when
+// built. The particle arrays are numpy views of the run's own (the run's particles never move
+// in memory: none are added or removed after the start); each view keeps the run alive.
+class Simulation {
+ public:
+  Simulation(const pfm::Case& c, const pfm::RunOptions& options)
+      : out_(options.out_dir), run_(std::make_shared<pfm::MpmRun>(c, options)) {
+    {
+      py::gil_scoped_release release;
+      run_->begin();
+    }
+    raise_if_stopped();
+  }
+
+  // Up to n steps, fewer at the case's end time; Ctrl-C (or any Python signal handler's
+  // exception) interrupts between steps and leaves the run as it is.
+  long step(long n) {
+    if (n < 0) throw pfm::InputError("step: n must be >= 0, got " + std::to_string(n));
+    long done = 0;
+    while (done < n && run().stepping()) {
+      {
+        py::gil_scoped_release release;
+        const auto start = std::chrono::steady_clock::now();
+        do {
+          run_->step();
+          ++done;
+        } while (done < n && run_->stepping() &&
+                 std::chrono::steady_clock::now() - start < std::chrono::milliseconds(200));
+      }
+      raise_if_stopped();
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    }
+    return done;
+  }
+
+  int finish() {
+    py::gil_scoped_release release;
+    return run().end();
+  }
+
+  // The detector of the case's detection block (default: the improved detector) on the points
+  // now, with a state of its own: the run's detections are not touched.
+  py::list detect() {
+    pfm::MpmSolver& solver = run().solver();
+    const pfm::Particles& p = solver.particles();
+    const pfm::Case& c = run_->case_spec();
+    const pfm::DetectorConfig config = c.detection ? c.detection->detector : pfm::DetectorConfig{};
+    pfm::ParticleCloud cloud{p.position, p.volume, p.deformation_gradient,
+                             run_->coupling().initial_spacing()};
+    pfm::DetectorState state;
+    pfm::DetectedBoundary boundary;
+    {
+      py::gil_scoped_release release;
+      boundary = pfm::detect(cloud, c.grid, config, state);
+    }
+    return loops_of(boundary);
+  }
+
+  // A view of one particle field: `components` doubles per particle, in the shape and strides
+  // given (bytes), starting at `data`.
+  py::array view(const double* data, std::vector<py::ssize_t> shape,
+                 std::vector<py::ssize_t> strides) const {
+    auto* keep = new std::shared_ptr<pfm::MpmRun>(run_);
+    py::capsule owner(keep, [](void* p) { delete static_cast<std::shared_ptr<pfm::MpmRun>*>(p); });
+    return py::array(py::dtype::of<double>(), std::move(shape), std::move(strides), data, owner);
+  }
+  py::array vectors(const std::vector<pfm::Vec2>& field) const {
+    static_assert(sizeof(pfm::Vec2) == 2 * sizeof(double));
+    return view(field.data()->data(), {static_cast<py::ssize_t>(field.size()), 2},
+                {sizeof(pfm::Vec2), sizeof(double)});
+  }
+  py::array scalars(const std::vector<double>& field) const {
+    return view(field.data(), {static_cast<py::ssize_t>(field.size())}, {sizeof(double)});
+  }
+  py::array stresses(const std::vector<pfm::Stress>& field) const {
+    static_assert(sizeof(pfm::Stress) == 4 * sizeof(double));
+    return view(field.data()->data(), {static_cast<py::ssize_t>(field.size()), 4},
+                {sizeof(pfm::Stress), sizeof(double)});
+  }
+  // F[p, i, j]: Eigen stores a Mat2 column by column.
+  py::array tensors(const std::vector<pfm::Mat2>& field) const {
+    static_assert(sizeof(pfm::Mat2) == 4 * sizeof(double));
+    return view(field.data()->data(), {static_cast<py::ssize_t>(field.size()), 2, 2},
+                {sizeof(pfm::Mat2), sizeof(double), 2 * sizeof(double)});
+  }
+
+  pfm::MpmRun& run() {
+    if (!run_) throw pfm::InputError(out_ + ": the simulation is closed");
+    return *run_;
+  }
+  // Drops this object's hold on the run (the views keep theirs): the output folder's lock is
+  // released once no view is left.
+  void close() { run_.reset(); }
+
+ private:
+  // A run that a simulation error or a write fault stopped: ended, and raised as
+  // pfm_mpm.SimulationError or pfm_mpm.OutputError.
+  void raise_if_stopped() {
+    if (run_->running()) return;
+    const int status = run_->end();
+    if (status == pfm::kExitSimulationError) throw pfm::SimulationError(run_->stop_message());
+    if (status != pfm::kExitOk) {
+      throw pfm::IoError(out_ + ": a write failed; run.json says why (exit status " +
+                         std::to_string(status) + ")");
+    }
+  }
+
+  std::string out_;
+  std::shared_ptr<pfm::MpmRun> run_;
+};
+
+std::unique_ptr<Simulation> make_simulation(const std::string& path, const std::string& text,
+                                            const std::string& file, const std::string& out,
+                                            int threads, bool overwrite, bool progress,
+                                            long checkpoint_steps, double checkpoint_seconds) {
+  pfm::RunOptions options;
+  options.out_dir = out;
+  options.threads = threads;
+  options.overwrite = overwrite;
+  options.progress = progress;
+  options.checkpoint_steps = checkpoint_steps;
+  options.checkpoint_seconds = checkpoint_seconds;
+  options.command_line =
+      "pfm_mpm.Simulation(" + (path.empty() ? file : path) + ", out=" + out + ")";
+  if (!path.empty()) return std::make_unique<Simulation>(pfm::read_case(path), options);
+  json document;
+  try {
+    document = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw pfm::InputError(file + ": not valid JSON: " + e.what());
+  }
+  return std::make_unique<Simulation>(pfm::parse_case(document, file), options);
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "The pfm-mpm C++ core (python/README.md).";
   py::register_exception<pfm::InputError>(m, "InputError", PyExc_ValueError);
+  py::register_exception<pfm::SimulationError>(m, "SimulationError", PyExc_RuntimeError);
+  py::register_exception<pfm::IoError>(m, "OutputError", PyExc_OSError);
   m.def("version", &pfm::version_line, "pfm-mpm <version> (git <revision>, <build type> build)");
   m.def("read_case_json", &read_case_json, py::arg("path"),
         "Reads and validates a case file; the resolved case as JSON text (resolved_case).");
@@ -215,4 +362,36 @@ PYBIND11_MODULE(_core, m) {
   m.def("nodal_forces", &nodal_forces, py::arg("grid"), py::arg("curves"), py::arg("load"),
         py::arg("load_factor"), py::arg("shape_degree"), py::arg("node_mass") = py::none(),
         "(forces (n_nodes, 2), totals) of a detected-boundary load on the curves.");
+  py::class_<Simulation>(m, "Simulation")
+      .def(py::init(&make_simulation), py::arg("path"), py::arg("text"), py::arg("file"),
+           py::arg("out"), py::arg("threads"), py::arg("overwrite"), py::arg("progress"),
+           py::arg("checkpoint_steps"), py::arg("checkpoint_seconds"),
+           "A case (a file at path, or JSON text named file) run into the folder out, begun.")
+      .def("step", &Simulation::step, py::arg("n"), "Up to n steps; the steps taken.")
+      .def("finish", &Simulation::finish, "Ends the run now; its exit status.")
+      .def("close", &Simulation::close, "Drops the run (views keep it alive).")
+      .def("detect", &Simulation::detect, "The detected loops of the points now.")
+      .def_property_readonly("time", [](Simulation& s) { return s.run().solver().time(); })
+      .def_property_readonly("step_count",
+                             [](Simulation& s) { return s.run().solver().step_count(); })
+      .def_property_readonly("dt", [](Simulation& s) { return s.run().solver().dt(); })
+      .def_property_readonly("n_steps", [](Simulation& s) { return s.run().n_steps(); })
+      .def_property_readonly("stepping", [](Simulation& s) { return s.run().stepping(); })
+      .def(
+          "field",
+          [](Simulation& s, const std::string& name) -> py::array {
+            // Fields a user may change between steps come through mutable_particles().
+            pfm::MpmSolver& solver = s.run().solver();
+            const pfm::Particles& p = solver.particles();
+            if (name == "position") return s.vectors(solver.mutable_particles().position);
+            if (name == "velocity") return s.vectors(solver.mutable_particles().velocity);
+            if (name == "stress") return s.stresses(solver.mutable_particles().stress);
+            if (name == "deformation_gradient")
+              return s.tensors(solver.mutable_particles().deformation_gradient);
+            if (name == "reference_position") return s.vectors(p.reference_position);
+            if (name == "mass") return s.scalars(p.mass);
+            if (name == "volume") return s.scalars(p.volume);
+            throw pfm::InputError("field: no particle field \"" + name + "\"");
+          },
+          py::arg("name"), "A numpy view of a particle field.");
 }

@@ -172,6 +172,10 @@ OutputFolder::OutputFolder(std::string path, Mode mode, std::string option)
 }
 
 OutputFolder::~OutputFolder() {
+  unlock();
+}
+
+void OutputFolder::unlock() noexcept {
   if (lock_fd_ < 0) return;
   // Emptied, so that two runs of the same input leave the same bytes; a killed run's process id
   // stays (its lock went with the process).
@@ -179,6 +183,7 @@ OutputFolder::~OutputFolder() {
     // Nothing to do: the lock file's content is informative only.
   }
   ::close(lock_fd_);  // releases the flock
+  lock_fd_ = -1;
 }
 
 std::string OutputFolder::file(const std::string& name) {

@@ -43,7 +43,7 @@ class OutputFolder {
   /// Checks, creates, locks and (kNew, kOverwrite) clears `path`. `option` names the command-line
   /// option in messages ("--out").
   OutputFolder(std::string path, Mode mode, std::string option = "--out");
-  ~OutputFolder();  ///< releases the lock
+  ~OutputFolder();  ///< unlock()
   OutputFolder(const OutputFolder&) = delete;
   OutputFolder& operator=(const OutputFolder&) = delete;
 
@@ -57,6 +57,9 @@ class OutputFolder {
   /// the disk has not that much left.
   void reserve(std::size_t bytes);
   void release_reserve() const noexcept;
+  /// Empties the lock file and releases the lock (the folder is done with; nothing may be
+  /// written after). Never throws; a second call does nothing.
+  void unlock() noexcept;
 
  private:
   void write_manifest() const;

@@ -173,66 +173,45 @@ void reopen_series(OutputFolder& folder, const Case& c, bool detection,
   if (detection) boundary = std::make_unique<BoundarySeriesWriter>(folder, c.output.compress, keep);
 }
 
+/// `c`, once check_run_length() has accepted its number of steps of `dt`.
+const Case& length_checked(const Case& c, double dt) {
+  check_run_length(c, dt);
+  return c;
+}
+
 }  // namespace
 
-int run_case(const Case& c, const RunOptions& options) {
-  ThreadGovernor governor(options.threads);
-  const int threads = governor.threads();
-  MpmSolver solver(c);  // may throw InputError: nothing created yet
-  check_run_length(c, solver.dt());
-  BoundaryCoupling coupling(c);
-  OutputFolder folder(options.out_dir, output_folder_mode(options),
-                      options.restart ? "--restart" : "--out");
-  const std::string dir = options.out_dir;
-  const std::string checkpoint_path = dir + "/checkpoint.h5";
+/// Everything a run holds between its steps. The hooks call its members; it never moves.
+struct MpmRun::State {
+  State(const Case& case_spec, const RunOptions& run_options);
+  State(const State&) = delete;
+  State& operator=(const State&) = delete;
 
-  nlohmann::json run = running_run_json(c, options, threads);
+  void record() {
+    series.record(solver.time(), solver.energy(), coupling.diagnostics(),
+                  coupling.constraints().reports());
+  }
+  void save_checkpoint();
+  void restore_checkpoint(const CheckpointFile& file);
+  const std::vector<Stress>& recovered_stress();
+  void write_output(ParticleSeriesWriter& writer);
+  void set_hooks();
 
-  TimeSeriesTable series(coupling.has_surface_loads(), c.loads.size(),
-                         reaction_names(c.boundary_conditions), c.constraints.size());
-  auto record = [&](const MpmSolver& s) {
-    series.record(s.time(), s.energy(), coupling.diagnostics(), coupling.constraints().reports());
-  };
+  const RunOptions options;
+  ThreadGovernor governor;
+  const int threads;
+  const Case c;
+  MpmSolver solver;  // may throw InputError: nothing created yet
+  BoundaryCoupling coupling;
+  OutputFolder folder;
+  nlohmann::json run;
+  TimeSeriesTable series;
   nlohmann::json outputs = nlohmann::json::array();
   std::unique_ptr<ParticleSeriesWriter> writer_owner;
   std::unique_ptr<BoundarySeriesWriter> boundary_writer;
   std::unique_ptr<VtkSeriesWriter> vtk_writer, boundary_vtk;  // with output.vtk
-  double next_output = c.output.interval, next_series = c.output.timeseries_interval;
-  auto save_checkpoint = [&]() {
-    CheckpointFile file;
-    put_particles(file, solver.particles());
-    put_solver_counters(file, solver.counters());
-    coupling.save(file);
-    file.put("run/next_output", next_output);
-    file.put("run/next_series", next_series);
-    file.put_text("run/timeseries", series.text());
-    file.put_text("run/outputs", outputs.dump());
-    // The HDF5 series as they are now, before the checkpoint that a restart rebuilds them to:
-    // a kill during a later output step can leave the files themselves unreadable.
-    if (writer_owner) writer_owner->copy_for_checkpoint(folder);
-    if (boundary_writer) boundary_writer->copy_for_checkpoint(folder);
-    file.write(folder.file("checkpoint.h5"));
-  };
-  const long n_steps = static_cast<long>(std::ceil(c.time.end_time / solver.dt() - 1e-9));
-  auto restore_checkpoint = [&](const CheckpointFile& file) {
-    // Every value as the case reader would check it (checkpoint.hpp): a damaged checkpoint is
-    // refused with the dataset's name, never continued.
-    get_particles(file, solver.mutable_particles());  // the case's fill is there to compare
-    const SolverCounters n = get_solver_counters(file, c, solver.dt(), n_steps);
-    solver.restore(n);
-    coupling.attach(solver);
-    coupling.restore(file, solver.step_view());
-    const double past = n.time - n.dt;
-    next_output = file.scalar("run/next_output", past, n.time + c.output.interval + n.dt);
-    next_series =
-        file.scalar("run/next_series", past, n.time + c.output.timeseries_interval + n.dt);
-    const std::string& table = file.text("run/timeseries");
-    const std::string header = series.text();
-    if (table.compare(0, header.size(), header) != 0)
-      file.fail("run/timeseries", "does not start with this run's column names");
-    series.restore(table);
-    outputs = get_outputs(file, n.step);
-  };
+  double next_output, next_series;
+  const long n_steps;
   // The stresses next to the boundary's known tractions, recovered (stress_recovery.hpp), at
   // output steps, once per step (the last output's serve final_particles.csv); timed apart from
   // the step's stages.
@@ -240,65 +219,124 @@ int run_case(const Case& c, const RunOptions& options) {
   long recoveries = 0;
   std::vector<Stress> recovered;
   long recovered_step = -1;
-  auto recovered_stress = [&]() -> const std::vector<Stress>& {
-    if (!coupling.detection_enabled() || recovered_step == solver.step_count()) return recovered;
-    StageTimer timer(recovery_seconds);
-    ++recoveries;
-    const std::vector<TractionSample> samples =
-        coupling.traction_samples(solver.step_view(), solver.grid_state().fixed);
-    recovered = recover_stress(solver.particles().position, solver.particles().stress, samples,
-                               c.grid.cell_size);
-    recovered_step = solver.step_count();
-    return recovered;
-  };
-  auto write_output = [&](ParticleSeriesWriter& writer) {
-    const std::vector<Stress>& recovered_now = recovered_stress();
-    writer.write(solver.time(), solver.step_count(), solver.particles(), recovered_now);
-    if (vtk_writer) {
-      vtk_writer->write(solver.time(), solver.step_count(),
-                        particles_vtu(solver.particles(), recovered_now));
-    }
-    nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
-    if (coupling.detection_enabled()) {
-      write_boundary_output(folder, c, coupling, solver, boundary_writer, boundary_vtk, entry);
-    }
-    if (c.output.nodal_loads && coupling.has_surface_loads()) {
-      write_nodal_loads(folder, c, coupling, solver, entry);
-    }
-    outputs.push_back(entry);
-  };
+  std::chrono::steady_clock::time_point last_checkpoint;
+  RunHooks hooks;
+  RunDriver<MpmSolver> driver;
+};
 
+MpmRun::State::State(const Case& case_spec, const RunOptions& run_options)
+    : options(run_options),
+      governor(options.threads),
+      threads(governor.threads()),
+      c(case_spec),
+      solver(c),
+      coupling(length_checked(c, solver.dt())),
+      folder(options.out_dir, output_folder_mode(options), options.restart ? "--restart" : "--out"),
+      run(running_run_json(c, options, threads)),
+      series(coupling.has_surface_loads(), c.loads.size(), reaction_names(c.boundary_conditions),
+             c.constraints.size()),
+      next_output(c.output.interval),
+      next_series(c.output.timeseries_interval),
+      n_steps(static_cast<long>(std::ceil(c.time.end_time / solver.dt() - 1e-9))),
+      driver(solver, hooks, c, options, governor, folder, run, series, next_series, next_output) {
   if (options.restart) {
     // Nothing is touched until the checkpoint has been read and validated.
-    restore_checkpoint(CheckpointFile::read(checkpoint_path));
+    restore_checkpoint(CheckpointFile::read(options.out_dir + "/checkpoint.h5"));
     run["restarts"].push_back({{"utc", utc_now()},
                                {"from_step", solver.step_count()},
                                {"command", options.command_line},
                                {"threads", threads}});
   }
-  auto last_checkpoint = std::chrono::steady_clock::now();
-  RunHooks hooks;
-  hooks.prepare_outputs = [&] {
+  last_checkpoint = std::chrono::steady_clock::now();
+  set_hooks();
+}
+
+void MpmRun::State::save_checkpoint() {
+  CheckpointFile file;
+  put_particles(file, solver.particles());
+  put_solver_counters(file, solver.counters());
+  coupling.save(file);
+  file.put("run/next_output", next_output);
+  file.put("run/next_series", next_series);
+  file.put_text("run/timeseries", series.text());
+  file.put_text("run/outputs", outputs.dump());
+  // The HDF5 series as they are now, before the checkpoint that a restart rebuilds them to:
+  // a kill during a later output step can leave the files themselves unreadable.
+  if (writer_owner) writer_owner->copy_for_checkpoint(folder);
+  if (boundary_writer) boundary_writer->copy_for_checkpoint(folder);
+  file.write(folder.file("checkpoint.h5"));
+}
+
+void MpmRun::State::restore_checkpoint(const CheckpointFile& file) {
+  // Every value as the case reader would check it (checkpoint.hpp): a damaged checkpoint is
+  // refused with the dataset's name, never continued.
+  get_particles(file, solver.mutable_particles());  // the case's fill is there to compare
+  const SolverCounters n = get_solver_counters(file, c, solver.dt(), n_steps);
+  solver.restore(n);
+  coupling.attach(solver);
+  coupling.restore(file, solver.step_view());
+  const double past = n.time - n.dt;
+  next_output = file.scalar("run/next_output", past, n.time + c.output.interval + n.dt);
+  next_series = file.scalar("run/next_series", past, n.time + c.output.timeseries_interval + n.dt);
+  const std::string& table = file.text("run/timeseries");
+  const std::string header = series.text();
+  if (table.compare(0, header.size(), header) != 0)
+    file.fail("run/timeseries", "does not start with this run's column names");
+  series.restore(table);
+  outputs = get_outputs(file, n.step);
+}
+
+const std::vector<Stress>& MpmRun::State::recovered_stress() {
+  if (!coupling.detection_enabled() || recovered_step == solver.step_count()) return recovered;
+  StageTimer timer(recovery_seconds);
+  ++recoveries;
+  const std::vector<TractionSample> samples =
+      coupling.traction_samples(solver.step_view(), solver.grid_state().fixed);
+  recovered = recover_stress(solver.particles().position, solver.particles().stress, samples,
+                             c.grid.cell_size);
+  recovered_step = solver.step_count();
+  return recovered;
+}
+
+void MpmRun::State::write_output(ParticleSeriesWriter& writer) {
+  const std::vector<Stress>& recovered_now = recovered_stress();
+  writer.write(solver.time(), solver.step_count(), solver.particles(), recovered_now);
+  if (vtk_writer) {
+    vtk_writer->write(solver.time(), solver.step_count(),
+                      particles_vtu(solver.particles(), recovered_now));
+  }
+  nlohmann::json entry = {{"step", solver.step_count()}, {"time", solver.time()}};
+  if (coupling.detection_enabled()) {
+    write_boundary_output(folder, c, coupling, solver, boundary_writer, boundary_vtk, entry);
+  }
+  if (c.output.nodal_loads && coupling.has_surface_loads()) {
+    write_nodal_loads(folder, c, coupling, solver, entry);
+  }
+  outputs.push_back(entry);
+}
+
+void MpmRun::State::set_hooks() {
+  hooks.prepare_outputs = [this] {
     if (!options.restart) return;
     reopen_series(folder, c, coupling.detection_enabled(), outputs, writer_owner, vtk_writer,
                   boundary_writer, boundary_vtk);
   };
-  hooks.start = [&] {
+  hooks.start = [this] {
     if (!options.restart) {
       solver.initialise_stress();
       coupling.attach(solver);
       writer_owner = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
       if (c.output.vtk) vtk_writer = std::make_unique<VtkSeriesWriter>(folder, "particles");
       write_output(*writer_owner);
-      record(solver);
+      record();
     }
     last_checkpoint = std::chrono::steady_clock::now();
   };
-  hooks.finished = [&] { return solver.step_count() >= n_steps; };
-  hooks.record = [&] { record(solver); };
-  hooks.output = [&] { write_output(*writer_owner); };
-  hooks.recovered_stress = recovered_stress;
-  hooks.after_step = [&](bool last) {
+  hooks.finished = [this] { return solver.step_count() >= n_steps; };
+  hooks.record = [this] { record(); };
+  hooks.output = [this] { write_output(*writer_owner); };
+  hooks.recovered_stress = [this] { return recovered_stress(); };
+  hooks.after_step = [this](bool last) {
     const bool by_steps =
         options.checkpoint_steps > 0 && solver.step_count() % options.checkpoint_steps == 0;
     const bool by_time = options.checkpoint_seconds > 0.0 &&
@@ -308,18 +346,66 @@ int run_case(const Case& c, const RunOptions& options) {
       last_checkpoint = std::chrono::steady_clock::now();
     }
   };
-  hooks.close_writers = [&] {
+  hooks.close_writers = [this] {
     writer_owner.reset();  // closes the HDF5 files before run.json is marked
     boundary_writer.reset();
   };
-  hooks.summarise = [&](nlohmann::json& ended) {
+  hooks.summarise = [this](nlohmann::json& ended) {
     if (coupling.detection_enabled()) {
       summarise_detection(ended["summary"], c, coupling, outputs, recoveries, recovery_seconds);
     }
     ended["outputs"] = outputs;
   };
-  return drive_run(solver, hooks, c, options, governor, folder, run, series, next_series,
-                   next_output);
+}
+
+MpmRun::MpmRun(const Case& c, const RunOptions& options)
+    : state_(std::make_unique<State>(c, options)) {}
+
+MpmRun::~MpmRun() = default;
+
+void MpmRun::begin() {
+  state_->driver.begin();
+}
+bool MpmRun::stepping() const {
+  return state_->driver.stepping();
+}
+bool MpmRun::running() const {
+  return state_->driver.running();
+}
+void MpmRun::step() {
+  state_->driver.step();
+}
+int MpmRun::end() {
+  const int status = state_->driver.end();
+  // The run's files complete and the folder free, as when pfm-mpm exits.
+  state_->writer_owner.reset();
+  state_->boundary_writer.reset();
+  state_->vtk_writer.reset();
+  state_->boundary_vtk.reset();
+  state_->folder.unlock();
+  return status;
+}
+const std::string& MpmRun::stop_message() const {
+  return state_->driver.message();
+}
+long MpmRun::n_steps() const {
+  return state_->n_steps;
+}
+MpmSolver& MpmRun::solver() {
+  return state_->solver;
+}
+BoundaryCoupling& MpmRun::coupling() {
+  return state_->coupling;
+}
+const Case& MpmRun::case_spec() const {
+  return state_->c;
+}
+
+int run_case(const Case& c, const RunOptions& options) {
+  MpmRun run(c, options);
+  run.begin();
+  while (run.stepping()) run.step();
+  return run.end();
 }
 
 }  // namespace pfm

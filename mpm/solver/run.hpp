@@ -19,10 +19,54 @@
 //   .pfm-mpm.lock         held while a run or restart uses the folder (mpm/core/output_folder.hpp)
 #pragma once
 
+#include <memory>
+
 #include "mpm/step/case.hpp"
 #include "mpm/step/run_support.hpp"
 
 namespace pfm {
+
+class MpmSolver;
+class BoundaryCoupling;
+
+/// A run of a validated case, a step at a time (the Python module's Simulation): the output
+/// folder, the solver, the detected boundary's coupling and the outputs' writers of
+/// `pfm-mpm run`. run_case() is begin(), step() while stepping(), end(); a driver that calls
+/// end() earlier gets the files of a run whose end time is now (mpm/step/run_driver.hpp). The
+/// constructor creates the output folder once the case and options are valid (InputError
+/// otherwise, nothing created); --restart's state is read there.
+class MpmRun {
+ public:
+  MpmRun(const Case& c, const RunOptions& options);
+  ~MpmRun();
+  MpmRun(const MpmRun&) = delete;
+  MpmRun& operator=(const MpmRun&) = delete;
+
+  /// Writes run.json, the initial stress and the first output (none for a restart).
+  void begin();
+  /// Whether the run has begun and has neither stopped (a simulation error) nor ended.
+  bool running() const;
+  /// running() and the case's end time not reached.
+  bool stepping() const;
+  /// One step with its time-series row, output and checkpoint when due (running() must hold).
+  void step();
+  /// Ends the run: the current step's row and output, final_particles.csv, run.json; closes
+  /// the output files and releases the folder's lock. Returns the exit status of run_case();
+  /// again the same on later calls.
+  int end();
+
+  /// The simulation error that stopped the run, or empty.
+  const std::string& stop_message() const;
+  /// The steps to the case's end time.
+  long n_steps() const;
+  MpmSolver& solver();
+  BoundaryCoupling& coupling();
+  const Case& case_spec() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 /// Run a validated case. Returns kExitOk, kExitSimulationError after writing run.json with
 /// status "failed" and keeping the outputs written so far, or kExitIoError after a write fault

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "mpm/core/output_folder.hpp"
@@ -38,75 +39,182 @@ struct RunHooks {
   std::function<std::vector<Stress>()> recovered_stress;
 };
 
-/// Runs `solver` with `hooks`: writes run.json as `run` holds it, starts, steps until
-/// hooks.finished(), and after each step records a row of the time series every
-/// c.output.timeseries_interval and after the last step, writes an output (and timeseries.csv
-/// from `series`) every c.output.interval and after the last step, calls after_step and shows
-/// the progress; then writes final_particles.csv and ends run.json (record_run_end, the hooks'
-/// summary, finish_run). next_series and next_output (s) are the next times due (a restart
-/// carries them over); their tolerance is 1e-9 of the time step solver.dt() at the start.
-/// A simulation error ends the run "failed" with the outputs so far (kExitSimulationError), a
-/// write fault with kExitIoError (fail_on_write_fault); any other exception marks run.json
-/// failed and propagates.
+/// A run of `solver` with `hooks`, a step at a time: begin() writes run.json as `run` holds it
+/// and starts; each step() steps once, records a row of the time series every
+/// c.output.timeseries_interval and after the last step (hooks.finished()), writes an output
+/// (and timeseries.csv from `series`) every c.output.interval and after the last step, calls
+/// after_step and shows the progress; end() writes final_particles.csv and ends run.json
+/// (record_run_end, the hooks' summary, finish_run). end() before the last step ends the run
+/// there, the current step written as a last step's would be (its row and its output, unless
+/// it had them), so the files equal a run whose end time is now. next_series and next_output
+/// (s) are the next times due (a restart carries them over); their tolerance is 1e-9 of the
+/// time step solver.dt() at the start.
+///
+/// A simulation error stops the run (running() turns false; end() marks it "failed" with the
+/// outputs so far, kExitSimulationError), a write fault ends it with kExitIoError
+/// (fail_on_write_fault); any other exception marks run.json failed and propagates. Every
+/// argument must outlive the driver.
+template <class Solver>
+class RunDriver {
+ public:
+  RunDriver(Solver& solver, const RunHooks& hooks, const Case& c, const RunOptions& options,
+            ThreadGovernor& governor, OutputFolder& folder, nlohmann::json& run,
+            const TimeSeriesTable& series, double& next_series, double& next_output)
+      : solver_(solver),
+        hooks_(hooks),
+        case_(c),
+        options_(options),
+        governor_(governor),
+        folder_(folder),
+        run_(run),
+        series_(series),
+        next_series_(next_series),
+        next_output_(next_output) {}
+
+  /// Writes run.json and starts (hooks.prepare_outputs, hooks.start).
+  void begin() {
+    try {
+      call(hooks_.prepare_outputs);
+      const std::string text = run_.dump(2) + "\n";
+      write_file_atomically(folder_.file("run.json"), text);
+      folder_.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
+    } catch (const IoError& e) {
+      call(hooks_.close_writers);
+      return end_with(fail_on_write_fault(folder_, run_, e));
+    }
+    wall_start_ = std::chrono::steady_clock::now();
+    phase_ = Phase::kRunning;
+    guarded([&] {
+      call(hooks_.start);
+      initial_steps_ = solver_.initial_stress_steps();
+      eps_ = 1e-9 * solver_.dt();
+      recorded_step_ = written_step_ = solver_.step_count();
+      progress_.emplace(options_.progress);
+    });
+  }
+
+  /// Whether the run has begun and neither stopped nor ended.
+  bool running() const { return phase_ == Phase::kRunning; }
+  /// Whether the run has begun, not stopped or ended, and not reached its last step.
+  bool stepping() const { return running() && !hooks_.finished(); }
+
+  /// What stopped the run (a simulation error's message), or empty.
+  const std::string& message() const { return message_; }
+
+  /// One step (stepping() must hold).
+  void step() {
+    guarded([&] {
+      governor_.update();
+      solver_.step();
+      const double t = solver_.time();
+      const bool last = hooks_.finished();
+      if (t >= next_series_ - eps_ || last) {
+        record();
+        while (next_series_ <= t + eps_) next_series_ += case_.output.timeseries_interval;
+      }
+      if (t >= next_output_ - eps_ || last) {
+        output();
+        while (next_output_ <= t + eps_) next_output_ += case_.output.interval;
+      }
+      if (hooks_.after_step) hooks_.after_step(last);
+      progress_->update(solver_.step_count(), t, case_.time.end_time);
+    });
+  }
+
+  /// Ends the run (see the class); returns its exit status. Once ended, returns it again.
+  int end() {
+    if (phase_ == Phase::kRunning) {
+      guarded([&] {
+        if (recorded_step_ != solver_.step_count()) record();
+        if (written_step_ != solver_.step_count()) output();
+        const std::vector<Stress> recovered =
+            hooks_.recovered_stress ? hooks_.recovered_stress() : std::vector<Stress>{};
+        write_file_atomically(folder_.file("final_particles.csv"),
+                              particles_csv(solver_.particles(), recovered));
+        progress_.reset();
+      });
+    }
+    if (phase_ == Phase::kRunning || phase_ == Phase::kStopped) {
+      record_run_end(run_, solver_, initial_steps_, wall_start_, status_, message_,
+                     governor_.summary());
+      if (hooks_.summarise) hooks_.summarise(run_);
+      end_with(finish_run(folder_, run_, series_.text(), options_, status_));
+    }
+    return status_;
+  }
+
+ private:
+  enum class Phase { kNew, kRunning, kStopped, kEnded };
+
+  static void call(const std::function<void()>& f) {
+    if (f) f();
+  }
+  void record() {
+    call(hooks_.record);
+    recorded_step_ = solver_.step_count();
+  }
+  void output() {
+    call(hooks_.output);
+    write_file_atomically(folder_.file("timeseries.csv"), series_.text());
+    written_step_ = solver_.step_count();
+  }
+  void end_with(int status) {
+    status_ = status;
+    phase_ = Phase::kEnded;
+  }
+  /// Runs `f`, a part of the run between begin() and end(), with its errors' endings.
+  template <class F>
+  void guarded(F&& f) {
+    try {
+      f();
+    } catch (const SimulationError& e) {
+      progress_.reset();
+      status_ = note_simulation_stop(e, options_.out_dir, message_);
+      phase_ = Phase::kStopped;
+    } catch (const IoError& e) {
+      progress_.reset();
+      call(hooks_.close_writers);
+      end_with(fail_on_write_fault(folder_, run_, e));
+    } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
+      progress_.reset();
+      call(hooks_.close_writers);
+      mark_failed(folder_, run_, e.what());
+      end_with(kExitInternalError);
+      throw;
+    }
+  }
+
+  Solver& solver_;
+  const RunHooks& hooks_;
+  const Case& case_;
+  const RunOptions& options_;
+  ThreadGovernor& governor_;
+  OutputFolder& folder_;
+  nlohmann::json& run_;
+  const TimeSeriesTable& series_;
+  double& next_series_;
+  double& next_output_;
+  Phase phase_ = Phase::kNew;
+  int status_ = kExitOk;
+  std::string message_;
+  std::chrono::steady_clock::time_point wall_start_;
+  long initial_steps_ = 0;
+  double eps_ = 0.0;
+  long recorded_step_ = -1, written_step_ = -1;
+  std::optional<RunProgress> progress_;
+};
+
+/// Runs `solver` with `hooks` from begin() to the last step and end() (RunDriver); returns the
+/// exit status.
 template <class Solver>
 int drive_run(Solver& solver, const RunHooks& hooks, const Case& c, const RunOptions& options,
               ThreadGovernor& governor, OutputFolder& folder, nlohmann::json& run,
               const TimeSeriesTable& series, double& next_series, double& next_output) {
-  const auto call = [](const std::function<void()>& f) {
-    if (f) f();
-  };
-  try {
-    call(hooks.prepare_outputs);
-    const std::string text = run.dump(2) + "\n";
-    write_file_atomically(folder.file("run.json"), text);
-    folder.reserve(2 * text.size() + 65536);  // room to mark run.json failed on a full disk
-  } catch (const IoError& e) {
-    call(hooks.close_writers);
-    return fail_on_write_fault(folder, run, e);
-  }
-  const auto wall_start = std::chrono::steady_clock::now();
-  long initial_steps = 0;
-  int status = kExitOk;
-  std::string message;
-  try {
-    call(hooks.start);
-    initial_steps = solver.initial_stress_steps();
-    const double eps = 1e-9 * solver.dt();
-    RunProgress progress(options.progress);
-    for (bool last = hooks.finished(); !last;) {
-      governor.update();
-      solver.step();
-      const double t = solver.time();
-      last = hooks.finished();
-      if (t >= next_series - eps || last) {
-        call(hooks.record);
-        while (next_series <= t + eps) next_series += c.output.timeseries_interval;
-      }
-      if (t >= next_output - eps || last) {
-        call(hooks.output);
-        write_file_atomically(folder.file("timeseries.csv"), series.text());
-        while (next_output <= t + eps) next_output += c.output.interval;
-      }
-      if (hooks.after_step) hooks.after_step(last);
-      progress.update(solver.step_count(), t, c.time.end_time);
-    }
-    const std::vector<Stress> recovered =
-        hooks.recovered_stress ? hooks.recovered_stress() : std::vector<Stress>{};
-    write_file_atomically(folder.file("final_particles.csv"),
-                          particles_csv(solver.particles(), recovered));
-  } catch (const SimulationError& e) {
-    status = note_simulation_stop(e, options.out_dir, message);
-  } catch (const IoError& e) {
-    call(hooks.close_writers);
-    return fail_on_write_fault(folder, run, e);
-  } catch (const std::exception& e) {  // memory ran out, or a bug: main() reports it
-    call(hooks.close_writers);
-    mark_failed(folder, run, e.what());
-    throw;
-  }
-  record_run_end(run, solver, initial_steps, wall_start, status, message, governor.summary());
-  if (hooks.summarise) hooks.summarise(run);
-  return finish_run(folder, run, series.text(), options, status);
+  RunDriver<Solver> driver(solver, hooks, c, options, governor, folder, run, series, next_series,
+                           next_output);
+  driver.begin();
+  while (driver.stepping()) driver.step();
+  return driver.end();
 }
 
 }  // namespace pfm

@@ -5,11 +5,14 @@
 * ``detect(position, volume, initial_spacing, grid, config)``: the detectors on arrays.
 * ``composite_bezier(points, closed, kind)``: composite Bezier curves through boundary points.
 * ``nodal_forces(grid, curves, load)``: a surface load integrated into nodal forces.
+* ``Simulation(case, out)`` (pfm_mpm.simulation): a run stepped from Python, its particle arrays
+  as numpy views, the same output folder as ``pfm-mpm run``.
 * ``OutputFolder(path)`` (pfm_mpm.outputs): a run's output folder as numpy arrays and pandas
   frames.
 
 Bad input raises ``InputError`` (a ValueError) with the C++ message: the file and the JSON
-pointer. Units: kN, m, s, t (tonne), kPa; plane strain; tension positive.
+pointer; a simulation that stops raises ``SimulationError`` (a RuntimeError), a failed write
+``OutputError`` (an OSError). Units: kN, m, s, t (tonne), kPa; plane strain; tension positive.
 """
 
 from __future__ import annotations
@@ -21,11 +24,15 @@ from typing import Optional, Sequence
 import numpy as np
 
 from pfm_mpm import _core
-from pfm_mpm._core import InputError
+from pfm_mpm._core import InputError, OutputError, SimulationError
 from pfm_mpm.outputs import OutputFolder
+from pfm_mpm.simulation import Simulation
 
 __all__ = [
     "InputError",
+    "SimulationError",
+    "OutputError",
+    "Simulation",
     "OutputFolder",
     "Curve",
     "version",
