@@ -3,9 +3,8 @@
 //
 // A point's own stress is least accurate within a cell or two of a loaded or free boundary: the
 // grid functions there are cut by the boundary, and the load reaches the points through nodes
-// that the interior's balance does not hold (make study-near_boundary: up to 30 % rms in the
-// first cell of a turned square under pressure, against 0.2 % inside). The boundary itself says
-// what the stress there is, sigma n = t. The recovery fits, for each point p within `band` cells
+// that the interior's balance does not hold (make study-near_boundary measures the error by the
+// distance from the boundary). The boundary itself says what the stress there is, sigma n = t. The recovery fits, for each point p within `band` cells
 // of a boundary sample with a known traction, the linear field
 //   sigma(x) = a + G (x - x_p)   (sxx, syy, sxy: 9 coefficients)
 // in the weighted least-squares sense to
@@ -24,11 +23,9 @@
 // Exactness: a linear stress field is recovered exactly where the trusted points carry it and
 // the tractions are those of that field (tests/cpp/core/test_stress_recovery.cpp). The band of
 // 3 cells and the patch of 4: the points' own errors reach into the third cell (make
-// study-near_boundary); with a band of 2 cells the fit takes them in (a turned square at
-// h = 0.0625 m with linear functions: 4.0 % at worst in the second cell, against 0.4 % with 3).
+// study-near_boundary), and a band of 2 cells would take them into the fit as trusted points.
 // Cost: one fit of a 9 x 9 normal system per point in the band, at output steps only (run.json's
-// summary.stress_recovery: calls and seconds; the default case, 1,200 points and 42 outputs,
-// spends 0.14 s of its 1.2 s there).
+// summary.stress_recovery: calls and seconds).
 #pragma once
 
 #include <span>

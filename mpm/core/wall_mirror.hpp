@@ -7,7 +7,7 @@
 // the function of the first node behind, I = W - s (s the step into the body), reaches into the
 // body (half a cell for quadratic splines, one cell for cubic ones), and with v_I = v_W = 0 the
 // field on the wall is N_J(x_W) v_J, J = W + s: 1/8 of the first free node's value (1/6 cubic).
-// The wall gives way, and the bearing case's settlement is 8.6 % too large at h = 0.5 m.
+// The wall gives way, and a body resting on it settles too much.
 //
 // The mirror makes the component odd about the wall, v_I = w v_J with w = -N_J(x_W) / N_I(x_W)
 // along the wall's normal axis (-1 for the uniform splines; another value where I's function is

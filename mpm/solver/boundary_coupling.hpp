@@ -24,9 +24,8 @@
 // own at all: the load and its internal force are both moved to the nearest heavier nodes,
 // conserving the sum and the moment (surface_load.hpp); only its own gravity stays. Moving the load
 // alone would leave the internal force, which the load balances where the stress is what the load
-// demands, to accelerate a node of tiny mass: in a free square under a follower pressure (3 m,
-// turned 20 degrees, test_boundary_coupling) the points one cell inside were 4.8 % off the exact
-// uniform stress with the load alone moved, 1.7 % with both.
+// demands, to accelerate a node of tiny mass, and the points next to it would be off the stress
+// the load demands (test_boundary_coupling's free square under a follower pressure).
 //
 // Diagnostics per step and load (kN/m): target = the exact resultant of the load on the loaded
 // parts of the curves; applied = the sum of the nodal forces on the grid; lost = the part on
