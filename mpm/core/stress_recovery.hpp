@@ -4,8 +4,9 @@
 // A point's own stress is least accurate within a cell or two of a loaded or free boundary: the
 // grid functions there are cut by the boundary, and the load reaches the points through nodes
 // that the interior's balance does not hold (make study-near_boundary measures the error by the
-// distance from the boundary). The boundary itself says what the stress there is, sigma n = t. The recovery fits, for each point p within `band` cells
-// of a boundary sample with a known traction, the linear field
+// distance from the boundary). The boundary itself says what the stress there is, sigma n = t. The
+// recovery fits, for each point p within `band` cells of a boundary sample with a known traction,
+// the linear field
 //   sigma(x) = a + G (x - x_p)   (sxx, syy, sxy: 9 coefficients)
 // in the weighted least-squares sense to
 //   * the stresses of the points farther than `band` cells from every such sample (the
