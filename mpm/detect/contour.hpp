@@ -9,8 +9,10 @@
 //   starts at its lowest-then-leftmost point. This order is stable for identical input.
 #pragma once
 
+#include <string>
 #include <vector>
 
+#include "mpm/core/exact_text.hpp"
 #include "mpm/core/types.hpp"
 
 namespace pfm {
@@ -23,5 +25,23 @@ struct Contour {
 struct DetectedBoundary {
   std::vector<Contour> contours;
 };
+
+/// The boundary as CSV text, "loop,x,y" then one line per point (loop numbered from 0 in the
+/// order above, coordinates by append_exact): pfm-mpm detect's boundary.csv and a run's
+/// boundary_<step>.csv.
+inline std::string boundary_csv(const DetectedBoundary& boundary) {
+  std::string csv = "loop,x,y\n";
+  for (std::size_t c = 0; c < boundary.contours.size(); ++c) {
+    for (const Vec2& p : boundary.contours[c].points) {
+      csv += std::to_string(c);
+      csv += ',';
+      append_exact(csv, p.x());
+      csv += ',';
+      append_exact(csv, p.y());
+      csv += '\n';
+    }
+  }
+  return csv;
+}
 
 }  // namespace pfm

@@ -229,16 +229,10 @@ int run_detect_command(const std::string& particles_csv, const std::string& conf
   const DetectedBoundary boundary = detect(cloud, grid, config, state, &timings);
 
   // 3. Output.
-  std::string csv = "loop,x,y\n";
-  char buffer[96];
+  const std::string csv = boundary_csv(boundary);
   nlohmann::json points_per_loop = nlohmann::json::array(), closed = nlohmann::json::array();
   int n_closed = 0;
-  for (std::size_t c = 0; c < boundary.contours.size(); ++c) {
-    const auto& contour = boundary.contours[c];
-    for (const auto& p : contour.points) {
-      std::snprintf(buffer, sizeof buffer, "%zu,%.17g,%.17g\n", c, p.x(), p.y());
-      csv += buffer;
-    }
+  for (const Contour& contour : boundary.contours) {
     points_per_loop.push_back(contour.points.size());
     closed.push_back(contour.closed);
     n_closed += contour.closed ? 1 : 0;

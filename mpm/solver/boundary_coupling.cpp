@@ -426,16 +426,4 @@ void BoundaryCoupling::restore(const CheckpointFile& file, const StepView& now) 
   }
 }
 
-std::string boundary_csv(const DetectedBoundary& boundary) {
-  std::string csv = "loop,x,y\n";
-  char buffer[96];
-  for (std::size_t c = 0; c < boundary.contours.size(); ++c) {
-    for (const Vec2& p : boundary.contours[c].points) {
-      std::snprintf(buffer, sizeof buffer, "%zu,%.17g,%.17g\n", c, p.x(), p.y());
-      csv += buffer;
-    }
-  }
-  return csv;
-}
-
 }  // namespace pfm

@@ -169,7 +169,4 @@ class BoundaryCoupling {
   std::vector<std::optional<Vec2>> current_range_;
 };
 
-/// boundary CSV text "loop,x,y" of the contours (contour.hpp order; loops numbered from 0).
-std::string boundary_csv(const DetectedBoundary& boundary);
-
 }  // namespace pfm

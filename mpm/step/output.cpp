@@ -16,12 +16,6 @@
 
 namespace pfm {
 
-std::string format_exact(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", v);
-  return buffer;
-}
-
 namespace xdmf {
 
 std::string open(const std::string& name) {

@@ -9,14 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "mpm/core/exact_text.hpp"
 #include "mpm/core/output_folder.hpp"
 #include "mpm/step/energy_ledger.hpp"
 #include "mpm/step/particles.hpp"
 
 namespace pfm {
-
-/// `v` with 17 significant digits (reads back to the same double).
-std::string format_exact(double v);
 
 /// Pieces of the XDMF 3 files that index a time series of HDF5 groups (ParaView, meshio): a
 /// temporal collection of one uniform grid per output step. `path`: "FILE.h5:/GROUP/DATASET".
