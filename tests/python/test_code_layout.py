@@ -118,6 +118,7 @@ def test_internals_stay_internal():
         for header in (
             "mpm/detect/improved_field.hpp",
             "mpm/detect/detect_internal.hpp",
+            "mpm/detect/improved_pipeline.hpp",
         ):
             if f'#include "{header}"' in text and not path.startswith(allowed):
                 offenders.append(f"{path} includes {header}")
