@@ -4,7 +4,9 @@ per call, ratio to the step, the failure states' counters) and --write replaces 
 between the markers."""
 
 import json
+import re
 import stat
+import subprocess
 import sys
 from pathlib import Path
 
@@ -12,6 +14,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "mpm" / "detect" / "tools"))
 
 import cost_tables  # noqa: E402
+import pytest  # noqa: E402
 
 ROWS = [
     {"name": "BM_Detect/0/1/min_time:0.500/manual_time", "particles": 3384.0,
@@ -62,3 +65,38 @@ def test_a_readme_without_markers_is_refused(tmp_path):
         == 2
     )
     assert readme.read_text() == "no markers\n"
+
+
+# What the README's tables measure: the detectors and their benchmark. A change to these since
+# the revision the tables name means they are to be measured again (cost_tables.py --write).
+MEASURED_CODE = [
+    "mpm/detect",
+    "mpm/bench/bench_detect.cpp",
+    ":(exclude)mpm/detect/README.md",
+]
+
+
+def test_the_readme_tables_were_measured_on_the_detectors_of_this_tree():
+    """The revision stamped on mpm/detect/README.md's tables has the detectors and the
+    benchmark of this tree: no committed or uncommitted change to them since."""
+    readme = (ROOT / "mpm" / "detect" / "README.md").read_text()
+    match = re.search(r"at revision ([0-9a-f]{7,40})", readme)
+    assert match, "mpm/detect/README.md: no 'at revision' stamp on the cost tables"
+    if not (ROOT / ".git").exists():
+        pytest.skip("no git history to compare the stamp with")
+    known = subprocess.run(
+        ["git", "-C", ROOT, "cat-file", "-e", f"{match.group(1)}^{{commit}}"],
+        capture_output=True,
+    )
+    if known.returncode != 0:
+        pytest.skip(f"revision {match.group(1)} is not in this clone's history")
+    changed = subprocess.run(
+        ["git", "-C", ROOT, "diff", "--stat", match.group(1), "--", *MEASURED_CODE],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert changed == "", (
+        f"the detectors changed since the tables were measured at {match.group(1)}: "
+        f"run /usr/bin/python3 mpm/detect/tools/cost_tables.py --write\n{changed}"
+    )
