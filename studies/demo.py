@@ -4,7 +4,8 @@ the MPM, the updated-Lagrangian FEM and dolfinx's static answer.
 Runs ``CASE`` (default ``cases/bearing_quasi_static.json``: K0 start, the load ramped on the
 detected boundary, damped to rest) to its end time with
 
-* the MPM (``pfm-mpm run``), whose load acts on the boundary it detects every step;
+* the MPM (the run of ``pfm-mpm run``, stepped from Python by ``pfm_mpm.Simulation`` with its
+  progress shown), whose load acts on the boundary it detects every step;
 * the updated-Lagrangian FEM (``pfm-mpm run --solver ulfem``): the same points, stresses and
   explicit step on a mesh that moves with the body, so its boundary is exact;
 * the dolfinx model in static mode (``python -m fem_reference.dolfinx_model``): P2 triangles of
@@ -39,6 +40,7 @@ from pathlib import Path
 import jinja2
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
 from studies.boundary import EDGE_BAND_CELLS, TIME_TOLERANCE, regions_of
 from studies.common.cases import cell_size, derive
@@ -59,7 +61,7 @@ from studies.common.outputs import (
     row_at_time,
     run_status,
 )
-from studies.common.paths import PrerequisiteMissing, mpm_executable, repo_root
+from studies.common.paths import PrerequisiteMissing, core, mpm_executable, repo_root
 from studies.common.provenance import utc_now, write_provenance
 from studies.common.runner import DOLFINX_MODULE
 from studies.common.tables import format_value, markdown_table
@@ -81,7 +83,36 @@ class RunFailed(Exception):
     pass
 
 
+def run_stepped(case_file: Path, out: Path) -> int:
+    """The MPM run of `case_file` into `out` stepped from Python (pfm_mpm.Simulation: the run,
+    and the files, of `pfm-mpm run`), its steps shown on stderr (redrawn on a terminal, every
+    5 s in a pipe or a log). 0, or 3 when the simulation stopped (its run.json says why).
+    """
+    pfm_mpm = core()
+    print(f"demo: pfm_mpm.Simulation({case_file}, out={out})", flush=True)
+    try:
+        with pfm_mpm.Simulation(case_file, out) as sim, tqdm(
+            total=sim.n_steps,
+            desc="demo: mpm steps",
+            file=sys.stderr,
+            mininterval=0.1 if sys.stderr.isatty() else 5.0,
+            ascii=not sys.stderr.isatty(),
+        ) as bar:
+            while sim.stepping:
+                bar.update(sim.step(max(1, sim.n_steps // 100)))
+    except pfm_mpm.SimulationError as stopped:
+        print(f"demo: the MPM run stopped: {stopped}", file=sys.stderr)
+        return 3
+    except (pfm_mpm.InputError, pfm_mpm.OutputError) as failed:
+        raise RunFailed(f"mpm run failed: {failed}") from failed
+    return 0
+
+
 def run_explicit(case_file: Path, out: Path, solver: str) -> int:
+    """The run of `case_file` into `out` by `solver` ("mpm": stepped from Python; "ulfem":
+    `pfm-mpm run --solver ulfem`); 0, or 3 when the simulation stopped."""
+    if solver == "mpm":
+        return run_stepped(case_file, out)
     command = [
         str(mpm_executable()),
         "run",
@@ -89,9 +120,9 @@ def run_explicit(case_file: Path, out: Path, solver: str) -> int:
         "--out",
         str(out),
         "--quiet",
+        "--solver",
+        solver,
     ]
-    if solver != "mpm":
-        command += ["--solver", solver]
     print(f"demo: {' '.join(command)}", flush=True)
     code = subprocess.run(command).returncode
     if code not in (0, 3):
