@@ -92,6 +92,7 @@ EXPECTED_METRICS = [
     "timing.slope.pfm_improved.detect_to_step_ratio",
     "timing.slope.pfm_thesis.detect_to_step_ratio",
     "timing.slope_runout.pfm_improved.detect_to_step_ratio",
+    "timing.block_200k.pfm_improved.detect_to_step_ratio",
     "timing.block_100k.mpm_particle_steps_per_s",
 ]
 
@@ -555,6 +556,24 @@ def run(context) -> StudyOutcome:
                     f"{group.loc[group['detect_to_step_ratio'].idxmax(), 'state']}",
                 )
             )
+    # Detection must not dominate a large run: the improved detector on the largest block of
+    # 200k points or more, one thread.
+    large = ratios[
+        (ratios["case"] == "block")
+        & (ratios["threads"] == 1)
+        & (ratios["detector"] == "pfm_improved")
+        & (ratios["n_particles"] >= 200_000)
+    ]
+    if len(large):
+        row = large.loc[large["n_particles"].idxmax()]
+        outcome.metrics.append(
+            Metric(
+                "timing.block_200k.pfm_improved.detect_to_step_ratio",
+                float(row["detect_to_step_ratio"]),
+                "1",
+                f"N = {row['n_particles']}",
+            )
+        )
     single = ratios[(ratios["case"] == "block") & (ratios["threads"] == 1)]
     if len(single):
         row = single.loc[(single["n_particles"] - 100_000).abs().idxmin()]
