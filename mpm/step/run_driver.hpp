@@ -1,6 +1,8 @@
-// The run driver of both solvers (run_case for the MPM, ulfem::run_ulfem_case for the UL-FEM):
-// what they do alike from the first write of run.json to the last, with hooks for what differs
-// (the MPM's restart, checkpoints and detected boundaries; the UL-FEM's mesh series).
+// The run driver of both solvers (MpmRun and run_case for the MPM, ulfem::run_ulfem_case for the
+// UL-FEM): what they do alike from the first write of run.json to the last, with hooks for what
+// differs (the MPM's restart, checkpoints and detected boundaries; the UL-FEM's mesh series).
+// RunDriver takes a run a step at a time (a driver from Python ends it where it likes);
+// drive_run runs it to its end.
 #pragma once
 
 #include <chrono>
