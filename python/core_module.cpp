@@ -71,14 +71,19 @@ std::string read_case_json(const std::string& path) {
   return pfm::resolved_case(pfm::read_case(path)).dump();
 }
 
-std::string parse_case_json(const std::string& text, const std::string& file) {
+// The case given as JSON text; `file` names it in messages and resolves relative paths.
+pfm::Case case_from_text(const std::string& text, const std::string& file) {
   json document;
   try {
     document = json::parse(text);
   } catch (const json::parse_error& e) {
     throw pfm::InputError(file + ": not valid JSON: " + e.what());
   }
-  return pfm::resolved_case(pfm::parse_case(document, file)).dump();
+  return pfm::parse_case(document, file);
+}
+
+std::string parse_case_json(const std::string& text, const std::string& file) {
+  return pfm::resolved_case(case_from_text(text, file)).dump();
 }
 
 py::list detect(const Array& position, const Array& volume, double initial_spacing,
@@ -331,14 +336,8 @@ std::unique_ptr<Simulation> make_simulation(const std::string& path, const std::
   options.checkpoint_seconds = checkpoint_seconds;
   options.command_line =
       "pfm_mpm.Simulation(" + (path.empty() ? file : path) + ", out=" + out + ")";
-  if (!path.empty()) return std::make_unique<Simulation>(pfm::read_case(path), options);
-  json document;
-  try {
-    document = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw pfm::InputError(file + ": not valid JSON: " + e.what());
-  }
-  return std::make_unique<Simulation>(pfm::parse_case(document, file), options);
+  return std::make_unique<Simulation>(
+      path.empty() ? case_from_text(text, file) : pfm::read_case(path), options);
 }
 
 }  // namespace

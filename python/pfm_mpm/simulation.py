@@ -31,6 +31,19 @@ from pfm_mpm import _core
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+def _field(name: str, writable: bool, doc: str) -> property:
+    """A property giving a numpy view of the run's particle field `name` (read-only unless
+    `writable`)."""
+
+    def get(self) -> np.ndarray:
+        view = self._run.field(name)
+        if not writable:
+            view.flags.writeable = False
+        return view
+
+    return property(get, doc=doc)
+
+
 class Simulation:
     """The case (a path to a case file, or a dict as a case file holds it) run into ``out``.
 
@@ -83,7 +96,7 @@ class Simulation:
 
     def run(self) -> int:
         """Steps to the case's end time and finishes; the exit status (0)."""
-        self._run.step(max(self.n_steps - self.step_count, 0))
+        self._run.step(self.n_steps)  # stops at the end time
         return self.finish()
 
     def finish(self) -> int:
@@ -98,9 +111,8 @@ class Simulation:
     def close(self) -> None:
         """Finishes and lets the run go: the output folder's lock is released once no particle
         view is left."""
-        if self._run is not None:
-            self.finish()
-            self._run.close()
+        self.finish()
+        self._run.close()
 
     def __enter__(self) -> "Simulation":
         return self
@@ -140,43 +152,18 @@ class Simulation:
         """
         return self._run.detect()
 
-    def _field(self, name: str, writable: bool) -> np.ndarray:
-        a = self._run.field(name)
-        if not writable:
-            a.flags.writeable = False
-        return a
-
-    @property
-    def position(self) -> np.ndarray:
-        """(n, 2) m, writable."""
-        return self._field("position", True)
-
-    @property
-    def velocity(self) -> np.ndarray:
-        """(n, 2) m/s, writable."""
-        return self._field("velocity", True)
-
-    @property
-    def stress(self) -> np.ndarray:
-        """(n, 4) kPa, (xx, yy, xy, zz), tension positive, writable."""
-        return self._field("stress", True)
-
-    @property
-    def deformation_gradient(self) -> np.ndarray:
-        """(n, 2, 2), F[p, i, j], writable."""
-        return self._field("deformation_gradient", True)
-
-    @property
-    def reference_position(self) -> np.ndarray:
-        """(n, 2) m where the displacements are measured from, read-only."""
-        return self._field("reference_position", False)
-
-    @property
-    def mass(self) -> np.ndarray:
-        """(n,) t, read-only."""
-        return self._field("mass", False)
-
-    @property
-    def volume(self) -> np.ndarray:
-        """(n,) m^2 per unit thickness, now, read-only."""
-        return self._field("volume", False)
+    position = _field("position", True, "(n, 2) m, writable.")
+    velocity = _field("velocity", True, "(n, 2) m/s, writable.")
+    stress = _field(
+        "stress", True, "(n, 4) kPa, (xx, yy, xy, zz), tension positive, writable."
+    )
+    deformation_gradient = _field(
+        "deformation_gradient", True, "(n, 2, 2), F[p, i, j], writable."
+    )
+    reference_position = _field(
+        "reference_position",
+        False,
+        "(n, 2) m where displacements are measured from, read-only.",
+    )
+    mass = _field("mass", False, "(n,) t, read-only.")
+    volume = _field("volume", False, "(n,) m^2 per unit thickness, now, read-only.")
