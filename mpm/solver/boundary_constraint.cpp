@@ -74,16 +74,31 @@ void BoundaryConstraints::project(const Particles& particles,
   }
   moments_list_.clear();
   const double margin = (degree_ + 2) * grid_.cell_size;
+  const double fade_width = 0.5 * grid_.cell_size;
   for (std::size_t p = 0; p < particles.size(); ++p) {
     const Vec2& x = particles.position[p];
     if (!in_box(x, lo, hi, margin)) continue;
-    if (x_range && (x.x() < x_range->x() || x.x() > x_range->y())) continue;
+    // The particle's share in the part: 1 over the x_range, fading to 0 at its ends (header
+    // comment); the rest is the material beside the part.
+    double share = 1.0;
+    if (x_range) {
+      const double inside = std::min(x.x() - x_range->x(), x_range->y() - x.x()) / fade_width;
+      share = inside <= 0.0 ? 0.0 : inside >= 1.0 ? 1.0 : inside * inside * (3.0 - 2.0 * inside);
+    }
+    functions_at(x);
+    if (share < 1.0) {
+      const double beside = (1.0 - share) * particles.mass[p];
+      for_each_node([&](std::size_t node, double value, int, int) {
+        moments_[node].beside += beside * value;
+        mark(moments_flag_, moments_list_, node);
+      });
+      if (share == 0.0) continue;
+    }
     const Stress& sigma = particles.stress[p];
     Fitted f;
     const Vec2 motion = moved ? Vec2(x - detected_positions[p]) : Vec2::Zero();
     f << x - particles.reference_position[p], motion, sigma[kXX], sigma[kYY], sigma[kXY];
-    const double m = particles.mass[p];
-    functions_at(x);
+    const double m = share * particles.mass[p];
     for_each_node([&](std::size_t node, double value, int i, int j) {
       const Vec2 d = x - grid_.node_position(i, j);
       const double w = m * value;
@@ -96,6 +111,12 @@ void BoundaryConstraints::project(const Particles& particles,
       mark(moments_flag_, moments_list_, node);
     });
   }
+}
+
+double BoundaryConstraints::part_share(std::size_t node) const {
+  const NodeMoments& m = moments_[node];
+  if (m.beside == 0.0) return 1.0;
+  return m.mass > 0.0 ? m.mass / (m.mass + m.beside) : 0.0;
 }
 
 BoundaryConstraints::Fitted BoundaryConstraints::material_state(const Vec2& x, double& mass) const {
@@ -176,18 +197,20 @@ void BoundaryConstraints::gather(std::size_t k, const Vec2& rate) {
       traction = projector * (sigma * q.normal);
     }
     // The traction -beta g at the point (with Nitsche's, + P sigma n), shared by the nodes with
-    // mass in proportion to N_I(x) (header comment).
+    // mass in proportion to N_I(x) r_I (header comment).
     double sum = 0.0;
     for_each_node([&](std::size_t node, double value, int, int) {
-      if (node_mass_[node] > tiny_mass_) sum += value;
+      if (node_mass_[node] > tiny_mass_) sum += value * part_share(node);
     });
     if (!(sum > 0.0)) continue;
     for_each_node([&](std::size_t node, double value, int, int) {
       if (!(node_mass_[node] > tiny_mass_)) return;
-      const double share = beta * q.weight * value / sum;
+      const double weight = value * part_share(node) / sum;
+      if (weight == 0.0) return;
+      const double share = beta * q.weight * weight;
       NodeTerm& term = terms_dense_[node];
       term.force -= share * gap;
-      if (nitsche) term.force += (q.weight * value / sum) * traction;
+      if (nitsche) term.force += (q.weight * weight) * traction;
       term.stiffness += share * projector;
       term.rate += share * (projector * velocity);
       mark(terms_flag_, terms_list_, node);

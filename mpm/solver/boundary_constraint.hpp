@@ -8,9 +8,13 @@
 // u_p = x_p - X_p, with weights w_p = m_p sum_J N_J(x) N_J(x_p) (the particles that share a node
 // with x; on a part with an x_range, only those over it: the material beside a part is not
 // the part's, and under a footing's edge it heaves while the material under the footing
-// follows the footing, so a fit across the edge reads a gap neither side has). The fit is exact
-// wherever the displacement is affine (a homogeneous strain, a translation), also on a face
-// whose particles all lie on one side of x, and it uses positions only, not the particles' F.
+// follows the footing, so a fit across the edge reads a gap neither side has). A particle's
+// weight fades to zero over the last half cell inside the x_range's ends (smoothstep of its
+// distance from the end over h / 2): material crossing the end leaves the fit, and the nodes'
+// shares below, gradually, not in one step that the penalty would turn into a jump of its
+// force. The fit is exact wherever the displacement is affine (a homogeneous strain, a
+// translation), also on a face whose particles all lie on one side of x, and it uses positions
+// only, not the particles' F.
 // Its sums are per-node moments (the mass and the moments of x_p - x_J, u_p, the motion since
 // the detection and the stress, for Nitsche's method), taken once a step over the particles
 // near the parts, and shifted to x; where the points within reach lie on a line, the weighted
@@ -28,12 +32,19 @@
 //
 // The penalty method. A traction t = -beta g acts on the part, integrated with the loads' rule
 // (BoundaryLoadIntegrator::quadrature_points, exact on the pieces between cell edges); each
-// point's force goes to the nodes with mass in proportion to N_I(x) (renormalised over them):
-// P_I = -beta int N_I g dGamma. A penalty stiff enough to be accurate (beta ~ 100 M / h,
-// M = lambda + 2 mu) makes k_I / m_I of a boundary node far larger than the explicit step can
-// take, so the stiffness is implicit on each node's diagonal: with K_I = beta int N_I P and
-// b_I = beta int N_I P v_bar (v_bar the prescribed velocity over the step), summed over the
-// constraints, the node's velocity after the step solves
+// point's force goes to the nodes with mass in the shares s_I(x) = N_I(x) r_I / sum_J N_J(x) r_J
+// (over the nodes with mass): P_I = -beta int s_I g dGamma. r_I is the part's share of node I's
+// mass, sum_p a_p m_p N_I(x_p) / sum_p m_p N_I(x_p) over the particles near the part, a_p the
+// particle's share in the part (1 over its x_range, fading at the ends as above; 1 for every
+// particle of a part without an x_range, where s_I = N_I(x) / sum_J N_J(x)). A node that
+// carries mostly the material beside a part moves what the fit does not see: a force on it
+// would not relax the gap it acts on (under a footing's edge, with B-splines, whose functions
+// reach one and a half cells past the edge, it drove the heave down and the reaction into
+// spikes). A penalty stiff enough to be accurate (beta ~ 100 M / h, M = lambda + 2 mu) makes
+// k_I / m_I of a boundary node far larger than the explicit step can take, so the stiffness is
+// implicit on each node's diagonal: with K_I = beta int s_I P and b_I = beta int s_I P v_bar
+// (v_bar the prescribed velocity over the step), summed over the constraints, the node's
+// velocity after the step solves
 //   (m_I + dt^2 K_I) v_I' = p_I + dt (f_I + P_I) + dt^2 b_I,
 // and the constraint's force is F_I = P_I - dt (K_I v_I' - b_I), added to the grid's external
 // force (f_I: the internal force and the other external forces; the local damping then acts on
@@ -42,17 +53,20 @@
 // stiffness k_L and the consistent k has (m + dt^2 k_L) z^2 - (2 m + dt^2 (k_L - k)) z + m = 0,
 // with its roots in the unit disk for every beta since k_L >= k >= 0 (no time step limit
 // beyond the soil's). test_boundary_constraint holds a block turned 30 degrees to the grid in
-// uniaxial strain and checks its interior stress and reactions at several factors.
+// uniaxial strain and checks its interior stress and reactions at several factors;
+// tests/python/test_boundary_holds.py pushes the benchmarks' footing on the default B-splines
+// and checks that its reaction stays near Prandtl's and free of jumps.
 //
 // Nitsche's method (method "nitsche"). The penalty's traction gains the material's own traction
 // on the constrained directions, t = P sigma n - beta g, with n the curve's outward normal and
 // sigma the same weighted least-squares linear fit as the displacement, to the particles' stresses
-// (the in-plane components). The internal force of the particles next to the part already holds
-// -int N_I sigma n along their edge (the divergence theorem), which this term cancels: what is
-// left drives the gap to zero whatever beta, so the method is consistent and beta is only its
-// stabilisation (the non-symmetric, "incomplete" form: no term in the test functions' stress).
-// The term is explicit; the penalty's stiffness stays implicit as above, and beta must dominate
-// the explicit term (a factor of 4 or more: below it the block does not come to rest).
+// (the in-plane components), on the nodes in the same shares s_I. The internal force of the
+// particles next to the part already holds -int N_I sigma n along their edge (the divergence
+// theorem), which this term cancels: what is left drives the gap to zero whatever beta, so the
+// method is consistent and beta is only its stabilisation (the non-symmetric, "incomplete" form: no
+// term in the test functions' stress). The term is explicit; the penalty's stiffness stays implicit
+// as above, and beta must dominate the explicit term (a factor of 4 or more: below it the block
+// does not come to rest).
 //
 // FLIP. The particles next to a constraint pick up velocities the grid does not see (FLIP keeps
 // them), which the constraint's stiff nodes feed back: a few per cent of PIC
@@ -115,6 +129,7 @@ class BoundaryConstraints {
   /// d_p = x_p - x_J (first, second) and of the fitted values f_p (value, d_p f_p^T).
   struct NodeMoments {
     double mass = 0.0;
+    double beside = 0.0;  ///< sum of m_p N_J(x_p) of the material beside the part (x_range)
     Vec2 first = Vec2::Zero();
     Mat2 second = Mat2::Zero();
     Fitted value = Fitted::Zero();
@@ -133,6 +148,8 @@ class BoundaryConstraints {
   /// The material's displacement and stress at x (header comment); `mass`: the weights' sum
   /// (0: no material within reach).
   Fitted material_state(const Vec2& x, double& mass) const;
+  /// r_I of the header comment: the part's share of node I's mass near the part.
+  double part_share(std::size_t node) const;
   /// The moments of the particles within reach of the box [lo, hi] (and over x_range, if given).
   void project(const Particles& particles, std::span<const Vec2> detected_positions, const Vec2& lo,
                const Vec2& hi, const std::optional<Vec2>& x_range);
