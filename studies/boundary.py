@@ -296,50 +296,66 @@ def _detect_task(task: dict):
     )
 
 
-def run(context) -> StudyOutcome:
-    context.tools.append(tool_path("pfm-mpm"))
-    quick = context.quick
-    cases = [c for c in CASES if not quick or c.name in QUICK_CASES]
-    detectors = [d for d, _ in DETECTORS if not quick or d in QUICK_DETECTORS]
-    times = QUICK_TIMES if quick else COMPARISON_TIMES + EXTRA_TIMES
-    end_time = max(times)
-    tolerance = TIME_TOLERANCE
-    for path in {base_case(c.base)[1] for c in cases}:
-        context.case_files.append(path)
+@dataclass
+class _Plan:
+    """What one run of the study compares: the cases, the detectors, the comparison times and
+    the detectors that run inside pfm-mpm (hosts; the library's runs on its host's points).
+    """
 
-    # 1. The simulations: one UL-FEM reference and one MPM run per in-run detector per case.
-    tasks, keys = [], []
-    hosts = [d for d in detectors if det.in_run(d)]
-    if det.LIBRARY in detectors and det.LIBRARY_HOST not in hosts:
-        hosts.append(det.LIBRARY_HOST)
-    for spec in cases:
-        tasks.append(
+    cases: list
+    detectors: list
+    times: tuple
+    end_time: float
+    hosts: list
+
+
+@dataclass
+class _Problems:
+    """The comparisons that could not be made: per (case, detector, measure) the reason, the
+    times without a reference output, and the rows of the detectors table; failures go to
+    error.log in `folder`."""
+
+    folder: Path
+    reasons: dict = field(default_factory=dict)  # (case, detector, measure) -> reason
+    missing_times: list = field(
+        default_factory=list
+    )  # (case, detector, measure, time, reason)
+    status_rows: list = field(default_factory=list)
+
+    def add(self, case, detector, measure, result):
+        kind = "not run" if result.get("missing") else "failed"
+        self.reasons[(case, detector, measure)] = f"{kind}: {result['error']}"
+        self.status_rows.append(
             {
-                "case": study_case(spec, None, case_end(spec, end_time)),
-                "solver": "ulfem",
+                "case": case,
+                "detector": detector,
+                "measure": measure,
+                "status": kind,
+                "reason": result["error"],
             }
         )
-        keys.append((spec.name, "reference"))
-        for detector in hosts:
-            tasks.append(
-                {
-                    "case": study_case(spec, detector, case_end(spec, end_time)),
-                    "solver": "mpm",
-                }
-            )
-            keys.append((spec.name, detector))
-    # Constraints held on each detector's boundary (the benchmarks study's turned block).
-    for detector in hosts:
-        tasks.append({"case": constraint_case(detector), "solver": "mpm"})
-        keys.append(("constraint", detector))
-    # Thesis fig. 6.13: the block from zero stress with its points at the cells' Gauss points
-    # instead of equally spaced, for the nodal forces of the thesis's PFM.
-    gauss = [c for c in cases if c.name == PLACEMENT_CASE]
-    if gauss and NODAL_FORCE_DETECTOR in hosts:
-        case = study_case(gauss[0], NODAL_FORCE_DETECTOR, case_end(gauss[0], end_time))
-        case["bodies"][0]["placement"] = "gauss"
-        tasks.append({"case": case, "solver": "mpm"})
-        keys.append((f"{PLACEMENT_CASE}_gauss", NODAL_FORCE_DETECTOR))
+        if not result.get("missing"):
+            with open(self.folder / "error.log", "a") as log:
+                log.write(
+                    f"--- {case} {detector} {measure}\n{result['error']}\n"
+                    f"{result.get('stderr', '')}\n"
+                )
+
+
+@dataclass
+class _Rows:
+    """What the comparisons of every case collect: the distance rows, the traction rows and
+    the overlays per (case, time)."""
+
+    errors: list = field(default_factory=list)
+    traction: list = field(default_factory=list)
+    overlays: dict = field(default_factory=dict)
+
+
+def run(context) -> StudyOutcome:
+    context.tools.append(tool_path("pfm-mpm"))
+    plan = _plan(context)
+    tasks, keys = _simulation_tasks(plan)
     runs = dict(
         zip(
             keys,
@@ -352,35 +368,76 @@ def run(context) -> StudyOutcome:
             ),
         )
     )
-
     outcome = StudyOutcome(study="boundary")
-    problems = {}  # (case, detector, measure) -> reason
-    missing_times = []  # (case, detector, measure, time, reason): no reference output
-    status_rows = []
-    rows, traction_rows, overlays = [], [], {}
+    problems = _Problems(context.folder)
+    rows = _Rows()
     work = context.folder / "work"
     work.mkdir(exist_ok=True)
+    for spec in plan.cases:
+        _compare_case(context, plan, spec, runs, work, problems, rows, outcome)
+    _headlines_not_run(plan.times, problems, outcome)
+    _tables(context.folder, rows, _stopped_runs(runs), problems, outcome)
+    _figures(context.folder, plan.cases, runs, dict(zip(keys, tasks)), rows, outcome)
+    _constraints(runs, plan.hosts, outcome, context.folder)
+    return outcome
 
-    def problem(case, detector, measure, result):
-        kind = "not run" if result.get("missing") else "failed"
-        problems[(case, detector, measure)] = f"{kind}: {result['error']}"
-        status_rows.append(
+
+def _plan(context) -> _Plan:
+    """The cases, detectors and times of the full study or of its quick variant; the case
+    files they come from go to the context."""
+    quick = context.quick
+    cases = [c for c in CASES if not quick or c.name in QUICK_CASES]
+    detectors = [d for d, _ in DETECTORS if not quick or d in QUICK_DETECTORS]
+    times = QUICK_TIMES if quick else COMPARISON_TIMES + EXTRA_TIMES
+    for path in {base_case(c.base)[1] for c in cases}:
+        context.case_files.append(path)
+    hosts = [d for d in detectors if det.in_run(d)]
+    if det.LIBRARY in detectors and det.LIBRARY_HOST not in hosts:
+        hosts.append(det.LIBRARY_HOST)
+    return _Plan(cases, detectors, times, max(times), hosts)
+
+
+def _simulation_tasks(plan: _Plan) -> tuple[list, list]:
+    """The simulations (tasks for _run_task) and their keys (case, run): one UL-FEM reference
+    and one MPM run per in-run detector per case, the constraint block on each detector's
+    boundary, and the placement case from the cells' Gauss points."""
+    tasks, keys = [], []
+    for spec in plan.cases:
+        tasks.append(
             {
-                "case": case,
-                "detector": detector,
-                "measure": measure,
-                "status": kind,
-                "reason": result["error"],
+                "case": study_case(spec, None, case_end(spec, plan.end_time)),
+                "solver": "ulfem",
             }
         )
-        if not result.get("missing"):
-            with open(context.folder / "error.log", "a") as log:
-                log.write(
-                    f"--- {case} {detector} {measure}\n{result['error']}\n"
-                    f"{result.get('stderr', '')}\n"
-                )
+        keys.append((spec.name, "reference"))
+        for detector in plan.hosts:
+            tasks.append(
+                {
+                    "case": study_case(spec, detector, case_end(spec, plan.end_time)),
+                    "solver": "mpm",
+                }
+            )
+            keys.append((spec.name, detector))
+    # Constraints held on each detector's boundary (the benchmarks study's turned block).
+    for detector in plan.hosts:
+        tasks.append({"case": constraint_case(detector), "solver": "mpm"})
+        keys.append(("constraint", detector))
+    # Thesis fig. 6.13: the block from zero stress with its points at the cells' Gauss points
+    # instead of equally spaced, for the nodal forces of the thesis's PFM.
+    gauss = [c for c in plan.cases if c.name == PLACEMENT_CASE]
+    if gauss and NODAL_FORCE_DETECTOR in plan.hosts:
+        case = study_case(
+            gauss[0], NODAL_FORCE_DETECTOR, case_end(gauss[0], plan.end_time)
+        )
+        case["bodies"][0]["placement"] = "gauss"
+        tasks.append({"case": case, "solver": "mpm"})
+        keys.append((f"{PLACEMENT_CASE}_gauss", NODAL_FORCE_DETECTOR))
+    return tasks, keys
 
-    stopped = [
+
+def _stopped_runs(runs: dict) -> list:
+    """The rows of the runs that stopped before their end time."""
+    return [
         {
             "case": case_name,
             "run": run_name,
@@ -392,209 +449,237 @@ def run(context) -> StudyOutcome:
         for status in [run_status(Path(result["value"]))]
         if status["status"] != "completed"
     ]
-    for spec in cases:
-        reference_run = runs[(spec.name, "reference")]
-        if "error" in reference_run:
-            for detector in detectors:
-                for measure in ("detector_only", "total"):
-                    problem(
-                        spec.name,
-                        detector,
-                        measure,
-                        dict(
-                            reference_run,
-                            error=f"UL-FEM reference: " f"{reference_run['error']}",
-                        ),
-                    )
-            continue
-        reference_out = Path(reference_run["value"])
-        case = study_case(spec, None, case_end(spec, end_time))
-        h = cell_size(case)
-        spacing = h / case["bodies"][0].get("points_per_cell", 2)
-        regions = regions_of(case, spec.kind, h)
-        ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
-        reference_boundaries = read_index(reference_out, "boundary")
-        reference_particles = read_index(reference_out, "particles")
 
-        # 2. Detector only: every detector on the UL-FEM's material points at each time.
-        detect_tasks, detect_keys = [], []
-        for time in times:
-            row = row_at_time(reference_particles, time, tolerance)
+
+def _compare_case(context, plan, spec, runs, work, problems, rows, outcome):
+    """One case: every detector on the UL-FEM's points and the MPM runs' own boundaries against
+    the UL-FEM boundary at each time, and the MPM runs' traction and detection cost."""
+    reference_run = runs[(spec.name, "reference")]
+    if "error" in reference_run:
+        for detector in plan.detectors:
+            for measure in ("detector_only", "total"):
+                problems.add(
+                    spec.name,
+                    detector,
+                    measure,
+                    dict(
+                        reference_run,
+                        error=f"UL-FEM reference: " f"{reference_run['error']}",
+                    ),
+                )
+        return
+    reference_out = Path(reference_run["value"])
+    case = study_case(spec, None, case_end(spec, plan.end_time))
+    detected_only = _detect_on_reference(context, plan, spec, case, reference_out, work)
+    totals = _run_boundaries(context, plan, spec, case, runs, work, problems)
+    _distances(
+        plan, spec, case, reference_out, detected_only, totals, problems, rows, outcome
+    )
+    _traction(plan, spec, case, runs, rows, outcome)
+
+
+def _spacing(case: dict) -> float:
+    return cell_size(case) / case["bodies"][0].get("points_per_cell", 2)
+
+
+def _detect_on_reference(context, plan, spec, case, reference_out, work) -> dict:
+    """Detector only: every detector on the UL-FEM's material points at each time; by
+    (time, detector), as _detect_task gives them."""
+    reference_particles = read_index(reference_out, "particles")
+    detect_tasks, detect_keys = [], []
+    for time in plan.times:
+        row = row_at_time(reference_particles, time, TIME_TOLERANCE)
+        if row is None:
+            continue
+        particles = work / f"{spec.name}_ulfem_points_{time_key(time)}.csv"
+        write_detect_input(read_particles(row["file"]), particles)
+        for detector in plan.detectors:
+            detect_tasks.append(
+                {
+                    "particles": str(particles),
+                    "library": not det.in_run(detector),
+                    "config": det.detect_config(detector, case["grid"], _spacing(case)),
+                }
+            )
+            detect_keys.append((time, detector))
+    return dict(
+        zip(
+            detect_keys,
+            parallel_map(
+                _detect_task,
+                detect_tasks,
+                context.options.jobs,
+                context.options.scheduler,
+                f"{spec.name} detect",
+            ),
+        )
+    )
+
+
+def _run_boundaries(context, plan, spec, case, runs, work, problems) -> dict:
+    """Total: the MPM runs' own boundaries at each time (the library's: detected on the host
+    run's particles); by (time, detector)."""
+    totals, total_tasks, total_keys = {}, [], []
+    for detector in plan.detectors:
+        host = runs.get(
+            (spec.name, detector if det.in_run(detector) else det.LIBRARY_HOST)
+        )
+        if "error" in host:
+            problems.add(spec.name, detector, "total", host)
+            continue
+        out = Path(host["value"])
+        if det.in_run(detector):
+            index = read_index(out, "boundary")
+            for time in plan.times:
+                row = row_at_time(index, time, TIME_TOLERANCE)
+                if row is not None:
+                    totals[(time, detector)] = {"value": row["file"]}
+            continue
+        index = read_index(out, "particles")
+        for time in plan.times:
+            row = row_at_time(index, time, TIME_TOLERANCE)
             if row is None:
                 continue
-            particles = work / f"{spec.name}_ulfem_points_{time_key(time)}.csv"
+            particles = work / f"{spec.name}_mpm_points_{time_key(time)}.csv"
             write_detect_input(read_particles(row["file"]), particles)
-            for detector in detectors:
-                detect_tasks.append(
-                    {
-                        "particles": str(particles),
-                        "library": not det.in_run(detector),
-                        "config": det.detect_config(detector, case["grid"], spacing),
-                    }
-                )
-                detect_keys.append((time, detector))
-        detected_only = dict(
-            zip(
-                detect_keys,
-                parallel_map(
-                    _detect_task,
-                    detect_tasks,
-                    context.options.jobs,
-                    context.options.scheduler,
-                    f"{spec.name} detect",
-                ),
+            total_tasks.append(
+                {
+                    "particles": str(particles),
+                    "library": True,
+                    "config": det.detect_config(detector, case["grid"], _spacing(case)),
+                }
             )
+            total_keys.append((time, detector))
+    totals.update(
+        zip(
+            total_keys,
+            parallel_map(
+                _detect_task,
+                total_tasks,
+                context.options.jobs,
+                context.options.scheduler,
+                f"{spec.name} library on MPM points",
+            ),
         )
+    )
+    return totals
 
-        # 3. Total: the MPM runs' own boundaries (the library: on the host run's particles).
-        totals, total_tasks, total_keys = {}, [], []
-        for detector in detectors:
-            host = runs.get(
-                (spec.name, detector if det.in_run(detector) else det.LIBRARY_HOST)
-            )
-            if "error" in host:
-                problem(spec.name, detector, "total", host)
-                continue
-            out = Path(host["value"])
-            if det.in_run(detector):
-                index = read_index(out, "boundary")
-                for time in times:
-                    row = row_at_time(index, time, tolerance)
-                    if row is not None:
-                        totals[(time, detector)] = {"value": row["file"]}
-                continue
-            index = read_index(out, "particles")
-            for time in times:
-                row = row_at_time(index, time, tolerance)
-                if row is None:
+
+def _distances(
+    plan, spec, case, reference_out, detected_only, totals, problems, rows, outcome
+):
+    """The distances of both measures to the UL-FEM boundary at each time: the rows, the
+    headline and the metrics at the comparison times, the overlays; a time the reference
+    did not reach is recorded as missing with the reason."""
+    h = cell_size(case)
+    regions = regions_of(case, spec.kind, h)
+    ignore = grid_edge_band(case["grid"], EDGE_BAND_CELLS * h)
+    reference_boundaries = read_index(reference_out, "boundary")
+    reference_status = run_status(reference_out)
+    for time in plan.times:
+        reference_row = row_at_time(reference_boundaries, time, TIME_TOLERANCE)
+        if reference_row is None:
+            if time <= case["time"]["end_time"] and reference_status["error"]:
+                reason = (
+                    f"the UL-FEM reference stopped at t = "
+                    f"{reference_status['final_time_s']:.4g} s "
+                    f"({reference_status['error'].split(':')[0]})"
+                )
+                for detector in plan.detectors:
+                    for measure in ("detector_only", "total"):
+                        problems.missing_times.append(
+                            (spec.name, detector, measure, time, reason)
+                        )
+            continue
+        reference = read_boundary(reference_row["file"])
+        overlay = {"detector_only": {}, "total": {}}
+        for detector in plan.detectors:
+            for measure, found in (
+                ("detector_only", detected_only.get((time, detector))),
+                ("total", totals.get((time, detector))),
+            ):
+                if found is None:
                     continue
-                particles = work / f"{spec.name}_mpm_points_{time_key(time)}.csv"
-                write_detect_input(read_particles(row["file"]), particles)
-                total_tasks.append(
-                    {
-                        "particles": str(particles),
-                        "library": True,
-                        "config": det.detect_config(detector, case["grid"], spacing),
-                    }
+                if "error" in found:
+                    problems.add(spec.name, detector, measure, found)
+                    continue
+                loops = read_boundary(found["value"])
+                overlay[measure][detector] = loops
+                result = boundary_distance(
+                    loops, reference, h=h, regions=regions, ignore=ignore
                 )
-                total_keys.append((time, detector))
-        totals.update(
-            zip(
-                total_keys,
-                parallel_map(
-                    _detect_task,
-                    total_tasks,
-                    context.options.jobs,
-                    context.options.scheduler,
-                    f"{spec.name} library on MPM points",
-                ),
-            )
+                for row in result.rows():
+                    rows.errors.append(
+                        {
+                            "case": spec.name,
+                            "detector": detector,
+                            "measure": measure,
+                            "time_s": time,
+                            **row,
+                        }
+                    )
+                if time in COMPARISON_TIMES:
+                    _distance_headline(
+                        spec.name, measure, time, detector, h, result, outcome
+                    )
+        rows.overlays[(spec.name, time)] = (reference, overlay, ignore)
+
+
+def _distance_headline(case_name, measure, time, detector, h, result, outcome):
+    """The headline's max and rms and the metric max / h of one comparison."""
+    stats = result.overall
+    outcome.headline += [
+        Headline(
+            boundary_key(case_name, measure, time, "max"), detector, stats.max, "m"
+        ),
+        Headline(
+            boundary_key(case_name, measure, time, "rms"), detector, stats.rms, "m"
+        ),
+    ]
+    outcome.metrics.append(
+        Metric(
+            f"boundary.{case_name}.{measure}.{time_key(time)}.{detector}.max_h",
+            stats.max / h,
+            "h",
         )
+    )
 
-        # 4. Distances.
-        reference_status = run_status(reference_out)
-        for time in times:
-            reference_row = row_at_time(reference_boundaries, time, tolerance)
-            if reference_row is None:
-                if time <= case["time"]["end_time"] and reference_status["error"]:
-                    reason = (
-                        f"the UL-FEM reference stopped at t = "
-                        f"{reference_status['final_time_s']:.4g} s "
-                        f"({reference_status['error'].split(':')[0]})"
-                    )
-                    for detector in detectors:
-                        for measure in ("detector_only", "total"):
-                            missing_times.append(
-                                (spec.name, detector, measure, time, reason)
-                            )
-                continue
-            reference = read_boundary(reference_row["file"])
-            overlay = {"detector_only": {}, "total": {}}
-            for detector in detectors:
-                for measure, found in (
-                    ("detector_only", detected_only.get((time, detector))),
-                    ("total", totals.get((time, detector))),
-                ):
-                    if found is None:
-                        continue
-                    if "error" in found:
-                        problem(spec.name, detector, measure, found)
-                        continue
-                    loops = read_boundary(found["value"])
-                    overlay[measure][detector] = loops
-                    result = boundary_distance(
-                        loops, reference, h=h, regions=regions, ignore=ignore
-                    )
-                    for row in result.rows():
-                        rows.append(
-                            {
-                                "case": spec.name,
-                                "detector": detector,
-                                "measure": measure,
-                                "time_s": time,
-                                **row,
-                            }
-                        )
-                    stats = result.overall
-                    if time in COMPARISON_TIMES:
-                        outcome.headline += [
-                            Headline(
-                                boundary_key(spec.name, measure, time, "max"),
-                                detector,
-                                stats.max,
-                                "m",
-                            ),
-                            Headline(
-                                boundary_key(spec.name, measure, time, "rms"),
-                                detector,
-                                stats.rms,
-                                "m",
-                            ),
-                        ]
-                        outcome.metrics.append(
-                            Metric(
-                                f"boundary.{spec.name}.{measure}.{time_key(time)}.{detector}.max_h",
-                                stats.max / h,
-                                "h",
-                            )
-                        )
-            overlays[(spec.name, time)] = (reference, overlay, ignore)
 
-        # 5. Traction and detection cost of the MPM runs.
-        for detector in [d for d in detectors if det.in_run(d)]:
-            host = runs[(spec.name, detector)]
-            if "error" in host:
-                continue
-            out = Path(host["value"])
-            summary = read_summary(out)
-            detection = summary.get("detection", {})
-            row = {
-                "case": spec.name,
-                "detector": detector,
-                "detect_calls": detection.get("calls"),
-                "detect_seconds_per_call": detection.get("seconds_per_call"),
-            }
-            if spec.loaded:
-                row.update(traction_errors(read_timeseries(out), case["loads"][0]))
-                if row.get("total_force_rel_error") is not None:
-                    outcome.metrics.append(
-                        Metric(
-                            f"boundary.{spec.name}.traction.{detector}.total_force_rel_error",
-                            row["total_force_rel_error"],
-                            "1",
-                        )
+def _traction(plan, spec, case, runs, rows, outcome):
+    """The traction error (loaded cases) and the detection cost of the case's MPM runs."""
+    for detector in [d for d in plan.detectors if det.in_run(d)]:
+        host = runs[(spec.name, detector)]
+        if "error" in host:
+            continue
+        out = Path(host["value"])
+        detection = read_summary(out).get("detection", {})
+        row = {
+            "case": spec.name,
+            "detector": detector,
+            "detect_calls": detection.get("calls"),
+            "detect_seconds_per_call": detection.get("seconds_per_call"),
+        }
+        if spec.loaded:
+            row.update(traction_errors(read_timeseries(out), case["loads"][0]))
+            if row.get("total_force_rel_error") is not None:
+                outcome.metrics.append(
+                    Metric(
+                        f"boundary.{spec.name}.traction.{detector}.total_force_rel_error",
+                        row["total_force_rel_error"],
+                        "1",
                     )
-                    for key in ("total_force_rel_error", "lost_force_rel"):
-                        outcome.headline.append(
-                            Headline(
-                                f"traction.{spec.name}.{key}", detector, row[key], "1"
-                            )
-                        )
-            traction_rows.append(row)
+                )
+                for key in ("total_force_rel_error", "lost_force_rel"):
+                    outcome.headline.append(
+                        Headline(f"traction.{spec.name}.{key}", detector, row[key], "1")
+                    )
+        rows.traction.append(row)
 
-    # Headline cells of detectors that could not run: "not run [n]" with the reason.
+
+def _headlines_not_run(times, problems, outcome):
+    """Headline cells of detectors that could not run: "not run" with the reason."""
     have = {(h.quantity, h.detector) for h in outcome.headline}
-    for case_name, detector, measure, time, reason in missing_times:
+    for case_name, detector, measure, time, reason in problems.missing_times:
         if time in COMPARISON_TIMES:
             for statistic in ("max", "rms"):
                 key = boundary_key(case_name, measure, time, statistic)
@@ -603,7 +688,7 @@ def run(context) -> StudyOutcome:
                         Headline(key, detector, None, "m", f"not run: {reason}")
                     )
                     have.add((key, detector))
-    for (case_name, detector, measure), reason in problems.items():
+    for (case_name, detector, measure), reason in problems.reasons.items():
         for time in [t for t in times if t in COMPARISON_TIMES]:
             for statistic in ("max", "rms"):
                 key = boundary_key(case_name, measure, time, statistic)
@@ -620,17 +705,22 @@ def run(context) -> StudyOutcome:
                         )
                     )
 
-    if not rows:
+
+def _tables(folder, rows, stopped, problems, outcome):
+    """boundary_errors, summary (max and rms in h per time), traction, stopped and detectors;
+    the outcome's reason when some comparisons could not be made."""
+    if not rows.errors:
         raise RuntimeError(
             "no boundary could be compared: "
             + "; ".join(
-                f"{c}/{d}/{m}: {r}" for (c, d, m), r in list(problems.items())[:6]
+                f"{c}/{d}/{m}: {r}"
+                for (c, d, m), r in list(problems.reasons.items())[:6]
             )
         )
-    errors = pd.DataFrame(rows)
+    errors = pd.DataFrame(rows.errors)
     outcome.tables.append(
         write_table(
-            context.folder,
+            folder,
             errors,
             "boundary_errors",
             "Boundary distance to the UL-FEM boundary, per region",
@@ -653,17 +743,17 @@ def run(context) -> StudyOutcome:
     rms.columns = [f"rms_h t={c:g}" for c in rms.columns]
     outcome.tables.append(
         write_table(
-            context.folder,
+            folder,
             summary.join(rms).reset_index(),
             "summary",
             "Overall max (Hausdorff) and RMS distance, " "in cell sizes h",
         )
     )
-    if traction_rows:
+    if rows.traction:
         outcome.tables.append(
             write_table(
-                context.folder,
-                pd.DataFrame(traction_rows),
+                folder,
+                pd.DataFrame(rows.traction),
                 "traction",
                 "Traction error and detection cost of " "the MPM runs",
             )
@@ -671,30 +761,33 @@ def run(context) -> StudyOutcome:
     if stopped:
         outcome.tables.append(
             write_table(
-                context.folder,
+                folder,
                 pd.DataFrame(stopped),
                 "stopped",
                 "Runs that stopped before the end time (their later "
                 "comparison times are missing)",
             )
         )
-    if status_rows:
+    if problems.status_rows:
         outcome.tables.append(
             write_table(
-                context.folder,
-                pd.DataFrame(status_rows).drop_duplicates(),
+                folder,
+                pd.DataFrame(problems.status_rows).drop_duplicates(),
                 "detectors",
                 "Detectors or runs that could not be compared",
             )
         )
-        missing = sorted({f"{d} ({m})" for (_, d, m), r in problems.items()})
-        failed = [r for r in problems.values() if r.startswith("failed")]
+        missing = sorted({f"{d} ({m})" for (_, d, m), r in problems.reasons.items()})
+        failed = [r for r in problems.reasons.values() if r.startswith("failed")]
         outcome.reason = "partly not run: " + ", ".join(missing)
         if failed:
             outcome.reason += " (some failed, see error.log)"
-    # Thesis figs. 6.6, 6.13, 6.14: the load's nodal forces on the grid as the block deforms,
-    # with the thesis's PFM as run on every start; on the zero start also with the plain PFM
-    # (no filter: fig. 6.14) and with the points at the Gauss points (fig. 6.13).
+
+
+def _figures(folder, cases, runs, task_of, rows, outcome):
+    """The load's nodal forces (thesis figs. 6.6, 6.13, 6.14: the block with the thesis's PFM
+    as run on every start; on the zero start also with the plain PFM, no filter, fig. 6.14,
+    and with the points at the Gauss points, fig. 6.13) and the overlays."""
     figures = [(c.name, NODAL_FORCE_DETECTOR) for c in cases if c.kind == "block"]
     figures += [
         (PLACEMENT_CASE, "pfm_thesis"),
@@ -705,7 +798,7 @@ def run(context) -> StudyOutcome:
             continue
         figure = nodal_force_figure(
             Path(runs[(name, detector)]["value"]),
-            tasks[keys.index((name, detector))]["case"],
+            task_of[(name, detector)]["case"],
             name,
             detector,
         )
@@ -713,24 +806,22 @@ def run(context) -> StudyOutcome:
             continue
         outcome.figures.append(
             save_figure(
-                context.folder,
+                folder,
                 figure,
                 f"nodal_forces_{name}_{detector}",
                 f"{name}, {detector}: the load's nodal forces at the outputs "
                 f"(thesis figs. 6.6, 6.13, 6.14); red: nodes too light to carry a load",
             )
         )
-    for (name, time), (reference, overlay, ignore) in overlays.items():
+    for (name, time), (reference, overlay, ignore) in rows.overlays.items():
         outcome.figures.append(
             save_figure(
-                context.folder,
+                folder,
                 overlay_figure(reference, overlay, name, time, ignore),
                 f"overlay_{name}_{time_key(time)}",
                 f"{name}: detected boundaries and the UL-FEM boundary at t = {time:g} s",
             )
         )
-    _constraints(runs, hosts, outcome, context.folder)
-    return outcome
 
 
 def constraint_case(detector: str) -> dict:
