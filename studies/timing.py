@@ -346,26 +346,99 @@ def failure_state_table(rows: list[dict]) -> pd.DataFrame:
     return table
 
 
-def run(context) -> StudyOutcome:
-    context.tools.append(tool_path("pfm-mpm"))
-    quick = context.quick
-    counts = QUICK_PARTICLE_COUNTS if quick else PARTICLE_COUNTS
-    threads_list = QUICK_THREADS if quick else THREADS
-    slope_detectors = QUICK_SLOPE_DETECTORS if quick else tuple(d for d, _ in DETECTORS)
-    outcome = StudyOutcome(study="timing")
-    notes, raw = [], []
+class _Attempts:
+    """Calls a timing; a missing prerequisite (a detector pfm-mpm does not know, a library
+    not installed) gives None and a note instead of failing the study."""
 
-    def attempt(label: str, function):
+    def __init__(self):
+        self.notes = []
+
+    def __call__(self, label: str, function):
         try:
             return function()
         except (PrerequisiteMissing, RunFailed) as error:
             reason = missing_reason(error)
             if reason is None:
                 raise
-            notes.append(f"{label}: needs {reason}")
+            self.notes.append(f"{label}: needs {reason}")
             return None
 
+
+def run(context) -> StudyOutcome:
+    context.tools.append(tool_path("pfm-mpm"))
+    quick = context.quick
+    outcome = StudyOutcome(study="timing")
+    attempt = _Attempts()
     # Timing runs are serial on purpose: parallel runs would measure each other.
+    raw = _block_rows(quick, attempt)
+    slope, slope_path = base_case("thesis55_slope_dynamic_zero_start")
+    context.case_files.append(slope_path)
+    end_time = QUICK_SLOPE_END_TIME if quick else SLOPE_END_TIME
+    slope = derive(
+        slope,
+        {
+            "initial_stress": {"method": "k0"},
+            "time": {"end_time": end_time},
+            "output": {"interval": end_time},
+        },
+    )
+    raw += _slope_runs(slope, quick, attempt)
+    failure = attempt(
+        "failure states",
+        lambda: failure_state_timings(
+            QUICK_FAILURE_DETECTORS if quick else tuple(d for d, _ in DETECTORS),
+            QUICK_FAILURE_STATES if quick else None,
+            1 if quick else REPETITIONS,
+        ),
+    )
+    if not any(r["case"] == "slope" and r["detector"] != det.LIBRARY for r in raw):
+        # at least the MPM step of the slope
+        raw += _slope_rows(slope, "slope", None, attempt)
+    raw = pd.DataFrame(raw)
+    raw.to_csv(context.folder / "raw_timings.csv", index=False)
+    table = summarise(raw)
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            table,
+            "stages",
+            "Seconds per step, per stage (median of repetitions; "
+            "detect_per_call: seconds per detection call)",
+        )
+    )
+    ratios, slope_step = _ratios_with_library(table)
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            pd.concat([_thesis_row(), ratios]),
+            "ratios",
+            "Detection per call against one MPM step; throughput "
+            "(median of the repetitions)",
+        )
+    )
+    _slope_metrics(ratios, slope_step, outcome)
+    if failure is not None and failure[0]:
+        _failure_states(context, failure, outcome)
+    _block_metrics(ratios, outcome)
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            scaling_figure(ratios),
+            "scaling",
+            "Seconds per step against N (block), per thread count",
+        )
+    )
+    if attempt.notes:
+        outcome.reason = "partly not run: " + "; ".join(dict.fromkeys(attempt.notes))
+    return outcome
+
+
+def _block_rows(quick: bool, attempt: _Attempts) -> list[dict]:
+    """The block at every particle count and thread count, REPETITIONS times, with the sweep's
+    detector (the plain MPM if pfm-mpm does not accept it): stage_rows of each run."""
+    counts = QUICK_PARTICLE_COUNTS if quick else PARTICLE_COUNTS
+    threads_list = QUICK_THREADS if quick else THREADS
+    raw = []
     detector = SWEEP_DETECTOR
     for n in counts:
         steps = QUICK_STEPS if quick else steps_for(n)
@@ -388,44 +461,40 @@ def run(context) -> StudyOutcome:
                         "repetition": repetition,
                     },
                 )
-    slope, slope_path = base_case("thesis55_slope_dynamic_zero_start")
-    context.case_files.append(slope_path)
-    end_time = QUICK_SLOPE_END_TIME if quick else SLOPE_END_TIME
-    slope = derive(
-        slope,
-        {
-            "initial_stress": {"method": "k0"},
-            "time": {"end_time": end_time},
-            "output": {"interval": end_time},
-        },
-    )
+    return raw
 
-    def slope_rows(case: dict, label: str, detector: str | None) -> list[dict]:
-        """The repetitions of one slope run on 1 thread; none if the detector cannot run."""
-        rows = []
-        if detector is not None:
-            case = derive(case, {"detection": det.detection_block(detector)})
-        for repetition in range(REPETITIONS):
-            summary = attempt(
-                f"{label} {detector or 'MPM'}", lambda: timed_run(case, 1)
-            )
-            if summary is None:
-                break
-            rows += stage_rows(
-                summary,
-                {
-                    "case": label,
-                    "n_particles": int(summary.get("n_particles", 0)),
-                    "threads": 1,
-                    "detector": detector or "none",
-                    "repetition": repetition,
-                },
-            )
-        return rows
 
-    for name in slope_detectors:
+def _slope_rows(
+    case: dict, label: str, detector: str | None, attempt: _Attempts
+) -> list[dict]:
+    """The repetitions of one slope run on 1 thread; none if the detector cannot run."""
+    rows = []
+    if detector is not None:
+        case = derive(case, {"detection": det.detection_block(detector)})
+    for repetition in range(REPETITIONS):
+        summary = attempt(f"{label} {detector or 'MPM'}", lambda: timed_run(case, 1))
+        if summary is None:
+            break
+        rows += stage_rows(
+            summary,
+            {
+                "case": label,
+                "n_particles": int(summary.get("n_particles", 0)),
+                "threads": 1,
+                "detector": detector or "none",
+                "repetition": repetition,
+            },
+        )
+    return rows
+
+
+def _slope_runs(slope: dict, quick: bool, attempt: _Attempts) -> list[dict]:
+    """The slope from K0 with every detector (the library on its own timings), from zero
+    stress (full study) and its run-out."""
+    raw = []
+    for name in QUICK_SLOPE_DETECTORS if quick else tuple(d for d, _ in DETECTORS):
         if det.in_run(name):
-            raw += slope_rows(slope, "slope", name)
+            raw += _slope_rows(slope, "slope", name, attempt)
         else:
             rows = attempt(f"slope {name}", lambda: library_timings(slope, REPETITIONS))
             raw += rows or []
@@ -433,7 +502,7 @@ def run(context) -> StudyOutcome:
         # The thesis's start: no initial stress, the slope settling under gravity from t = 0.
         zero = derive(slope, {"initial_stress": {"method": "zero"}})
         for name in ZERO_START_DETECTORS:
-            raw += slope_rows(zero, "slope_zero", name)
+            raw += _slope_rows(zero, "slope_zero", name, attempt)
     runout = derive(
         slope,
         {
@@ -442,29 +511,13 @@ def run(context) -> StudyOutcome:
         },
     )
     for name in QUICK_RUNOUT_DETECTORS if quick else RUNOUT_DETECTORS:
-        raw += slope_rows(runout, "slope_runout", name)
-    failure = attempt(
-        "failure states",
-        lambda: failure_state_timings(
-            QUICK_FAILURE_DETECTORS if quick else tuple(d for d, _ in DETECTORS),
-            QUICK_FAILURE_STATES if quick else None,
-            1 if quick else REPETITIONS,
-        ),
-    )
-    if not any(r["case"] == "slope" and r["detector"] != det.LIBRARY for r in raw):
-        raw += slope_rows(slope, "slope", None)  # at least the MPM step of the slope
-    raw = pd.DataFrame(raw)
-    raw.to_csv(context.folder / "raw_timings.csv", index=False)
-    table = summarise(raw)
-    outcome.tables.append(
-        write_table(
-            context.folder,
-            table,
-            "stages",
-            "Seconds per step, per stage (median of repetitions; "
-            "detect_per_call: seconds per detection call)",
-        )
-    )
+        raw += _slope_rows(runout, "slope_runout", name, attempt)
+    return raw
+
+
+def _ratios_with_library(table: pd.DataFrame) -> tuple[pd.DataFrame, pd.Series]:
+    """ratio_table of the stages, the library's row against the median MPM step of the slope
+    runs (which it returns too)."""
     ratios = ratio_table(table)
     slope_step = ratios[(ratios["case"] == "slope") & ratios["mpm_step_s"].notna()][
         "mpm_step_s"
@@ -475,7 +528,12 @@ def run(context) -> StudyOutcome:
         ratios.loc[library, "detect_to_step_ratio"] = ratios.loc[
             library, "detect_s"
         ] / float(slope_step.median())
-    thesis = pd.DataFrame(
+    return ratios, slope_step
+
+
+def _thesis_row() -> pd.DataFrame:
+    """The thesis's own slope timing (THESIS_*), the ratios table's first row."""
+    return pd.DataFrame(
         [
             {
                 "case": "slope (thesis)",
@@ -491,15 +549,11 @@ def run(context) -> StudyOutcome:
             }
         ]
     )
-    outcome.tables.append(
-        write_table(
-            context.folder,
-            pd.concat([thesis, ratios]),
-            "ratios",
-            "Detection per call against one MPM step; throughput "
-            "(median of the repetitions)",
-        )
-    )
+
+
+def _slope_metrics(ratios: pd.DataFrame, slope_step: pd.Series, outcome):
+    """Per detector on the slope and its run-out: the detection-to-step ratio (metric); on the
+    slope the cost per call and the ratio (headline); the median MPM step (headline)."""
     for row in ratios[ratios["case"].isin(["slope", "slope_runout"])].itertuples(
         index=False
     ):
@@ -532,32 +586,39 @@ def run(context) -> StudyOutcome:
                 "median over the slope runs",
             )
         )
-    if failure is not None and failure[0]:
-        failure_rows, failure_cases = failure
-        context.case_files += [p for p in failure_cases if p not in context.case_files]
-        states = failure_state_table(failure_rows)
-        outcome.tables.append(
-            write_table(
-                context.folder,
-                states,
-                "failure_states",
-                "Detection per call on the failure states (tests/data/failure_states; "
-                "pfm-mpm detect, a fresh process per call, median) against one MPM step of "
-                "the state's case at its start",
+
+
+def _failure_states(context, failure, outcome):
+    """The failure states' table and each detector's worst detection-to-step ratio."""
+    failure_rows, failure_cases = failure
+    context.case_files += [p for p in failure_cases if p not in context.case_files]
+    states = failure_state_table(failure_rows)
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            states,
+            "failure_states",
+            "Detection per call on the failure states (tests/data/failure_states; "
+            "pfm-mpm detect, a fresh process per call, median) against one MPM step of "
+            "the state's case at its start",
+        )
+    )
+    for detector, group in states.groupby("detector", sort=False):
+        outcome.metrics.append(
+            Metric(
+                f"timing.failure_states.{detector}.worst_detect_to_step_ratio",
+                float(group["detect_to_step_ratio"].max()),
+                "1",
+                f"over {len(group)} states, at "
+                f"{group.loc[group['detect_to_step_ratio'].idxmax(), 'state']}",
             )
         )
-        for detector, group in states.groupby("detector", sort=False):
-            outcome.metrics.append(
-                Metric(
-                    f"timing.failure_states.{detector}.worst_detect_to_step_ratio",
-                    float(group["detect_to_step_ratio"].max()),
-                    "1",
-                    f"over {len(group)} states, at "
-                    f"{group.loc[group['detect_to_step_ratio'].idxmax(), 'state']}",
-                )
-            )
-    # Detection must not dominate a large run: the improved detector on the largest block of
-    # 200k points or more, one thread.
+
+
+def _block_metrics(ratios: pd.DataFrame, outcome):
+    """The block's metrics: the improved detector's ratio on the largest block of 200k points
+    or more (detection must not dominate a large run) and the MPM's particle-steps per second
+    near 100k points, one thread each."""
     large = ratios[
         (ratios["case"] == "block")
         & (ratios["threads"] == 1)
@@ -585,17 +646,6 @@ def run(context) -> StudyOutcome:
                 f"N = {row['n_particles']}",
             )
         )
-    outcome.figures.append(
-        save_figure(
-            context.folder,
-            scaling_figure(ratios),
-            "scaling",
-            "Seconds per step against N (block), per thread count",
-        )
-    )
-    if notes:
-        outcome.reason = "partly not run: " + "; ".join(dict.fromkeys(notes))
-    return outcome
 
 
 def ratio_table(table: pd.DataFrame) -> pd.DataFrame:
