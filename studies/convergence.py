@@ -389,10 +389,83 @@ def _dolfinx(case: dict) -> str:
 
 def run(context) -> StudyOutcome:
     context.tools.append(tool_path("pfm-mpm"))
-    sizes = QUICK_CELL_SIZES if context.quick else CELL_SIZES
+    quick = context.quick
+    sizes = QUICK_CELL_SIZES if quick else CELL_SIZES
+    dilatation_cells = QUICK_DILATATION_CELLS if quick else DILATATION_CELLS
+    mms_cells = QUICK_MANUFACTURED_CELLS if quick else MANUFACTURED_CELLS
     _, slope_path = base_case("thesis55_slope_dynamic_zero_start")
     context.case_files.append(slope_path)
     bearing, slope = bearing_case(), slope_case()
+    tasks, keys = _tasks(sizes, dilatation_cells, mms_cells, bearing, slope)
+    outs = dict(
+        zip(
+            keys,
+            map(
+                Path,
+                parallel_map(
+                    _mpm,
+                    tasks,
+                    context.options.jobs,
+                    context.options.scheduler,
+                    "convergence runs",
+                ),
+            ),
+        )
+    )
+    reference_out = Path(_dolfinx(bearing))
+    curve = pd.read_csv(need(reference_out / "load_settlement.csv", "dolfinx_model"))
+    bearing_reference = float(curve["settlement"].iloc[-1])
+    rows = []
+    for h in sizes:
+        rows += _column_rows(outs, h)
+        rows.append(_bearing_row(outs, h, bearing_reference))
+        rows += slope_rows(
+            outs[("slope", h)],
+            outs[("slope_reference", h)],
+            refine(slope, h),
+            context.folder / "work",
+        )
+    rows += _field_error_rows(outs, dilatation_cells, mms_cells)
+    study = ConvergenceStudy()
+    for row in rows:
+        study.add(
+            row["quantity"], row["h_m"], row["error"], row["value"], row["reference"]
+        )
+    table = study.table()
+    outcome = StudyOutcome(study="convergence")
+    outcome.tables.append(
+        write_table(
+            context.folder,
+            table,
+            "rates",
+            "Errors (m) and observed orders against h; bearing "
+            "reference: dolfinx P2, static",
+        )
+    )
+    _order_metrics(study, outcome)
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            manufactured_figure(table),
+            "manufactured",
+            "Manufactured solution: relative L2 errors against the cell size",
+        )
+    )
+    outcome.figures.append(
+        save_figure(
+            context.folder,
+            rates_figure(table),
+            "convergence",
+            "Errors against the cell size",
+        )
+    )
+    return outcome
+
+
+def _tasks(sizes, dilatation_cells, mms_cells, bearing: dict, slope: dict):
+    """The runs (case, solver) and their keys (kind, h or cells): per cell size the slope (MPM
+    and its UL-FEM reference), the bearing and the column in its variants; the squeezed disk
+    and the manufactured solution per cell count and method."""
     tasks, keys = [], []
     # Finest first: the longest runs start early and the pool ends with the short ones.
     for h in sorted(sizes):
@@ -413,108 +486,87 @@ def run(context) -> StudyOutcome:
         ):
             tasks.append((case, solver))
             keys.append((kind, h))
-    dilatation_cells = QUICK_DILATATION_CELLS if context.quick else DILATATION_CELLS
     for cells in sorted(dilatation_cells, reverse=True):
         for label, shape in DILATATION_METHODS:
             tasks.append((dilatation_case(cells, shape), "mpm"))
             keys.append((label, cells))
-    mms_cells = QUICK_MANUFACTURED_CELLS if context.quick else MANUFACTURED_CELLS
     for cells in sorted(mms_cells, reverse=True):
         for label, solver, shape, scheme in MANUFACTURED_METHODS:
             tasks.append((manufactured_case(cells, shape, scheme), solver))
             keys.append((label, cells))
-    outs = dict(
-        zip(
-            keys,
-            map(
-                Path,
-                parallel_map(
-                    _mpm,
-                    tasks,
-                    context.options.jobs,
-                    context.options.scheduler,
-                    "convergence runs",
-                ),
-            ),
-        )
-    )
-    reference_out = Path(_dolfinx(bearing))
-    curve = pd.read_csv(need(reference_out / "load_settlement.csv", "dolfinx_model"))
-    bearing_reference = float(curve["settlement"].iloc[-1])
+    return tasks, keys
 
-    rows = []
+
+def _column_rows(outs: dict, h: float) -> list[dict]:
+    """The column at cell size h: its settlement against the solvers' model (updated
+    Lagrangian, Jaumann rate: 0.40 % below the small-strain q H / M + gamma H^2 / (2 M), an
+    error no refinement can remove) with each shape function and with the load on the
+    detected top, and its largest point-wise displacement error against the small-strain
+    profile."""
     c, m = benchmarks.COLUMN, benchmarks.ELASTIC
-    # The solvers' model (updated Lagrangian, Jaumann rate): its settlement is 0.40 % below the
-    # small-strain q H / M + gamma H^2 / (2 M), an error no refinement can remove.
-    column_exact = analytic.column_settlement_large_strain(
+    parameters = (
         c["height"],
         c["surcharge"],
         m["unit_weight"],
         m["youngs_modulus"],
         m["poisson_ratio"],
     )
-    # The point-wise displacement error is measured against the small-strain profile.
-    column_small_strain = analytic.column_settlement(
-        c["height"],
-        c["surcharge"],
-        m["unit_weight"],
-        m["youngs_modulus"],
-        m["poisson_ratio"],
-    )
-    b = BEARING
-    for h in sizes:
-        particles = final_particles(outs[("column", h)])
-        found = benchmarks.column_read_outs(particles, h)
-        rows += [
-            {
-                "quantity": "column settlement",
-                "h_m": h,
-                "value": found["settlement"],
-                "reference": column_exact,
-                "error": abs(found["settlement"] - column_exact),
-            },
-            {
-                "quantity": "column displacement max error",
-                "h_m": h,
-                "value": found["displacement_max_rel_error"] * column_small_strain,
-                "reference": 0.0,
-                "error": found["displacement_max_rel_error"] * column_small_strain,
-            },
-        ]
-        for kind, quantity in (
-            ("column_linear", "column settlement (linear)"),
-            ("column_gimp", "column settlement (GIMP)"),
-            ("column_detected", "column settlement (detected top)"),
-        ):
-            other = benchmarks.column_read_outs(final_particles(outs[(kind, h)]), h)
-            rows.append(
-                {
-                    "quantity": quantity,
-                    "h_m": h,
-                    "value": other["settlement"],
-                    "reference": column_exact,
-                    "error": abs(other["settlement"] - column_exact),
-                }
-            )
-        particles = final_particles(outs[("bearing", h)])
-        value = surface_settlement_extrapolated(
-            particles, 0.5 * sum(b["x_range"]), b["top"], h
-        )
+    column_exact = analytic.column_settlement_large_strain(*parameters)
+    column_small_strain = analytic.column_settlement(*parameters)
+    found = benchmarks.column_read_outs(final_particles(outs[("column", h)]), h)
+    rows = [
+        {
+            "quantity": "column settlement",
+            "h_m": h,
+            "value": found["settlement"],
+            "reference": column_exact,
+            "error": abs(found["settlement"] - column_exact),
+        },
+        {
+            "quantity": "column displacement max error",
+            "h_m": h,
+            "value": found["displacement_max_rel_error"] * column_small_strain,
+            "reference": 0.0,
+            "error": found["displacement_max_rel_error"] * column_small_strain,
+        },
+    ]
+    for kind, quantity in (
+        ("column_linear", "column settlement (linear)"),
+        ("column_gimp", "column settlement (GIMP)"),
+        ("column_detected", "column settlement (detected top)"),
+    ):
+        other = benchmarks.column_read_outs(final_particles(outs[(kind, h)]), h)
         rows.append(
             {
-                "quantity": "bearing settlement",
+                "quantity": quantity,
                 "h_m": h,
-                "value": value,
-                "reference": bearing_reference,
-                "error": abs(value - bearing_reference),
+                "value": other["settlement"],
+                "reference": column_exact,
+                "error": abs(other["settlement"] - column_exact),
             }
         )
-        rows += slope_rows(
-            outs[("slope", h)],
-            outs[("slope_reference", h)],
-            refine(slope, h),
-            context.folder / "work",
-        )
+    return rows
+
+
+def _bearing_row(outs: dict, h: float, reference: float) -> dict:
+    """The bearing block's settlement under the load's centre at cell size h against dolfinx."""
+    b = BEARING
+    particles = final_particles(outs[("bearing", h)])
+    value = surface_settlement_extrapolated(
+        particles, 0.5 * sum(b["x_range"]), b["top"], h
+    )
+    return {
+        "quantity": "bearing settlement",
+        "h_m": h,
+        "value": value,
+        "reference": reference,
+        "error": abs(value - reference),
+    }
+
+
+def _field_error_rows(outs: dict, dilatation_cells, mms_cells) -> list[dict]:
+    """The L2 errors of displacement and stress of the manufactured solution and the squeezed
+    disk, per method and cell count."""
 
     def error_rows(problem, label, h, errors):
         return [
@@ -528,6 +580,7 @@ def run(context) -> StudyOutcome:
             for field in ("displacement", "stress")
         ]
 
+    rows = []
     for cells in mms_cells:
         for label, *_ in MANUFACTURED_METHODS:
             errors = manufactured_errors(outs[(label, cells)])
@@ -541,22 +594,11 @@ def run(context) -> StudyOutcome:
             rows += error_rows(
                 "squeezed disk", label, DILATATION["radius"] / cells, errors
             )
-    study = ConvergenceStudy()
-    for row in rows:
-        study.add(
-            row["quantity"], row["h_m"], row["error"], row["value"], row["reference"]
-        )
-    table = study.table()
-    outcome = StudyOutcome(study="convergence")
-    outcome.tables.append(
-        write_table(
-            context.folder,
-            table,
-            "rates",
-            "Errors (m) and observed orders against h; bearing "
-            "reference: dolfinx P2, static",
-        )
-    )
+    return rows
+
+
+def _order_metrics(study: ConvergenceStudy, outcome):
+    """The observed order between the two finest grids of each gated quantity."""
     manufactured_metrics = [
         (
             f"manufactured displacement L2 ({label})",
@@ -587,23 +629,6 @@ def run(context) -> StudyOutcome:
             outcome.metrics.append(
                 Metric(name, order, "1", "order between the two finest grids")
             )
-    outcome.figures.append(
-        save_figure(
-            context.folder,
-            manufactured_figure(table),
-            "manufactured",
-            "Manufactured solution: relative L2 errors against the cell size",
-        )
-    )
-    outcome.figures.append(
-        save_figure(
-            context.folder,
-            rates_figure(table),
-            "convergence",
-            "Errors against the cell size",
-        )
-    )
-    return outcome
 
 
 def slope_rows(
