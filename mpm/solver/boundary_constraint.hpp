@@ -73,8 +73,8 @@
 // (solver.pic_fraction 0.05) removes them, and constraint cases should take it.
 //
 // The benchmarks study pushes a rigid footing into weightless Tresca soil through a constraint
-// on the detected top (studies/benchmarks.py, footing_case) beside the UL-FEM and dolfinx; its
-// figures are in that study's tables.
+// on the detected top (studies/benchmarks/footing.py, footing_case) beside the UL-FEM and dolfinx;
+// its figures are in that study's tables.
 //
 // Outputs: the force on the body of each constraint (the sum of its F_I, kN/m) and the
 // root-mean-square gap along its part (m) (ConstraintReport, the time series' constraint_<k>_*);

@@ -1,6 +1,6 @@
-"""The footing benchmark's cases and measure (studies/benchmarks.py): both cases are valid for
-the C++ reader; the constraint is the first and holds the top under the footing, the support the
-fourth condition; footing_curve gives the settlement the footing's velocity and smooth ramp
+"""The footing benchmark's cases and measure (studies/benchmarks/footing.py): both cases are valid
+for the C++ reader; the constraint is the first and holds the top under the footing, the support
+the fourth condition; footing_curve gives the settlement the footing's velocity and smooth ramp
 prescribe and the reaction pressure over (2 + pi) c."""
 
 import numpy as np

@@ -1,7 +1,7 @@
-"""The softening benchmark's case and measure (studies/benchmarks.py): the case is valid for the
-C++ reader (through pfm_mpm), its top platen is the third condition (the reaction column the
-study reads) and moves the shortening in the duration; the half-softening shortening is exact
-on a piecewise-linear curve."""
+"""The softening benchmark's case and measure (studies/benchmarks/softening.py): the case is valid
+for the C++ reader (through pfm_mpm), its top platen is the third condition (the reaction column
+the study reads) and moves the shortening in the duration; the half-softening shortening is
+exact on a piecewise-linear curve."""
 
 import tempfile
 from pathlib import Path
