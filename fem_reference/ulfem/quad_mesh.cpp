@@ -1,7 +1,5 @@
 #include "fem_reference/ulfem/quad_mesh.hpp"
 
-#include <gmsh.h>
-
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -11,6 +9,7 @@
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/step/body_fill.hpp"
+#include "mpm/step/gmsh_api.hpp"
 #include "mpm/step/gmsh_surface.hpp"
 
 namespace pfm::ulfem {
@@ -87,8 +86,8 @@ void orient_elements(QuadMesh& mesh) {
 // The mesh gmsh holds now, as a QuadMesh (quads only; InputError if other elements remain).
 QuadMesh read_gmsh_quads(const std::string& file) {
   std::vector<std::size_t> tags;
-  std::vector<double> coords, parametric;
-  gmsh::model::mesh::getNodes(tags, coords, parametric, -1, -1, false, false);
+  std::vector<double> coords;
+  gmsh::model::mesh::getNodes(tags, coords);
   std::map<std::size_t, int> index;
   QuadMesh mesh;
   for (std::size_t k = 0; k < tags.size(); ++k) {
@@ -392,7 +391,7 @@ QuadMesh gmsh_body_mesh(const Case& c) {
     }
     try {
       gmsh::model::mesh::generate(2);
-    } catch (...) {  // gmsh reports errors by exceptions of its own types
+    } catch (const gmsh::CallError&) {
       throw InputError(c.file + ": /bodies/0/polygon: gmsh could not mesh this polygon");
     }
     mesh = read_gmsh_quads(c.file);

@@ -1,19 +1,19 @@
 #include "mpm/step/gmsh_surface.hpp"
 
-#include <gmsh.h>
-
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <utility>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/step/gmsh_api.hpp"
 
 namespace pfm {
 
 GmshSession::GmshSession() {
-  gmsh::initialize(0, nullptr, false);
+  gmsh::initialize();
   gmsh::option::setNumber("General.Terminal", 0);
 }
 
@@ -34,7 +34,7 @@ void open_file(const std::string& path, const std::string& where) {
     gmsh::open(path);
     // A geometry file (.geo) is meshed here, in 2D, with the sizes it gives.
     if (std::filesystem::path(path).extension() == ".geo") gmsh::model::mesh::generate(2);
-  } catch (...) {  // gmsh reports its errors as exceptions of its own types
+  } catch (const gmsh::CallError&) {
     throw InputError(where + ": gmsh cannot read or mesh " + path);
   }
 }
@@ -66,18 +66,9 @@ gmsh::vectorpair group_entities(const std::string& name, std::initializer_list<i
   return entities;
 }
 
-std::string element_name(int type) {
-  std::string name;
-  int dim = 0, order = 0, n_nodes = 0, n_primary = 0;
-  std::vector<double> local;
-  gmsh::model::mesh::getElementProperties(type, name, dim, order, n_nodes, local, n_primary);
-  return name;
-}
-
 // The node `tag`'s position; InputError when it lies off the plane z = 0.
 Vec2 node_position(std::size_t tag, const std::string& path, const std::string& where) {
-  std::vector<double> coord, parametric;
-  gmsh::model::mesh::getNode(tag, coord, parametric);
+  const std::array<double, 3> coord = gmsh::model::mesh::getNode(tag);
   if (coord[2] != 0.0) {
     throw InputError(where + ": " + path + ": node " + std::to_string(tag) +
                      " lies off the plane z = 0 (z = " + std::to_string(coord[2]) + ")");
@@ -105,7 +96,8 @@ SurfaceMesh read_gmsh_surface(const std::string& path, const std::string& physic
     gmsh::model::mesh::getElements(types, element_tags, node_tags, dim, entity);
     for (std::size_t t = 0; t < types.size(); ++t) {
       if (types[t] != kTriangle && types[t] != kQuadrangle) {
-        throw InputError(where + ": " + path + " holds " + element_name(types[t]) +
+        throw InputError(where + ": " + path + " holds " +
+                         gmsh::model::mesh::elementName(types[t]) +
                          " elements; bodies take 3-node triangles and 4-node quadrangles");
       }
       const std::size_t corners = types[t] == kTriangle ? 3 : 4;
@@ -178,7 +170,8 @@ std::vector<std::array<Vec2, 2>> read_gmsh_lines(const std::string& path,
     gmsh::model::mesh::getElements(types, element_tags, node_tags, dim, entity);
     for (std::size_t t = 0; t < types.size(); ++t) {
       if (types[t] != kLine && types[t] != kPoint) {
-        throw InputError(where + ": " + path + " holds " + element_name(types[t]) +
+        throw InputError(where + ": " + path + " holds " +
+                         gmsh::model::mesh::elementName(types[t]) +
                          " elements; node sets take 2-node lines and points");
       }
       const std::size_t corners = types[t] == kLine ? 2 : 1;
