@@ -9,8 +9,9 @@ namespace pfm {
 /// freed, so they depend on the process's history). A run frees and allocates the same scratch
 /// every step: without this policy the boundary detector's vectors come back as page faults on
 /// every call (pfm-bench-detect counts page_faults per detection). With it freed memory stays
-/// for reuse: trimming above 512 MB of free top, own mappings only for blocks of 32 MB or more.
-/// Call once at the start of main(); does nothing with another C library.
+/// for reuse: trimming above 512 MB of free top, and no block served by a mapping of its own
+/// (every block comes from the heap, where a freed one is reused without faulting its pages in
+/// again). Call once at the start of main(); does nothing with another C library.
 void keep_freed_memory();
 
 }  // namespace pfm

@@ -194,7 +194,7 @@ FineNodes& pass_nodes(std::optional<FineNodes>& kept_nodes, EdgeRoots::Memo& mem
   const double h = grid.cell_size;
   if (kept_nodes && kept_nodes->refinement() == r && keep_nodes) {
     kept_nodes->raise(changed);
-    memo.index();
+    memo.index(grid, changed);
   } else {
     kept_nodes.emplace(grid, r,
                        FineNodes::gather_square(r, h, config.radius_factor * initial_spacing),

@@ -294,6 +294,7 @@ class FineNodes {
       int i, j;
     };
     std::vector<Listed> listed;
+    listed.reserve(wanted.size());  // address space only: the pages not written are not touched
     for (const auto& [i, j] : wanted) {
       const std::size_t k = cache_.index(i, j);
       double& slot = cache_[k];
@@ -303,9 +304,10 @@ class FineNodes {
       }
     }
     // Square by square: a square with kGatherFrom nodes or more is gathered (once per chunk),
-    // the others sum over their bins.
-    std::stable_sort(listed.begin(), listed.end(),
-                     [](const Listed& a, const Listed& b) { return a.square < b.square; });
+    // the others sum over their bins. A node's value does not depend on the order of the nodes
+    // in its square or on the chunks (the sums are exact), so the sort need not be stable.
+    std::sort(listed.begin(), listed.end(),
+              [](const Listed& a, const Listed& b) { return a.square < b.square; });
     const std::size_t n = listed.size(), n_chunks = (n + kEvaluationChunk - 1) / kEvaluationChunk;
     std::vector<char> gather(n, 0);
     for (std::size_t k = 0, end = 0; k < n; k = end) {
@@ -416,9 +418,15 @@ class EdgeRoots {
     void add(const std::array<double, 4>& edge, const Vec2& point) {
       found_.emplace_back(edge, point);
     }
-    /// Indexes what was found since the last call (a later root of an edge replaces an earlier).
-    void index() {
-      for (const auto& [edge, point] : found_) map_.insert_or_assign(edge, point);
+    /// Indexes what was found since the last call (a later root of an edge replaces an earlier),
+    /// except the roots in the grid cells set in `changed`, which the coming pass does not take.
+    /// A later pass does not want them either: the field only rises, so an edge it crosses was
+    /// crossed by every pass since, and the coming pass's root of it replaces this one.
+    void index(const Grid& grid, const std::vector<char>& changed) {
+      for (const auto& [edge, point] : found_) {
+        const Vec2 middle(0.5 * (edge[0] + edge[2]), 0.5 * (edge[1] + edge[3]));
+        if (!changed[cell_of_middle(grid, middle)]) map_.insert_or_assign(edge, point);
+      }
       found_.clear();
     }
     const Vec2* find(const std::array<double, 4>& edge) const {
@@ -456,8 +464,7 @@ class EdgeRoots {
     for (std::size_t c = 0; c < crossing.size(); ++c) {
       if (!known(crossing[c], point[c])) open.emplace_back(square_of(crossing[c]), c);
     }
-    std::stable_sort(open.begin(), open.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::sort(open.begin(), open.end());  // by square, then crossing: a stable sort by square
     const std::size_t n = open.size(), n_chunks = (n + kCrossingChunk - 1) / kCrossingChunk;
     std::vector<long> evaluations(n_chunks, 0);
     for_each_on_threads(n_chunks, 1, [&](std::size_t k) {
@@ -483,17 +490,19 @@ class EdgeRoots {
  private:
   static constexpr std::size_t kCrossingChunk = 128;  // about 3.5 evaluations each
 
+  // The grid cell (j n_cells_x + i) of an edge's middle, clamped to the grid.
+  static std::size_t cell_of_middle(const Grid& grid, const Vec2& middle) {
+    const int i = std::clamp(grid.cell_i(middle.x()), 0, grid.n_cells_x - 1);
+    const int j = std::clamp(grid.cell_j(middle.y()), 0, grid.n_cells_y - 1);
+    return static_cast<std::size_t>(j) * grid.n_cells_x + i;
+  }
   static std::array<double, 4> key(const EdgeCrossing& c) {
     return {c.a.x(), c.a.y(), c.b.x(), c.b.y()};
   }
   // The root of an earlier pass, where the field has not changed since.
   bool known(const EdgeCrossing& c, Vec2& point) const {
     if (memo_ == nullptr || changed_ == nullptr || memo_->empty()) return false;
-    const Grid& grid = nodes_.grid();
-    const Vec2 middle = 0.5 * (c.a + c.b);
-    const int i = std::clamp(grid.cell_i(middle.x()), 0, grid.n_cells_x - 1);
-    const int j = std::clamp(grid.cell_j(middle.y()), 0, grid.n_cells_y - 1);
-    if ((*changed_)[static_cast<std::size_t>(j) * grid.n_cells_x + i]) return false;
+    if ((*changed_)[cell_of_middle(nodes_.grid(), 0.5 * (c.a + c.b))]) return false;
     const Vec2* found = memo_->find(key(c));
     if (found == nullptr) return false;
     point = *found;

@@ -37,28 +37,49 @@ struct EdgeNumbering {
 };
 
 // The point of each crossed edge of a narrow band on a large field: open addressing with linear
-// probing. A cell has at most 4 crossed edges, so with room for 8 per cell the table is at most
-// half full.
+// probing, doubled whenever it is half full. It starts with two slots per cell: a contour
+// crosses about one edge per cell it passes, so most detections never grow it.
 class SparseEdgePoints {
  public:
-  explicit SparseEdgePoints(std::size_t cells) {
-    int bits = 4;
-    while ((std::size_t{1} << bits) < 8 * cells) ++bits;
-    shift_ = 64 - bits;
-    key_.assign(std::size_t{1} << bits, -1);
-    point_.assign(key_.size(), -1);
-  }
+  explicit SparseEdgePoints(std::size_t cells) { resize(std::max<std::size_t>(2 * cells, 16)); }
   /// The point of `edge` (-1 while it has none).
   int& operator[](long edge) {
-    const std::size_t mask = key_.size() - 1;
-    std::size_t k = (static_cast<std::uint64_t>(edge) * 0x9E3779B97F4A7C15ULL) >> shift_;
-    while (key_[k] != edge && key_[k] != -1) k = (k + 1) & mask;
-    key_[k] = edge;
+    if (2 * (used_ + 1) > key_.size()) resize(2 * key_.size());
+    std::size_t k = slot(edge);
+    if (key_[k] == -1) {
+      key_[k] = edge;
+      ++used_;
+    }
     return point_[k];
   }
 
  private:
+  // The slot that holds `edge` or the empty one where it goes.
+  std::size_t slot(long edge) const {
+    const std::size_t mask = key_.size() - 1;
+    std::size_t k = (static_cast<std::uint64_t>(edge) * 0x9E3779B97F4A7C15ULL) >> shift_;
+    while (key_[k] != edge && key_[k] != -1) k = (k + 1) & mask;
+    return k;
+  }
+  // At least `slots` slots (a power of two), the entries kept.
+  void resize(std::size_t slots) {
+    int bits = 4;
+    while ((std::size_t{1} << bits) < slots) ++bits;
+    std::vector<long> key = std::move(key_);
+    std::vector<int> point = std::move(point_);
+    shift_ = 64 - bits;
+    key_.assign(std::size_t{1} << bits, -1);
+    point_.assign(key_.size(), -1);
+    for (std::size_t k = 0; k < key.size(); ++k) {
+      if (key[k] == -1) continue;
+      const std::size_t to = slot(key[k]);
+      key_[to] = key[k];
+      point_[to] = point[k];
+    }
+  }
+
   int shift_ = 60;
+  std::size_t used_ = 0;
   std::vector<long> key_;
   std::vector<int> point_;
 };
