@@ -100,12 +100,30 @@ Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& 
   return elastic_stress_increment(hooke_constants(elastic), d);
 }
 
+Tangent elastic_tangent(const MaterialConstants& k) {
+  const double lambda = k.lambda, two_mu = 2.0 * k.mu;
+  Tangent d = Tangent::Zero();
+  for (const int i : {kXX, kYY, kZZ}) {
+    for (const int j : {kXX, kYY, kZZ}) d(i, j) = lambda + (i == j ? two_mu : 0.0);
+  }
+  d(kXY, kXY) = k.mu;  // the strain's shear entry is gamma_xy = 2 eps_xy
+  return d;
+}
+
 void LinearElastic::update(const Strain& strain_increment, Stress& stress, PointState&) const {
   stress += elastic_stress_increment(elastic, strain_increment);
 }
 
 MaterialConstants LinearElastic::constants() const {
   return hooke_constants(elastic);
+}
+
+ReturnInfo LinearElastic::update_with_tangent(const Strain& strain_increment, Stress& stress,
+                                              PointState& /*state*/, Tangent& tangent) const {
+  const MaterialConstants k = constants();
+  stress += elastic_stress_increment(k, strain_increment);
+  tangent = elastic_tangent(k);
+  return ReturnInfo{};
 }
 
 const ElasticParameters& elastic_parameters(const Material& material) {
@@ -454,6 +472,86 @@ ReturnInfo principal_return(const PlaneModel& model, const PiecewiseLinear& cohe
   return best;
 }
 
+/// The Jacobian d result / d trial (ordered frame, jacobian[a][b] = d result_a / d trial_b) of
+/// principal_return's answer `info` on `cohesion` from eps_n: the linearisation of
+///   result = trial - sum_l dgamma_l D n_l,  F_j(result, c(eps_n + d eps_p)) = 0 (active j),
+///   d eps_p = sum_l kappa_l dgamma_l,
+/// at the answer: sum_l (a_j . D n_l + h_j kappa_l) d dgamma_l = a_j . d trial with a_j the
+/// plane's gradient, kappa_l its shear_strain and h_j = (cohesion_factor_j + cutoff_factor_j
+/// d sigma_t,eff / dc) dc/d eps_p (the slope of the law at the new eps_p, from the right at a
+/// breakpoint), so d result = (I - sum_lj D n_l (M^-1)_lj a_j^T) d trial. The identity for an
+/// elastic answer.
+void principal_jacobian(const PlaneModel& model, const PiecewiseLinear& cohesion, double eps_n,
+                        const ReturnInfo& info, double jacobian[3][3]) {
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) jacobian[a][b] = a == b ? 1.0 : 0.0;
+  const int n = info.n_active;
+  if (n == 0) return;
+  const double eps = eps_n + info.plastic_strain_increment;
+  const double c = cohesion.value(eps);
+  const double cot_phi = model.sin_phi > 0.0 ? model.cos_phi / model.sin_phi : 0.0;
+  // sigma_t,eff = c cot(phi) below the cap cohesion (the cone apex binds), else constant.
+  const double cutoff_slope = c < model.cap_cohesion() ? cot_phi : 0.0;
+  const double softening = cohesion.slope(eps);
+  PlaneData planes[3];
+  for (int l = 0; l < n; ++l) planes[l] = make_plane(model, info.planes[l]);
+  double m[3][3], x[3][3];  // x <- M^-1 [a_1 .. a_n]^T
+  for (int j = 0; j < n; ++j) {
+    const PlaneData& pj = planes[j];
+    const double h = (pj.cohesion_factor + pj.cutoff_factor * cutoff_slope) * softening;
+    for (int l = 0; l < n; ++l) {
+      const PlaneData& pl = planes[l];
+      m[j][l] = pj.gradient[0] * pl.stiff_flow[0] + pj.gradient[1] * pl.stiff_flow[1] +
+                pj.gradient[2] * pl.stiff_flow[2] + h * pl.shear_strain;
+    }
+    for (int q = 0; q < 3; ++q) x[j][q] = pj.gradient[q];
+  }
+  if (!solve_small(n, m, x)) return;  // planes that do not fix the answer: the elastic Jacobian
+  for (int l = 0; l < n; ++l)
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) jacobian[a][b] -= planes[l].stiff_flow[a] * x[l][b];
+}
+
+/// The tangent d stress / d strain increment of a return whose principal answer `ordered` (with
+/// Jacobian `jacobian`, principal_jacobian) was found from the trial stress `trial` (principal
+/// values and directions `p`): the stress is an isotropic function of the trial stress, so
+/// (de Souza Neto, Peric & Owen 2008, appendix A.5) in the plane
+///   d sigma = sum_ab d sigma_a / d x_b m_a (m_b : d trial)
+///             + (sigma_A - sigma_B) / (x_A - x_B) (d trial - sum_a m_a (m_a : d trial))
+/// with m_a the trial's in-plane eigenprojections (the second term turns the answer with the
+/// trial directions; its factor tends to d sigma_A / d x_A - d sigma_A / d x_B as x_A -> x_B),
+/// and zz as the third principal direction; times Hooke's law, d trial = D d strain.
+Tangent spectral_tangent(const MaterialConstants& k, const PrincipalStress& p,
+                         const double ordered[3], const double jacobian[3][3]) {
+  // Principal values and Jacobian by source (0: in-plane major A, 1: in-plane minor B, 2: zz).
+  double x[3], sigma[3], d[3][3];
+  for (int a = 0; a < 3; ++a) {
+    x[p.source[a]] = p.values[a];
+    sigma[p.source[a]] = ordered[a];
+    for (int b = 0; b < 3; ++b) d[p.source[a]][p.source[b]] = jacobian[a][b];
+  }
+  // Eigenprojections as 4-vectors (xx, yy, xy, zz), and the rows that contract them with a
+  // stress in the same order (m : s counts xy twice).
+  const double c2 = p.cos_2theta, s2 = p.sin_2theta;
+  Eigen::Vector4d m[3];
+  m[0] = Eigen::Vector4d(0.5 * (1.0 + c2), 0.5 * (1.0 - c2), 0.5 * s2, 0.0);
+  m[1] = Eigen::Vector4d(0.5 * (1.0 - c2), 0.5 * (1.0 + c2), -0.5 * s2, 0.0);
+  m[2] = Eigen::Vector4d(0.0, 0.0, 0.0, 1.0);
+  const Eigen::Vector4d weight(1.0, 1.0, 2.0, 1.0);
+  Tangent of_trial = Tangent::Zero();  // d sigma / d trial
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) of_trial += d[a][b] * m[a] * m[b].cwiseProduct(weight).transpose();
+  const double gap = x[0] - x[1];
+  const double scale = std::abs(x[0]) + std::abs(x[1]) + 1e-300;
+  const double turn =
+      std::abs(gap) > 1e-12 * scale ? (sigma[0] - sigma[1]) / gap : d[0][0] - d[0][1];
+  Tangent in_plane = Tangent::Zero();
+  in_plane(kXX, kXX) = in_plane(kYY, kYY) = in_plane(kXY, kXY) = 1.0;
+  for (int a = 0; a < 2; ++a) in_plane -= m[a] * m[a].cwiseProduct(weight).transpose();
+  of_trial += turn * in_plane;
+  return of_trial * elastic_tangent(k);
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -472,17 +570,27 @@ namespace {
 
 /// Tresca::update_with_info with the constants given. The elastic case (the common one) returns
 /// right after the trial check.
+/// With `tangent`, also the consistent tangent there.
 inline ReturnInfo tresca_update(const Tresca& m, const MaterialConstants& k,
-                                const Strain& strain_increment, Stress& stress, PointState& state) {
+                                const Strain& strain_increment, Stress& stress, PointState& state,
+                                Tangent* tangent = nullptr) {
   stress += elastic_stress_increment(k, strain_increment);  // elastic trial
   PrincipalStress p = principal_values(stress);
   const double eps_n = state.plastic_strain;
-  if (0.5 * (p.values[0] - p.values[2]) - m.cohesion.value(eps_n) <= 0.0) return ReturnInfo{};
+  if (0.5 * (p.values[0] - p.values[2]) - m.cohesion.value(eps_n) <= 0.0) {
+    if (tangent != nullptr) *tangent = elastic_tangent(k);
+    return ReturnInfo{};
+  }
   principal_directions(stress, p);
 
   const PlaneModel model{0.0, 1.0, 0.0, kInfinity, k.lambda, 2.0 * k.mu};
   double ordered[3];
   ReturnInfo info = principal_return(model, m.cohesion, kShearOnlySets, eps_n, p.values, ordered);
+  if (tangent != nullptr) {
+    double jacobian[3][3];
+    principal_jacobian(model, m.cohesion, eps_n, info, jacobian);
+    *tangent = spectral_tangent(k, p, ordered, jacobian);
+  }
   for (int l = 0; l < info.n_active; ++l) info.multipliers[l] *= 2.0;  // f = F / 2
   assemble_stress(p, ordered, stress);
   state.plastic_strain = eps_n + info.plastic_strain_increment;
@@ -494,6 +602,11 @@ inline ReturnInfo tresca_update(const Tresca& m, const MaterialConstants& k,
 ReturnInfo Tresca::update_with_info(const Strain& strain_increment, Stress& stress,
                                     PointState& state) const {
   return tresca_update(*this, constants(), strain_increment, stress, state);
+}
+
+ReturnInfo Tresca::update_with_tangent(const Strain& strain_increment, Stress& stress,
+                                       PointState& state, Tangent& tangent) const {
+  return tresca_update(*this, constants(), strain_increment, stress, state, &tangent);
 }
 
 void Tresca::update(const Strain& strain_increment, Stress& stress, PointState& state) const {
@@ -539,9 +652,10 @@ MaterialConstants MohrCoulomb::constants() const {
 namespace {
 
 /// MohrCoulomb::update_with_info with the constants given.
+/// With `tangent`, also the consistent tangent there.
 inline ReturnInfo mohr_coulomb_update(const MohrCoulomb& m, const MaterialConstants& k,
                                       const Strain& strain_increment, Stress& stress,
-                                      PointState& state) {
+                                      PointState& state, Tangent* tangent = nullptr) {
   stress += elastic_stress_increment(k, strain_increment);  // elastic trial
   PrincipalStress p = principal_values(stress);
   const double eps_n = state.plastic_strain;
@@ -550,7 +664,10 @@ inline ReturnInfo mohr_coulomb_update(const MohrCoulomb& m, const MaterialConsta
   const double shear =
       (1.0 + sin_phi) * s1 - (1.0 - sin_phi) * s3 - 2.0 * cos_phi * m.cohesion.value(eps_n);
   // Inside the cone s1 <= c cot(phi), so s1 <= sigma_t is the whole cut-off check here.
-  if (shear <= 0.0 && s1 <= m.tension_cutoff) return ReturnInfo{};
+  if (shear <= 0.0 && s1 <= m.tension_cutoff) {
+    if (tangent != nullptr) *tangent = elastic_tangent(k);
+    return ReturnInfo{};
+  }
   principal_directions(stress, p);
 
   const PlaneModel model{sin_phi, cos_phi, k.sin_psi, m.tension_cutoff, k.lambda, 2.0 * k.mu};
@@ -558,6 +675,11 @@ inline ReturnInfo mohr_coulomb_update(const MohrCoulomb& m, const MaterialConsta
   const int n_sets =
       (model.tension_cutoff < kInfinity || sin_phi > 0.0) ? kAllSets : kShearOnlySets;
   const ReturnInfo info = principal_return(model, m.cohesion, n_sets, eps_n, p.values, ordered);
+  if (tangent != nullptr) {
+    double jacobian[3][3];
+    principal_jacobian(model, m.cohesion, eps_n, info, jacobian);
+    *tangent = spectral_tangent(k, p, ordered, jacobian);
+  }
   assemble_stress(p, ordered, stress);
   state.plastic_strain = eps_n + info.plastic_strain_increment;
   return info;
@@ -570,6 +692,11 @@ ReturnInfo MohrCoulomb::update_with_info(const Strain& strain_increment, Stress&
   return mohr_coulomb_update(*this, constants(), strain_increment, stress, state);
 }
 
+ReturnInfo MohrCoulomb::update_with_tangent(const Strain& strain_increment, Stress& stress,
+                                            PointState& state, Tangent& tangent) const {
+  return mohr_coulomb_update(*this, constants(), strain_increment, stress, state, &tangent);
+}
+
 void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointState& state) const {
   mohr_coulomb_update(*this, constants(), strain_increment, stress, state);
 }
@@ -577,6 +704,15 @@ void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointSt
 void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointState& state,
                          const MaterialConstants& constants) const {
   mohr_coulomb_update(*this, constants, strain_increment, stress, state);
+}
+
+ReturnInfo update_with_tangent(const Material& material, const Strain& strain_increment,
+                               Stress& stress, PointState& state, Tangent& tangent) {
+  return std::visit(
+      [&](const auto& m) {
+        return m.update_with_tangent(strain_increment, stress, state, tangent);
+      },
+      material);
 }
 
 }  // namespace pfm

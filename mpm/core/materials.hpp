@@ -22,7 +22,10 @@
 //    add to it. In simple shear eps_p is the plastic engineering shear strain gamma_xy^p.
 //
 // update() is the hot path (no allocation, no exception, no virtual call); update_with_info()
-// does the same and also says which return was used (for tests and diagnostics). Hot loops
+// does the same and also says which return was used (for tests and diagnostics);
+// update_with_tangent() also gives the consistent (algorithmic) tangent of the update, the
+// derivative of the returned stress with respect to the strain increment (Simo & Taylor 1985),
+// which an implicit solver's Newton iterations need for quadratic convergence. Hot loops
 // compute a model's constants() (Hooke constants, sines of the angles) once and pass them to
 // update(..., constants): bitwise the same result without recomputing them per point.
 #pragma once
@@ -79,6 +82,10 @@ struct MaterialConstants {
   double compliance_coupling = 0.0;
 };
 
+/// d stress / d strain increment, 4 x 4: rows in the order of Stress, columns in the order of
+/// Strain (gamma_xy, so the shear entry of Hooke's law is mu), kPa.
+using Tangent = Eigen::Matrix4d;
+
 /// Stress increment of Hooke's law for a plane-strain strain increment.
 Stress elastic_stress_increment(const ElasticParameters& elastic, const Strain& strain_increment);
 
@@ -90,6 +97,10 @@ inline Stress elastic_stress_increment(const MaterialConstants& constants, const
   return Stress(lambda * volumetric + 2.0 * mu * d[kXX], lambda * volumetric + 2.0 * mu * d[kYY],
                 mu * d[kXY], lambda * volumetric + 2.0 * mu * d[kZZ]);
 }
+
+/// Hooke's law as a Tangent: lambda + 2 mu on the normal diagonal (zz included), lambda off it,
+/// mu for the shear.
+Tangent elastic_tangent(const MaterialConstants& constants);
 
 /// Elastic strain energy per unit volume psi = 1/2 sigma : C^-1 : sigma of the full 3D stress
 /// (sigma_zz included), kJ/m^3 = kPa:
@@ -143,6 +154,9 @@ struct LinearElastic {
     stress += elastic_stress_increment(constants, strain_increment);
   }
   MaterialConstants constants() const;
+  /// update() and Hooke's law as the tangent.
+  ReturnInfo update_with_tangent(const Strain& strain_increment, Stress& stress, PointState& state,
+                                 Tangent& tangent) const;
 };
 
 struct Tresca {
@@ -155,6 +169,13 @@ struct Tresca {
   MaterialConstants constants() const;
   ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
                               PointState& state) const;
+  /// update_with_info() and the consistent tangent d stress / d strain_increment at this
+  /// increment: Hooke's law for an elastic step; for a return, the linearised return on its
+  /// active planes (the softening slope of the law at the new eps_p included) turned with the
+  /// trial stress's principal directions (materials.cpp, spectral_tangent). Not symmetric for
+  /// non-associated flow.
+  ReturnInfo update_with_tangent(const Strain& strain_increment, Stress& stress, PointState& state,
+                                 Tangent& tangent) const;
   /// Yield function at the given stress and state (kPa); <= 0 inside the elastic region.
   double yield_function(const Stress& stress, const PointState& state) const;
 };
@@ -172,6 +193,13 @@ struct MohrCoulomb {
   MaterialConstants constants() const;
   ReturnInfo update_with_info(const Strain& strain_increment, Stress& stress,
                               PointState& state) const;
+  /// update_with_info() and the consistent tangent d stress / d strain_increment at this
+  /// increment: Hooke's law for an elastic step; for a return, the linearised return on its
+  /// active planes (the softening slope of the law at the new eps_p included) turned with the
+  /// trial stress's principal directions (materials.cpp, spectral_tangent). Not symmetric for
+  /// non-associated flow.
+  ReturnInfo update_with_tangent(const Strain& strain_increment, Stress& stress, PointState& state,
+                                 Tangent& tangent) const;
   /// Shear yield function f = (s1 - s3) + (s1 + s3) sin(phi) - 2 c(eps_p) cos(phi), kPa.
   double yield_function(const Stress& stress, const PointState& state) const;
   /// Tension cut-off function s1 - sigma_t,eff, kPa; the elastic region is where both are <= 0.
@@ -187,5 +215,9 @@ const ElasticParameters& elastic_parameters(const Material& material);
 
 /// The constants() of whichever model `material` holds.
 MaterialConstants material_constants(const Material& material);
+
+/// update_with_tangent() of whichever model `material` holds.
+ReturnInfo update_with_tangent(const Material& material, const Strain& strain_increment,
+                               Stress& stress, PointState& state, Tangent& tangent);
 
 }  // namespace pfm

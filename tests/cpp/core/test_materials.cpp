@@ -1,12 +1,14 @@
 // Constitutive models: Hooke's law by hand, Tresca and Mohr-Coulomb returns checked against the
 // Kuhn-Tucker conditions computed independently here (Eigen eigen-decomposition of the trial
 // stress), analytic simple-shear curves across peak and residual, step-size independence, the
-// phi = 0 limit, the tension cut-off and the apex.
+// phi = 0 limit, the tension cut-off and the apex; the consistent tangents against central
+// differences of the updates.
 //
 // Material used throughout: E = 1e4 kPa, nu = 0.25, so lambda = mu = 4000 kPa.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +16,9 @@
 #include <map>
 #include <numbers>
 #include <random>
+#include <string>
+#include <variant>
+#include <vector>
 
 #include "mpm/core/materials.hpp"
 
@@ -592,6 +597,130 @@ TEST(Materials, PiecewiseSegmentsLandExactlyAcrossBreakpoints) {
   tresca.update(Strain(0.0, 0.0, gp + tau / kMu, 0.0), s2, state2);
   EXPECT_NEAR(state2.plastic_strain, gp, 1e-15);
   EXPECT_NEAR(s2[kXY], tau, 1e-11);
+}
+
+// -------------------------------------------------------------------------------------------
+// Consistent tangents: update_with_tangent() against central differences of update().
+
+/// The segment of the piecewise-linear law that holds eps (its slope's interval).
+std::size_t law_segment(const PiecewiseLinear& law, double eps) {
+  return static_cast<std::size_t>(std::upper_bound(law.x.begin(), law.x.end(), eps) -
+                                  law.x.begin());
+}
+
+struct TangentFigures {
+  double worst = 0.0;  // max |tangent - difference quotient| / max |Hooke|
+  int compared = 0;
+  int skipped = 0;  // a difference that changes the active set or the law's segment
+  std::map<std::string, int> counts;
+};
+
+/// Random returns of `material` (admissible start stress for the surface `m`, random state and
+/// increment), each tangent compared with the central difference quotient of the update with a
+/// strain step `delta` in each of the four strain entries.
+template <class Model>
+TangentFigures tangents_against_differences(const Model& model, const PlaneConstants& m,
+                                            std::uint64_t seed, int samples) {
+  const double hooke = elastic_tangent(model.constants()).cwiseAbs().maxCoeff();
+  const double delta = 1e-8;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> eps_dist(0.0, 0.06);
+  TangentFigures fig;
+  for (int k = 0; k < samples; ++k) {
+    const PointState start{eps_dist(rng)};
+    const Stress s0 = random_admissible_stress(rng, m, model.cohesion.value(start.plastic_strain));
+    const Strain d = random_strain_increment(rng);
+    Stress s = s0;
+    PointState state = start;
+    Tangent tangent;
+    const ReturnInfo info = model.update_with_tangent(d, s, state, tangent);
+    const std::string set = set_name(info);
+    const std::size_t segment = law_segment(model.cohesion, state.plastic_strain);
+    Tangent differences;
+    bool same = true;
+    for (int j = 0; j < 4 && same; ++j) {
+      Stress ends[2];
+      for (int side = 0; side < 2; ++side) {
+        Strain dj = d;
+        dj[j] += side == 0 ? delta : -delta;
+        ends[side] = s0;
+        PointState state_j = start;
+        const ReturnInfo info_j = model.update_with_info(dj, ends[side], state_j);
+        same = same && set_name(info_j) == set &&
+               law_segment(model.cohesion, state_j.plastic_strain) == segment;
+      }
+      differences.col(j) = (ends[0] - ends[1]) / (2.0 * delta);
+    }
+    if (!same) {
+      ++fig.skipped;
+      continue;
+    }
+    ++fig.counts[set];
+    ++fig.compared;
+    fig.worst = std::max(fig.worst, (tangent - differences).cwiseAbs().maxCoeff() / hooke);
+  }
+  return fig;
+}
+
+TEST(Materials, LinearElasticTangentIsHookesLaw) {
+  const LinearElastic elastic{soil_elastic()};
+  Stress s(-10.0, -20.0, 3.0, -15.0);
+  PointState state;
+  Tangent tangent;
+  elastic.update_with_tangent(Strain(1e-3, -2e-3, 3e-3, 0.0), s, state, tangent);
+  Tangent expected;
+  expected << kLambda + 2 * kMu, kLambda, 0, kLambda, kLambda, kLambda + 2 * kMu, 0, kLambda, 0, 0,
+      kMu, 0, kLambda, kLambda, 0, kLambda + 2 * kMu;
+  EXPECT_EQ(tangent, expected);
+}
+
+TEST(Materials, TrescaTangentIsTheDerivativeOfTheReturn) {
+  // Softening (thesis law) and hardening then snap-back: every return the update makes, the
+  // main plane and both edges, with the slope of the law at the new eps_p.
+  for (const PiecewiseLinear& law : {thesis_cohesion(), hardening_then_snap_cohesion()}) {
+    const Tresca tresca{soil_elastic(), law};
+    TangentFigures fig = tangents_against_differences(tresca, PlaneConstants{}, 7, 4000);
+    EXPECT_LE(fig.worst, 1e-6);
+    EXPECT_GE(fig.compared, 3600);
+    for (const char* set : {"elastic", "F13", "F13+F23", "F13+F12"})
+      EXPECT_GE(fig.counts[set], 50) << set;
+  }
+}
+
+TEST(Materials, MohrCoulombTangentIsTheDerivativeOfTheReturn) {
+  struct Model {
+    double phi, psi, cutoff;
+    std::vector<std::string> sets;
+  };
+  // Non-associated with a cut-off (every set but the cone apex), associated and psi = 0 with the
+  // cut-off at the apex (the cone apex reached as the tension apex), as the Kuhn-Tucker tests.
+  const Model models[] = {
+      {30.0, 10.0, 3.0, {"F13", "F13+F23", "F13+F12", "T1", "F13+T1", "T1+T2", "T1+T2+T3"}},
+      {25.0, 25.0, 1e9, {"F13", "F13+F23", "F13+F12", "F13+F12+T1", "F13+T1+T2"}},
+      {35.0, 0.0, 1e9, {"F13", "F13+F23", "F13+F12", "F13+F12+T1", "F13+T1+T2"}}};
+  for (const Model& model : models) {
+    const MohrCoulomb mc{soil_elastic(), thesis_cohesion(), model.phi, model.psi, model.cutoff};
+    const double phi = model.phi * std::numbers::pi / 180.0;
+    const PlaneConstants m{std::sin(phi), std::cos(phi),
+                           std::sin(model.psi * std::numbers::pi / 180.0), model.cutoff};
+    TangentFigures fig = tangents_against_differences(mc, m, 11, 8000);
+    EXPECT_LE(fig.worst, 1e-6) << model.phi << " " << model.psi;
+    EXPECT_GE(fig.compared, 7000) << model.phi << " " << model.psi;
+    for (const std::string& set : model.sets) EXPECT_GE(fig.counts[set], 5) << set;
+  }
+}
+
+TEST(Materials, TangentOfTheMaterialVariantIsTheModels) {
+  const Material material = MohrCoulomb{soil_elastic(), thesis_cohesion(), 30.0, 10.0, 3.0};
+  const Strain d(-2e-3, 1e-3, 2e-2, 0.0);
+  Stress a(-30.0, -40.0, 5.0, -35.0), b = a;
+  PointState sa, sb;
+  Tangent ta, tb;
+  update_with_tangent(material, d, a, sa, ta);
+  std::get<MohrCoulomb>(material).update_with_tangent(d, b, sb, tb);
+  EXPECT_EQ(ta, tb);
+  EXPECT_EQ(a, b);
+  EXPECT_GT(sa.plastic_strain, 0.0);  // a plastic step
 }
 
 }  // namespace
