@@ -1,6 +1,7 @@
 // pfm-mpm: the command-line tool.
 //
 //   pfm-mpm run CASE.json --out DIR [--overwrite] [--solver mpm|ulfem] [--threads N] [--quiet]
+//               (a case with solver.type "implicit" runs the implicit quasi-static MPM)
 //               [--checkpoint-steps N] [--checkpoint-seconds T]
 //   pfm-mpm run --restart DIR [--threads N]      continue a killed run from its checkpoint
 //   pfm-mpm validate CASE.json
@@ -22,8 +23,28 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/detect/detect_command.hpp"
+#include "mpm/implicit/implicit_run.hpp"
+#include "mpm/implicit/implicit_solver.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/solver/run.hpp"
+
+namespace {
+
+// `pfm-mpm run` of a new case: the implicit MPM for solver.type "implicit", else the solver
+// --solver names (the explicit MPM or the UL-FEM).
+int run_new_case(const pfm::Case& c, const std::string& solver_name,
+                 const pfm::RunOptions& options) {
+  if (c.solver.type == pfm::SolverType::kImplicit) {
+    if (solver_name != "mpm") {
+      throw pfm::InputError(c.file + ": /solver/type: \"implicit\" is the implicit MPM; the " +
+                            "UL-FEM (--solver ulfem) runs explicit cases");
+    }
+    return pfm::run_implicit_case(c, options);
+  }
+  return solver_name == "ulfem" ? pfm::run_ulfem_case(c, options) : pfm::run_case(c, options);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // HDF5's own exit handler closes files again that a failed write left half-closed, and
@@ -104,6 +125,12 @@ int main(int argc, char** argv) {
   try {
     if (*validate) {
       const pfm::Case c = pfm::read_case(validate_file);
+      if (c.solver.type == pfm::SolverType::kImplicit) {
+        pfm::ImplicitSolver solver(c);  // checks that need the particles, refusals
+        std::cout << validate_file << ": valid (" << solver.particles().size()
+                  << " particles, implicit, " << c.implicit.load_steps << " load steps)\n";
+        return pfm::kExitOk;
+      }
       pfm::MpmSolver solver(c);  // checks that need the particles (empty bodies, time step)
       std::cout << validate_file << ": valid (" << solver.particles().size() << " particles, dt "
                 << solver.dt() << " s)\n";
@@ -138,9 +165,7 @@ int main(int argc, char** argv) {
     }
     if (case_file.empty() || options.out_dir.empty())
       throw pfm::InputError("run: give CASE.json and --out DIR (or --restart DIR)");
-    const pfm::Case c = pfm::read_case(case_file);
-    const int status =
-        solver_name == "ulfem" ? pfm::run_ulfem_case(c, options) : pfm::run_case(c, options);
+    const int status = run_new_case(pfm::read_case(case_file), solver_name, options);
     if (status == pfm::kExitOk) std::cout << "results: " << options.out_dir << "\n";
     return status;
   } catch (const pfm::InputError& e) {

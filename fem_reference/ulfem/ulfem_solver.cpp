@@ -97,6 +97,10 @@ const Case& without_constraints(const Case& c) {
 
 UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
     : case_(without_constraints(c)), mesh_(std::move(mesh)) {
+  if (c.solver.type != SolverType::kExplicit) {
+    throw InputError(c.file + ": /solver/type: the UL-FEM is explicit; it takes \"explicit\" " +
+                     "cases");
+  }
   node_position_ = mesh_.node_position;
   node_reference_ = mesh_.node_position;
   const std::size_t n_nodes = mesh_.n_nodes();

@@ -6,27 +6,10 @@
 #include <cstdio>
 #include <limits>
 
+#include "mpm/step/body_fill.hpp"
 #include "mpm/step/stage_timer.hpp"
 
 namespace pfm {
-
-namespace {
-
-/// The particle spacing of the initial state: the smallest cell size / points per cell over
-/// the bodies, and the side of the smallest point of a body from a particle file (m).
-double initial_particle_spacing(const Case& c) {
-  double spacing = std::numeric_limits<double>::infinity();
-  for (const BodySpec& body : c.bodies) {
-    if (body.from_file()) {
-      for (const double v : body.point_volume) spacing = std::min(spacing, std::sqrt(v));
-    } else {
-      spacing = std::min(spacing, c.grid.cell_size / body.points_per_cell);
-    }
-  }
-  return spacing;
-}
-
-}  // namespace
 
 BoundaryCoupling::BoundaryCoupling(const Case& c)
     : case_(c),

@@ -46,6 +46,10 @@ int top_edge_row(const Grid& grid, const std::vector<char>& occupied, int c) {
 }  // namespace
 
 MpmSolver::MpmSolver(const Case& c) : case_(c) {
+  if (c.solver.type != SolverType::kExplicit) {
+    throw InputError(c.file + ": /solver/type: the explicit MPM takes \"explicit\" cases; " +
+                     "pfm-mpm run gives an \"implicit\" one to the implicit solver");
+  }
   particles_ = fill_bodies(case_);
   if (particles_.size() == 0) {
     throw InputError(case_.file + ": /bodies: the bodies hold no material point (each body must " +
@@ -141,22 +145,7 @@ void MpmSolver::build_constraints() {
     const BoundaryCondition& bc = case_.boundary_conditions[k];
     for (int j = 0; j < grid.n_nodes_y(); ++j) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
-        bool selected = false;
-        if (bc.where == "left") {
-          selected = i == 0;
-        } else if (bc.where == "right") {
-          selected = i == grid.n_nodes_x() - 1;
-        } else if (bc.where == "bottom") {
-          selected = j == 0;
-        } else if (bc.where == "top") {
-          selected = j == grid.n_nodes_y() - 1;
-        } else {
-          for (const NodeSet& set : case_.node_sets) {
-            if (set.name == bc.where)
-              selected = set.contains(grid.node_position(i, j), 1e-9 * grid.cell_size);
-          }
-        }
-        if (!selected) continue;
+        if (!grid_node_held(case_, bc, i, j)) continue;
         grid_.fixed[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
         if (bc.moving) moving[static_cast<std::size_t>(grid.node_index(i, j))] |= bc.fix;
         prescribed_.add(k, static_cast<std::size_t>(grid.node_index(i, j)));

@@ -384,4 +384,16 @@ void apply_k0_stress(const Case& c, Particles& particles) {
   }
 }
 
+double initial_particle_spacing(const Case& c) {
+  double spacing = std::numeric_limits<double>::infinity();
+  for (const BodySpec& body : c.bodies) {
+    if (body.from_file()) {
+      for (const double v : body.point_volume) spacing = std::min(spacing, std::sqrt(v));
+    } else {
+      spacing = std::min(spacing, c.grid.cell_size / body.points_per_cell);
+    }
+  }
+  return spacing;
+}
+
 }  // namespace pfm

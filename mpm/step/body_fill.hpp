@@ -40,4 +40,9 @@ void placement_points_1d(Placement placement, int n, std::vector<double>& positi
 /// stress more than one cell inside within 3 % of the exact state.
 Particles fill_bodies(const Case& c);
 
+/// The particles' spacing in the initial state (the detectors' reference spacing), m: the
+/// smallest cell size / points per cell over the bodies, and the side of the smallest point of a
+/// body read from a particle file.
+double initial_particle_spacing(const Case& c);
+
 }  // namespace pfm

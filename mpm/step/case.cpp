@@ -839,8 +839,11 @@ void parse_solver(const JsonView& root, Case& c) {
   c.solver.mean_dilatation = nearly_incompressible;
   std::optional<double> outer_node_fraction;
   if (const auto s = root.find("solver")) {
-    s->expect_object({"scheme", "shape_function", "damping", "damping_form", "pic_fraction",
+    s->expect_object({"type", "scheme", "shape_function", "damping", "damping_form", "pic_fraction",
                       "anti_locking", "outer_node_fraction"});
+    c.solver.type = s->choice_or("type", {"explicit", "implicit"}, "explicit") == "implicit"
+                        ? SolverType::kImplicit
+                        : SolverType::kExplicit;
     c.solver.scheme =
         s->choice_or("scheme", {"musl", "usl"}, "musl") == "usl" ? Scheme::kUSL : Scheme::kMUSL;
     const std::string shape =
@@ -927,6 +930,29 @@ void parse_solver(const JsonView& root, Case& c) {
   }
 }
 
+/// The "implicit" block, only with solver.type "implicit".
+void parse_implicit(const JsonView& root, Case& c) {
+  const auto b = root.find("implicit");
+  if (!b) return;
+  if (c.solver.type != SolverType::kImplicit) b->fail("is read only with solver.type \"implicit\"");
+  b->expect_object({"load_steps", "tolerance", "max_iterations", "max_cuts"});
+  const auto integer = [&](const char* key, int& value, int least) {
+    if (!b->has(key)) return;
+    const double v = b->at(key).as_number();
+    b->at(key).require(v == std::floor(v) && v >= least && v <= 1e6,
+                       "must be a whole number from " + std::to_string(least) + " to 1e6");
+    value = static_cast<int>(v);
+  };
+  integer("load_steps", c.implicit.load_steps, 1);
+  integer("max_iterations", c.implicit.max_iterations, 1);
+  integer("max_cuts", c.implicit.max_cuts, 0);
+  c.implicit.tolerance = b->number_or("tolerance", c.implicit.tolerance);
+  if (b->has("tolerance")) {
+    b->at("tolerance")
+        .require(c.implicit.tolerance > 0.0 && c.implicit.tolerance < 1.0, "must be in (0, 1)");
+  }
+}
+
 /// The end time and the time step.
 void parse_time(const JsonView& root, Case& c) {
   const JsonView t = root.at("time");
@@ -1004,8 +1030,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   c.source = document;
   const JsonView root(document, file);
   root.expect_object({"title", "grid", "materials", "bodies", "gravity", "initial_stress",
-                      "node_sets", "boundary_conditions", "loads", "constraints", "solver", "time",
-                      "output", "detection", "manufactured_solution"});
+                      "node_sets", "boundary_conditions", "loads", "constraints", "solver",
+                      "implicit", "time", "output", "detection", "manufactured_solution"});
   if (root.has("title")) c.title = root.at("title").as_string();
 
   parse_grid(root, c);
@@ -1019,6 +1045,7 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   parse_loads(root, c);
   parse_constraints(root, c);
   parse_solver(root, c);
+  parse_implicit(root, c);
   parse_time(root, c);
   parse_output(root, c);
   parse_detection(root, c);

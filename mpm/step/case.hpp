@@ -156,7 +156,20 @@ enum class Scheme { kMUSL, kUSL };
 /// solver.outer_node_fraction's default with uGIMP and B-splines (linear functions: 0).
 inline constexpr double kDefaultOuterNodeFraction = 0.05;
 
+/// solver.type: the explicit dynamic MPM (mpm/solver/mpm_solver.hpp) or the implicit
+/// quasi-static one (mpm/implicit/implicit_solver.hpp).
+enum class SolverType { kExplicit, kImplicit };
+
+/// The "implicit" block (solver.type "implicit"): the load steps and the Newton iteration.
+struct ImplicitSpec {
+  int load_steps = 20;      ///< the first step's size is time.end_time / load_steps
+  double tolerance = 1e-9;  ///< on the relative out-of-balance force
+  int max_iterations = 25;  ///< Newton iterations per attempt of a step
+  int max_cuts = 8;         ///< halvings of a step in a row before the run stops
+};
+
 struct SolverSpec {
+  SolverType type = SolverType::kExplicit;
   Scheme scheme = Scheme::kMUSL;
   ShapeFunctionKind shape_function = ShapeFunctionKind::kQuadraticBspline;
   double damping = 0.0;  ///< local (Cundall) damping coefficient
@@ -226,6 +239,7 @@ struct Case {
   /// Essential conditions on the detected boundary ("constraints"; MPM only).
   std::vector<ConstraintSpec> constraints;
   SolverSpec solver;
+  ImplicitSpec implicit;  ///< read with solver.type "implicit"
   TimeSpec time;
   OutputSpec output;
   /// Boundary detection during the run ("detection" block; required by detected-boundary
@@ -269,9 +283,11 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// {type, ramp_time}, and normal {direction, max_angle} when given}], constraints [{x_range, faces,
 /// normal (null or {direction, max_angle}), quantity (displacement, velocity), normal_only,
 /// value (a number with normal_only, else [x, y]), time_function, method, penalty}], solver
-/// {scheme, shape_function, damping, damping_form, pic_fraction, anti_locking}, time {end_time,
-/// cfl, dt (null: from cfl), max_steps}, output {interval, timeseries_interval, nodal_loads,
-/// compression, vtk}, detection (null or {every_steps, method}), manufactured_solution (bool).
+/// {type, scheme, shape_function, damping, damping_form, pic_fraction, anti_locking}, implicit
+/// (null, or with solver.type "implicit" {load_steps, tolerance, max_iterations, max_cuts}), time
+/// {end_time, cfl, dt (null: from cfl), max_steps}, output {interval, timeseries_interval,
+/// nodal_loads, compression, vtk}, detection (null or {every_steps, method}), manufactured_solution
+/// (bool).
 nlohmann::json resolved_case(const Case& c);
 
 /// Refuses (InputError naming the file and the JSON path) a run that cannot be useful with its

@@ -178,6 +178,7 @@ json resolved_case(const Case& c) {
   for (const ConstraintSpec& constraint : c.constraints)
     out["constraints"].push_back(constraint_json(constraint));
   out["solver"] = {
+      {"type", c.solver.type == SolverType::kImplicit ? "implicit" : "explicit"},
       {"scheme", c.solver.scheme == Scheme::kUSL ? "usl" : "musl"},
       {"shape_function", shape_function_name(c.solver.shape_function)},
       {"damping", c.solver.damping},
@@ -185,6 +186,13 @@ json resolved_case(const Case& c) {
        c.solver.damping_form == DampingForm::kAlongVelocity ? "along_velocity" : "per_axis"},
       {"pic_fraction", c.solver.pic_fraction},
       {"anti_locking", c.solver.mean_dilatation ? "bbar" : "none"}};
+  out["implicit"] = nullptr;
+  if (c.solver.type == SolverType::kImplicit) {
+    out["implicit"] = {{"load_steps", c.implicit.load_steps},
+                       {"tolerance", c.implicit.tolerance},
+                       {"max_iterations", c.implicit.max_iterations},
+                       {"max_cuts", c.implicit.max_cuts}};
+  }
   out["time"] = {{"end_time", c.time.end_time},
                  {"cfl", c.time.cfl},
                  {"dt", number_or_null(c.time.dt)},

@@ -16,6 +16,22 @@
 
 namespace pfm {
 
+/// Whether boundary condition `bc` of case `c` holds grid node (i, j): the grid's edge it names
+/// (left, right, bottom, top) or the node set of its name (within 1e-9 h of it).
+inline bool grid_node_held(const Case& c, const BoundaryCondition& bc, int i, int j) {
+  const Grid& grid = c.grid;
+  if (bc.where == "left") return i == 0;
+  if (bc.where == "right") return i == grid.n_nodes_x() - 1;
+  if (bc.where == "bottom") return j == 0;
+  if (bc.where == "top") return j == grid.n_nodes_y() - 1;
+  bool selected = false;
+  for (const NodeSet& set : c.node_sets) {
+    if (set.name == bc.where)
+      selected = set.contains(grid.node_position(i, j), 1e-9 * grid.cell_size);
+  }
+  return selected;
+}
+
 class PrescribedVelocity {
  public:
   PrescribedVelocity() = default;

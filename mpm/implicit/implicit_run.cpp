@@ -1,0 +1,101 @@
+#include "mpm/implicit/implicit_run.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "mpm/core/exact_text.hpp"
+#include "mpm/core/provenance.hpp"
+#include "mpm/implicit/implicit_solver.hpp"
+#include "mpm/step/output.hpp"
+#include "mpm/step/step_view.hpp"
+
+namespace pfm {
+
+namespace {
+
+nlohmann::json step_log(const LoadStepLog& e) {
+  return {{"time", e.time}, {"dt", e.dt}, {"converged", e.converged}, {"residuals", e.residuals}};
+}
+
+}  // namespace
+
+int run_implicit_case(const Case& c, const RunOptions& options) {
+  ThreadGovernor governor(options.threads);
+  ImplicitSolver solver(c);  // may throw InputError: nothing created yet
+  OutputFolder folder(options.out_dir, output_folder_mode(options));
+  nlohmann::json run;
+  run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, governor.threads());
+  run["provenance"]["solver"] = "implicit";
+  run["case"] = c.source;
+  run["status"] = "running";
+  std::unique_ptr<ParticleSeriesWriter> writer;
+  std::string table = "time,dt,iterations,residual,attempts\n";
+  const auto wall_start = std::chrono::steady_clock::now();
+  const double end = c.time.end_time;
+  int status = kExitOk;
+  std::string message;
+  long steps = 0;
+  try {
+    const std::string text = run.dump(2) + "\n";
+    write_file_atomically(folder.file("run.json"), text);
+    folder.reserve(2 * text.size() + 65536);
+    writer = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
+    writer->write(0.0, 0, solver.particles());
+    RunProgress progress(options.progress);
+    double next_output = c.output.interval;
+    const double eps = 1e-9 * end;
+    try {
+      while (solver.time() < end - eps) {
+        const std::size_t before = solver.log().size();
+        solver.advance(end);
+        ++steps;
+        const LoadStepLog& e = solver.log().back();
+        table += format_exact(e.time) + ',' + format_exact(e.dt) + ',' +
+                 std::to_string(e.residuals.size() - 1) + ',' + format_exact(e.residuals.back()) +
+                 ',' + std::to_string(solver.log().size() - before) + '\n';
+        const bool last = solver.time() >= end - eps;
+        if (solver.time() >= next_output - eps || last) {
+          writer->write(solver.time(), steps, solver.particles());
+          write_file_atomically(folder.file("timeseries.csv"), table);
+          while (next_output <= solver.time() + eps) next_output += c.output.interval;
+        }
+        governor.update();
+        progress.update(steps, solver.time(), end);
+      }
+      write_file_atomically(folder.file("final_particles.csv"), particles_csv(solver.particles()));
+    } catch (const SimulationError& e) {  // a step that did not converge, a particle off the grid
+      status = note_simulation_stop(e, options.out_dir, message);
+    }
+    writer.reset();  // closes particles.h5 before run.json is final
+  } catch (const IoError& e) {
+    writer.reset();
+    return fail_on_write_fault(folder, run, e);
+  }
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  long iterations = 0;
+  nlohmann::json attempts = nlohmann::json::array();
+  for (const LoadStepLog& e : solver.log()) {
+    iterations += static_cast<long>(e.residuals.size()) - 1;
+    attempts.push_back(step_log(e));
+  }
+  run["status"] = status == kExitOk ? "completed" : "failed";
+  if (!message.empty()) run["error"] = message;
+  run["provenance"]["finished_utc"] = utc_now();
+  const double n_particles = static_cast<double>(solver.particles().size());
+  run["summary"] = {{"solver", "implicit"},
+                    {"n_particles", solver.particles().size()},
+                    {"n_steps", steps},
+                    {"n_attempts", solver.log().size()},
+                    {"n_iterations", iterations},
+                    {"final_time_s", solver.time()},
+                    {"wall_time_s", wall},
+                    {"particle_steps_per_s", wall > 0.0 ? n_particles * steps / wall : 0.0},
+                    {"threads", governor.summary()}};
+  run["load_steps"] = attempts;
+  return finish_run(folder, run, table, options, status);
+}
+
+}  // namespace pfm

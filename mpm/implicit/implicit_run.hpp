@@ -1,0 +1,26 @@
+// `pfm-mpm run` of a case with solver.type "implicit" (implicit_solver.hpp).
+#pragma once
+
+#include "mpm/step/case.hpp"
+#include "mpm/step/run_support.hpp"
+
+namespace pfm {
+
+/// Runs the case's load steps to time.end_time and writes into options.out_dir:
+///   run.json         provenance, the case, the status ("completed" or "failed" with the
+///                    error), the summary (n_particles, n_steps = converged load steps,
+///                    n_attempts, n_iterations, final_time_s, wall_time_s,
+///                    particle_steps_per_s) and load_steps: every attempt of every step with
+///                    its time, dt, whether it converged and its relative residuals;
+///   timeseries.csv   one row per converged load step: time, dt, iterations, residual (the
+///                    last relative residual), attempts (1 + the step's cut-backs);
+///   particles.h5/.xdmf at t = 0 and at every output.interval (and the last step), the
+///                    particle fields of the explicit run (output.hpp);
+///   final_particles.csv.
+/// Returns kExitOk, kExitSimulationError when a step does not converge after
+/// implicit.max_cuts halvings (the outputs so far kept, run.json "failed" naming the step, its
+/// size and its residuals) or a particle leaves the grid, kExitIoError on a write fault.
+/// Throws InputError (nothing created) for a case the solver refuses.
+int run_implicit_case(const Case& c, const RunOptions& options);
+
+}  // namespace pfm

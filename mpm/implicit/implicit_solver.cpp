@@ -1,0 +1,596 @@
+#include "mpm/implicit/implicit_solver.hpp"
+
+#include <Eigen/Sparse>
+#include <Eigen/UmfPackSupport>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "mpm/boundary/bezier.hpp"
+#include "mpm/boundary/surface_load.hpp"
+#include "mpm/core/json_input.hpp"
+#include "mpm/core/kinematics.hpp"
+#include "mpm/core/wall_mirror.hpp"
+#include "mpm/step/body_fill.hpp"
+#include "mpm/step/prescribed_velocity.hpp"
+#include "mpm/step/step_view.hpp"
+
+namespace pfm {
+
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+using Vector = Eigen::VectorXd;
+
+// A node component's displacement increment as an affine function of the unknowns x:
+// offset + sum weight x[dof].
+struct Affine {
+  double offset = 0.0;
+  std::vector<std::pair<int, double>> terms;
+  bool used = false;  ///< the component belongs to a node with material (or tied)
+};
+
+// A grid node a particle's functions reach, with the function's value and gradient there.
+struct NodeWeight {
+  int node = 0;
+  double value = 0.0;
+  Vec2 gradient = Vec2::Zero();
+};
+
+// The nodes of a stencil that lie on the grid (a B-spline stencil at the grid's edge starts
+// one node outside it, with zero weight there).
+std::vector<NodeWeight> grid_nodes(const Grid& grid, const ShapeStencil& st) {
+  std::vector<NodeWeight> nodes;
+  for (int b = 0; b < st.width; ++b) {
+    for (int a = 0; a < st.width; ++a) {
+      const int i = st.base_i + a, j = st.base_j + b;
+      if (i < 0 || j < 0 || i >= grid.n_nodes_x() || j >= grid.n_nodes_y()) continue;
+      const auto k = static_cast<std::size_t>(b * st.width + a);
+      nodes.push_back({grid.node_index(i, j), st.value[k], st.gradient[k]});
+    }
+  }
+  return nodes;
+}
+
+// What a particle's B (or B-bar) operator is made of: per node, the strain of a unit
+// displacement of its x and y components, (xx, yy, gamma_xy, zz) each.
+struct NodeStrain {
+  int node = 0;
+  Eigen::Matrix<double, 4, 2> b = Eigen::Matrix<double, 4, 2>::Zero();
+};
+
+// B_I of a node whose function has gradient g at the point.
+Eigen::Matrix<double, 4, 2> strain_operator(const Vec2& g) {
+  Eigen::Matrix<double, 4, 2> b = Eigen::Matrix<double, 4, 2>::Zero();
+  b(kXX, 0) = g.x();
+  b(kYY, 1) = g.y();
+  b(kXY, 0) = g.y();
+  b(kXY, 1) = g.x();
+  return b;
+}
+
+double factor_of_gravity(const GravitySpec& g, double t) {
+  if (g.ramp_time <= 0.0) return 1.0;
+  return std::min(1.0, t / g.ramp_time);
+}
+
+// A step that converges in at most kFastIterations lets the next one grow by kGrowth.
+constexpr int kFastIterations = 4;
+constexpr double kGrowth = 1.5;
+
+[[noreturn]] void refuse(const Case& c, const std::string& path, const std::string& why) {
+  throw InputError(c.file + ": " + path + ": " + why);
+}
+
+}  // namespace
+
+// The state of t_n that a load step's iterations share.
+struct ImplicitSolver::Prepared {
+  double dt = 0.0, t_end = 0.0;                // s
+  std::vector<std::vector<NodeWeight>> nodes;  // per particle: the grid nodes it reaches
+  // The material under each node, sum_p N_I V_p (m^2): what decides the nodes with material and
+  // the ties (as the explicit step's masses do, also for a weightless material).
+  std::vector<double> material;
+  PrescribedVelocity prescribed;                // the moving supports over the step
+  bool tied = false;                            // nodes with little material are tied
+  std::vector<int> cell;                        // per particle (B-bar)
+  std::vector<double> cell_volume;              // per cell (B-bar)
+  std::vector<std::vector<NodeStrain>> strain;  // per particle: B (or B-bar) per node
+  std::vector<Affine> map;                      // per node component (2 n + d)
+  int n_dofs = 0;
+  std::vector<Vec2> external;  // per node, kN/m
+  Vector external_reduced;     // T^T f_ext
+};
+
+// What an iterate of the displacement increments gives (ImplicitSolver::evaluate).
+struct ImplicitSolver::Iterate {
+  std::vector<Vec2> increment;  // per node, m
+  std::vector<Mat2> gradient;   // per particle: the increment gradient with B-bar's dilatation
+  std::vector<Stress> stress;   // per particle, kPa
+  std::vector<PointState> state;
+  std::vector<Vec2> internal;  // per node, sum_p V_p B^T sigma_p, kN/m
+  double internal_norm = 0.0;  // over the node components with material, reactions included
+  std::vector<Eigen::Triplet<double>> triplets;  // T^T K T
+};
+
+ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) {
+  for (const char* key : {"scheme", "damping", "damping_form", "pic_fraction"}) {
+    if (c.source.contains("solver") && c.source["solver"].contains(key)) {
+      refuse(c, std::string("/solver/") + key,
+             "belongs to the explicit step; the implicit solver is quasi-static");
+    }
+  }
+  for (const char* key : {"cfl", "dt"}) {
+    if (c.source.contains("time") && c.source["time"].contains(key)) {
+      refuse(c, std::string("/time/") + key,
+             "belongs to the explicit step; the implicit solver's steps are "
+             "implicit.load_steps");
+    }
+  }
+  if (std::any_of(c.loads.begin(), c.loads.end(),
+                  [](const LoadSpec& l) { return l.apply_on == LoadTarget::kGridTopNodes; })) {
+    refuse(c, "/loads",
+           "the implicit solver takes loads on the detected boundary only "
+           "(apply_on \"detected_boundary\"), not on the grid-top nodes yet");
+  }
+  if (!c.constraints.empty())
+    refuse(c, "/constraints", "the implicit solver does not hold constraints yet");
+  if (c.initial_stress.method == InitialStressMethod::kGravity) {
+    refuse(c, "/initial_stress/method",
+           "\"gravity\" loading is a dynamic relaxation; the implicit solver takes \"zero\" (and "
+           "applies gravity in its first load step) or \"k0\"");
+  }
+  if (c.manufactured) refuse(c, "/manufactured_solution", "not taken by the implicit solver");
+  particles_ = fill_bodies(c);
+  if (particles_.size() == 0) refuse(c, "/bodies", "the bodies hold no material point");
+  if (c.initial_stress.method == InitialStressMethod::kK0) apply_k0_stress(c, particles_);
+  for (const MaterialRecord& m : c.materials) {
+    constants_.push_back(material_constants(m.model));
+    hooke_inverse_.push_back(elastic_tangent(constants_.back()).inverse());
+  }
+
+  const Grid& grid = c.grid;
+  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  fixed_.assign(n_nodes, kFixNone);
+  std::vector<unsigned> at_zero(n_nodes, kFixNone);
+  for (std::size_t k = 0; k < c.boundary_conditions.size(); ++k) {
+    const BoundaryCondition& bc = c.boundary_conditions[k];
+    for (int j = 0; j < grid.n_nodes_y(); ++j) {
+      for (int i = 0; i < grid.n_nodes_x(); ++i) {
+        if (!grid_node_held(c, bc, i, j)) continue;
+        const auto n = static_cast<std::size_t>(grid.node_index(i, j));
+        fixed_[n] |= bc.fix;
+        if (!bc.moving) at_zero[n] |= bc.fix;
+      }
+    }
+  }
+  mirror_ = WallMirror(grid, c.solver.shape_function, at_zero);
+  if (c.solver.outer_node_fraction > 0.0) {
+    extension_ = BasisExtension(grid, c.solver.shape_function, c.solver.outer_node_fraction);
+  }
+  initial_spacing_ = initial_particle_spacing(c);
+  reaction_.assign(n_nodes, Vec2::Zero());
+}
+
+void ImplicitSolver::run_to(double end_time) {
+  while (time_ < end_time * (1.0 - 1e-12)) advance(end_time);
+}
+
+void ImplicitSolver::advance(double end_time) {
+  if (first_step_ == 0.0) {
+    first_step_ = end_time / settings_.load_steps;
+    step_size_ = first_step_;
+  }
+  for (int cut = 0;; ++cut) {
+    double dt = std::min(step_size_, end_time - time_);
+    if (end_time - time_ - dt < 1e-9 * first_step_) dt = end_time - time_;  // no sliver left
+    if (try_step(dt)) {
+      const int iterations = static_cast<int>(log_.back().residuals.size()) - 1;
+      if (iterations <= kFastIterations) step_size_ = std::min(first_step_, step_size_ * kGrowth);
+      return;
+    }
+    if (cut == settings_.max_cuts) {
+      std::string history;
+      for (const double r : log_.back().residuals) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%s%.3e", history.empty() ? "" : ", ", r);
+        history += text;
+      }
+      throw ImplicitDivergence("load step from t = " + std::to_string(time_) + " s (dt " +
+                               std::to_string(dt) + " s, after " + std::to_string(cut) +
+                               " halvings) did not converge; relative residuals " + history);
+    }
+    step_size_ = 0.5 * dt;
+  }
+}
+
+void ImplicitSolver::locate(Prepared& s) const {
+  const Case& c = case_;
+  const Grid& grid = c.grid;
+  const std::size_t n_particles = particles_.size();
+  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  s.nodes.resize(n_particles);
+  s.material.assign(n_nodes, 0.0);
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    const Vec2& x = particles_.position[p];
+    if (!grid.contains(x)) {
+      throw SimulationError("particle " + std::to_string(p) +
+                            " left the grid at t = " + std::to_string(time_) + " s");
+    }
+    s.nodes[p] =
+        grid_nodes(grid, stencil(c.solver.shape_function, grid, x, particles_.half_length[p]));
+    for (const NodeWeight& w : s.nodes[p])
+      s.material[static_cast<std::size_t>(w.node)] += w.value * particles_.volume[p];
+  }
+}
+
+void ImplicitSolver::hold_and_tie(Prepared& s) {
+  const Case& c = case_;
+  const Grid& grid = c.grid;
+  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  s.prescribed = PrescribedVelocity(c.boundary_conditions, n_nodes);
+  for (std::size_t k = 0; k < c.boundary_conditions.size(); ++k) {
+    for (int j = 0; j < grid.n_nodes_y(); ++j)
+      for (int i = 0; i < grid.n_nodes_x(); ++i)
+        if (grid_node_held(c, c.boundary_conditions[k], i, j))
+          s.prescribed.add(k, static_cast<std::size_t>(grid.node_index(i, j)));
+  }
+  s.prescribed.update(time_, s.dt);
+  s.tied = extension_.enabled();
+  if (s.tied) {
+    extension_.classify(s.material, 1.0, fixed_, s.prescribed.start(), s.prescribed.end());
+  }
+}
+
+void ImplicitSolver::apply_external_force(Prepared& s) {
+  const Case& c = case_;
+  const Grid& grid = c.grid;
+  const std::size_t n_particles = particles_.size();
+  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  s.external.assign(n_nodes, Vec2::Zero());
+  const double g = c.gravity.g * factor_of_gravity(c.gravity, s.t_end);
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    for (const NodeWeight& w : s.nodes[p])
+      s.external[static_cast<std::size_t>(w.node)].y() -= w.value * particles_.mass[p] * g;
+  }
+  if (!c.loads.empty()) {
+    ParticleCloud cloud{particles_.position, particles_.volume, particles_.deformation_gradient,
+                        initial_spacing_};
+    const DetectedBoundary boundary = detect(cloud, grid, c.detection->detector, detector_state_);
+    boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
+    std::vector<Vec2> load(n_nodes, Vec2::Zero());
+    for (const LoadSpec& l : c.loads) {
+      boundary::BoundaryLoadSpec spec = *l.surface;
+      spec.min_node_mass = spec.min_node_mass_fraction * grid.cell_size * grid.cell_size;
+      std::span<const double> carriers = s.material;
+      if (s.tied) {
+        spec.redistribute_lost_load = false;  // the ties carry every node's load
+        carriers = {};
+      }
+      const auto curves = boundary::make_composite_beziers(boundary.contours, spec.curve);
+      integrator.integrate(curves, spec, l.time_function.factor(s.t_end), carriers, load);
+    }
+    std::vector<int> loaded_without_mass;
+    for (std::size_t n = 0; n < n_nodes; ++n) {
+      if (load[n].isZero()) continue;
+      s.external[n] += load[n];
+      if (s.material[n] <= 0.0) loaded_without_mass.push_back(static_cast<int>(n));
+    }
+    if (s.tied && !loaded_without_mass.empty()) {
+      extension_.tie_massless(loaded_without_mass, fixed_, s.prescribed.start(),
+                              s.prescribed.end());
+    }
+  }
+}
+
+void ImplicitSolver::number_unknowns(Prepared& s) {
+  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  s.map.assign(2 * n_nodes, Affine{});
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    if (s.material[n] <= 0.0 || (s.tied && extension_.tie_of(static_cast<int>(n)) >= 0)) continue;
+    for (int d = 0; d < 2; ++d) {
+      Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
+      a.used = true;
+      if (fixed_[n] & (d == 0 ? kFixX : kFixY)) {
+        a.offset = 0.5 * (s.prescribed.start()[n][d] + s.prescribed.end()[n][d]) * s.dt;
+      } else {
+        a.terms.emplace_back(s.n_dofs++, 1.0);
+      }
+    }
+  }
+  if (s.tied) {
+    const NodeTies& ties = extension_.ties();
+    for (std::size_t k = 0; k < ties.size(); ++k) {
+      const auto j = static_cast<std::size_t>(ties.outer[k]);
+      for (int d = 0; d < 2; ++d) {
+        Affine& a = s.map[2 * j + static_cast<std::size_t>(d)];
+        a = Affine{};
+        a.used = true;
+        for (int t = ties.start[k]; t < ties.start[k + 1]; ++t) {
+          const Affine& inner =
+              s.map[2 * static_cast<std::size_t>(ties.inner[static_cast<std::size_t>(t)]) +
+                    static_cast<std::size_t>(d)];
+          const double w = ties.weight[static_cast<std::size_t>(t)];
+          a.offset += w * inner.offset;
+          for (const auto& [dof, v] : inner.terms) a.terms.emplace_back(dof, w * v);
+        }
+      }
+    }
+  }
+  // The nodes behind a wall inside the grid mirror the node in front of it (B-splines,
+  // mpm/core/wall_mirror.hpp): I's component takes w times J's where the mirror acts, after the
+  // ties (as the explicit step extrapolates: the ties from I's own value, then the mirror).
+  if (!mirror_.empty()) {
+    mirror_.prepare(s.material, s.tied ? &extension_ : nullptr);
+    for (std::size_t k = 0; k < mirror_.images().size(); ++k) {
+      if (!mirror_.active(k)) continue;
+      const WallMirror::Image& image = mirror_.images()[k];
+      const auto d = static_cast<std::size_t>(image.component);
+      const Affine front = s.map[2 * static_cast<std::size_t>(image.node) + d];
+      for (const WallMirror::Source& source : image.sources) {
+        Affine& behind = s.map[2 * static_cast<std::size_t>(source.behind) + d];
+        behind = Affine{};
+        behind.used = true;
+        behind.offset = source.weight * front.offset;
+        for (const auto& [dof, v] : front.terms) behind.terms.emplace_back(dof, source.weight * v);
+      }
+    }
+  }
+  s.external_reduced = Vector::Zero(s.n_dofs);
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    for (int d = 0; d < 2; ++d) {
+      for (const auto& [dof, w] : s.map[2 * n + static_cast<std::size_t>(d)].terms)
+        s.external_reduced[dof] += w * s.external[n][d];
+    }
+  }
+}
+
+void ImplicitSolver::build_strain_operators(Prepared& s) const {
+  const Case& c = case_;
+  const Grid& grid = c.grid;
+  const std::size_t n_particles = particles_.size();
+  s.strain.resize(n_particles);
+  const bool bbar = c.solver.mean_dilatation;
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    for (const NodeWeight& w : s.nodes[p])
+      s.strain[p].push_back({w.node, strain_operator(w.gradient)});
+  }
+  if (bbar) {
+    // The cell's volume-weighted mean of each node's dilatation gradient b_I = grad N_I, and
+    // B-bar_I = B_I + 1/2 m (b-bar_I - b_I)^T with m = (1, 1, 0, 0).
+    s.cell.resize(n_particles);
+    s.cell_volume.assign(static_cast<std::size_t>(grid.n_cells()), 0.0);
+    std::vector<std::vector<std::pair<int, Vec2>>> mean(static_cast<std::size_t>(grid.n_cells()));
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      const Vec2& x = particles_.position[p];
+      const int cell = grid.cell_index(std::clamp(grid.cell_i(x.x()), 0, grid.n_cells_x - 1),
+                                       std::clamp(grid.cell_j(x.y()), 0, grid.n_cells_y - 1));
+      s.cell[p] = cell;
+      s.cell_volume[static_cast<std::size_t>(cell)] += particles_.volume[p];
+      auto& list = mean[static_cast<std::size_t>(cell)];
+      for (const NodeStrain& ns : s.strain[p]) {
+        const Vec2 b(ns.b(kXX, 0), ns.b(kYY, 1));
+        auto it = std::find_if(list.begin(), list.end(),
+                               [&](const auto& e) { return e.first == ns.node; });
+        if (it == list.end()) {
+          list.emplace_back(ns.node, particles_.volume[p] * b);
+        } else {
+          it->second += particles_.volume[p] * b;
+        }
+      }
+    }
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      const auto cell = static_cast<std::size_t>(s.cell[p]);
+      std::vector<NodeStrain> with_mean;
+      for (const auto& [node, sum] : mean[cell]) {
+        NodeStrain ns{node, Eigen::Matrix<double, 4, 2>::Zero()};
+        Vec2 own = Vec2::Zero();
+        for (const NodeStrain& e : s.strain[p]) {
+          if (e.node != node) continue;
+          ns.b = e.b;
+          own = Vec2(e.b(kXX, 0), e.b(kYY, 1));
+        }
+        const Vec2 shift = 0.5 * (sum / s.cell_volume[cell] - own);
+        ns.b.row(kXX) += shift.transpose();
+        ns.b.row(kYY) += shift.transpose();
+        with_mean.push_back(ns);
+      }
+      s.strain[p] = std::move(with_mean);
+    }
+  }
+}
+
+Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangent,
+                                Iterate& it) const {
+  const std::size_t n_particles = particles_.size();
+  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    for (int d = 0; d < 2; ++d) {
+      const Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
+      double v = a.offset;
+      for (const auto& [dof, w] : a.terms) v += w * at[dof];
+      it.increment[n][d] = v;
+    }
+  }
+  std::fill(it.internal.begin(), it.internal.end(), Vec2::Zero());
+  if (tangent) it.triplets.clear();
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    Strain de = Strain::Zero();
+    for (const NodeStrain& ns : s.strain[p])
+      de += ns.b * it.increment[static_cast<std::size_t>(ns.node)];
+    // The increment gradient with B-bar's dilatation: G_bar such that sym(G_bar) = de; its
+    // spin from the plain gradient.
+    Mat2 plain = Mat2::Zero();
+    for (const NodeWeight& w : s.nodes[p])
+      plain += it.increment[static_cast<std::size_t>(w.node)] * w.gradient.transpose();
+    Mat2 g_bar = plain;
+    g_bar(0, 0) = de[kXX];
+    g_bar(1, 1) = de[kYY];
+    it.gradient[p] = g_bar;
+    Stress sigma = particles_.stress[p];
+    jaumann_rotate(g_bar, 1.0, sigma);
+    PointState point = particles_.state[p];
+    Tangent d;
+    const auto mi = static_cast<std::size_t>(particles_.material[p]);
+    update_with_tangent(case_.materials[mi].model, strain_increment(g_bar, 1.0), sigma, point, d);
+    it.stress[p] = sigma;
+    it.state[p] = point;
+    const double volume = particles_.volume[p];
+    for (const NodeStrain& ns : s.strain[p])
+      it.internal[static_cast<std::size_t>(ns.node)] += volume * ns.b.transpose() * sigma;
+    if (!tangent) continue;
+    // The Jaumann rotation's part: sigma_n turned by w = (G01 - G10) / 2 changes the trial
+    // stress by turn x dw, dw / du_I = (dN_I/dy, -dN_I/dx) / 2, and the update passes a
+    // change of the trial stress on by d sigma / d trial = D_alg D^-1.
+    const Stress& before = particles_.stress[p];
+    const Stress turn(2.0 * before[kXY], -2.0 * before[kXY], before[kYY] - before[kXX], 0.0);
+    const Stress turned = d * (hooke_inverse_[mi] * turn);
+    const auto add_block = [&](int row_node, int col_node, const Mat2& block) {
+      for (int da = 0; da < 2; ++da) {
+        const Affine& ra =
+            s.map[2 * static_cast<std::size_t>(row_node) + static_cast<std::size_t>(da)];
+        if (ra.terms.empty()) continue;
+        for (int db = 0; db < 2; ++db) {
+          const Affine& cb =
+              s.map[2 * static_cast<std::size_t>(col_node) + static_cast<std::size_t>(db)];
+          const double k = block(da, db);
+          if (k == 0.0) continue;
+          for (const auto& [i, wi] : ra.terms)
+            for (const auto& [j, wj] : cb.terms) it.triplets.emplace_back(i, j, wi * wj * k);
+        }
+      }
+    };
+    for (const NodeStrain& row : s.strain[p]) {
+      const Eigen::Matrix<double, 2, 4> left = volume * row.b.transpose() * d;
+      for (const NodeStrain& col : s.strain[p]) add_block(row.node, col.node, left * col.b);
+      if (before[kXY] == 0.0 && before[kXX] == before[kYY]) continue;
+      const Vec2 force = volume * row.b.transpose() * turned;
+      for (const NodeWeight& w : s.nodes[p]) {
+        const Vec2 spin(0.5 * w.gradient.y(), -0.5 * w.gradient.x());
+        add_block(row.node, w.node, force * spin.transpose());
+      }
+    }
+  }
+  Vector residual = s.external_reduced;
+  it.internal_norm = 0.0;
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    for (int d = 0; d < 2; ++d) {
+      const Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
+      if (!a.used) continue;
+      it.internal_norm += it.internal[n][d] * it.internal[n][d];
+      for (const auto& [dof, w] : a.terms) residual[dof] -= w * it.internal[n][d];
+    }
+  }
+  it.internal_norm = std::sqrt(it.internal_norm);
+  return residual;
+}
+
+double ImplicitSolver::relative(const Prepared& s, const Iterate& it, const Vector& residual) {
+  const double scale = std::max(it.internal_norm, s.external_reduced.norm());
+  return scale > 0.0 ? residual.norm() / scale : residual.norm();
+}
+
+bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) const {
+  Vector x = Vector::Zero(s.n_dofs);
+  Vector residual = evaluate(s, x, true, it);
+  entry.residuals.push_back(relative(s, it, residual));
+  bool converged = false;
+  double last_correction = std::numeric_limits<double>::infinity();
+  for (int iteration = 0; iteration < settings_.max_iterations; ++iteration) {
+    if (entry.residuals.back() <= settings_.tolerance &&
+        last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300)) {
+      converged = true;
+      break;
+    }
+    if (s.n_dofs == 0) {
+      converged = true;
+      break;
+    }
+    SparseMatrix k(s.n_dofs, s.n_dofs);
+    k.setFromTriplets(it.triplets.begin(), it.triplets.end());
+    Eigen::UmfPackLU<SparseMatrix> solver;
+    solver.compute(k);
+    if (solver.info() != Eigen::Success) break;
+    const Vector correction = solver.solve(residual);
+    if (solver.info() != Eigen::Success || !correction.allFinite()) break;
+    // Backtracking: the full correction unless it raises |R|, then halves of it.
+    double alpha = 1.0;
+    Vector trial = x + correction;
+    Vector trial_residual = evaluate(s, trial, true, it);
+    for (int halving = 0; halving < 4 && trial_residual.norm() > residual.norm(); ++halving) {
+      alpha *= 0.5;
+      trial = x + alpha * correction;
+      trial_residual = evaluate(s, trial, true, it);
+    }
+    last_correction = alpha * correction.norm();
+    x = trial;
+    residual = trial_residual;
+    entry.residuals.push_back(relative(s, it, residual));
+    if (!std::isfinite(entry.residuals.back())) break;
+  }
+  if (!converged && entry.residuals.back() <= settings_.tolerance &&
+      last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300)) {
+    converged = true;
+  }
+  return converged;
+}
+
+void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
+  const std::size_t n_particles = particles_.size();
+  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    Vec2 du = Vec2::Zero();
+    for (const NodeWeight& w : s.nodes[p])
+      du += w.value * it.increment[static_cast<std::size_t>(w.node)];
+    particles_.position[p] += du;
+    particles_.velocity[p] = du / s.dt;
+    particles_.stress[p] = it.stress[p];
+    particles_.state[p] = it.state[p];
+    particles_.deformation_gradient[p] =
+        update_deformation_gradient(it.gradient[p], 1.0, particles_.deformation_gradient[p]);
+    particles_.volume[p] =
+        particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
+    if (!(particles_.volume[p] > 0.0)) {
+      throw SimulationError("particle " + std::to_string(p) +
+                            " inverted (det F <= 0) at t = " + std::to_string(s.t_end) + " s");
+    }
+  }
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    reaction_[n] = Vec2::Zero();
+    for (int d = 0; d < 2; ++d) {
+      const Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
+      if (a.used && a.terms.empty()) reaction_[n][d] = it.internal[n][d] - s.external[n][d];
+    }
+  }
+  time_ = s.t_end;
+}
+
+bool ImplicitSolver::try_step(double dt) {
+  const std::size_t n_particles = particles_.size();
+  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  Prepared s;
+  s.dt = dt;
+  s.t_end = time_ + dt;
+  locate(s);
+  hold_and_tie(s);
+  apply_external_force(s);
+  number_unknowns(s);
+  build_strain_operators(s);
+  Iterate it;
+  it.increment.assign(n_nodes, Vec2::Zero());
+  it.internal.assign(n_nodes, Vec2::Zero());
+  it.gradient.resize(n_particles);
+  it.stress.resize(n_particles);
+  it.state.resize(n_particles);
+  LoadStepLog entry;
+  entry.time = s.t_end;
+  entry.dt = dt;
+  entry.converged = newton(s, it, entry);
+  log_.push_back(entry);
+  if (entry.converged) commit(s, it);
+  return entry.converged;
+}
+
+}  // namespace pfm

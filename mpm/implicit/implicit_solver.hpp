@@ -1,0 +1,136 @@
+// Implicit quasi-static MPM (issue 47): load steps, each a Newton-Raphson iteration on the
+// grid's displacement increment, then the particles updated and the grid reset (updated
+// Lagrangian; Coombs & Augarde's AMPLE, Comput. Part. Mech. 2020, does the same with its own
+// kinematics).
+//
+// A load step from t_n to t_n+1 = t_n + dt (the case's time is a pseudo-time: the loads and
+// gravity follow their time functions, nothing is inertial):
+//   1. at the particles' positions of t_n: the shape functions (the case's kind), the nodal
+//      masses, the ties of the nodes with little material (mpm/core/basis_extension.hpp, the
+//      explicit step's rule), the supports, and the external force at t_n+1: gravity
+//      sum_p N_I m_p g and the loads on the boundary detected at t_n (dead within the step);
+//   2. the unknowns: the displacement increment of every node component that is neither fixed
+//      nor tied; a fixed component takes its prescribed increment (the integral of its
+//      velocity over the step), a tied node the extrapolation of its array, a node behind a wall
+//      inside the grid w times the node in front of it (B-splines, mpm/core/wall_mirror.hpp);
+//   3. Newton: from the displacement increments, each particle's increment gradient
+//      G = sum_I du_I (x) grad N_I (B-bar: its in-plane trace replaced by the cell's
+//      volume-weighted mean, mpm/core/kinematics.hpp), the stress from t_n's by the Jaumann
+//      rotation and the material's update with its consistent tangent D (materials.hpp, the same
+//      arithmetic as the explicit step with L dt = G), the residual R = f_ext - sum_p V_p B^T
+//      sigma_p and the tangent K = sum_p V_p B^T D B (the geometry of t_n: consistent with the
+//      stress update, which takes the increment on it); K du = R solved by UMFPACK (SuiteSparse,
+//      through Eigen), with a backtracking line search on |R|; converged when |R| <= tolerance x
+//      the internal force's norm over all components (the reactions' included) and the last
+//      correction is below tolerance^(1/2) of the increment;
+//   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
+//      plastic strain of the converged iteration kept.
+// The case's "implicit" block (ImplicitSpec, case.hpp) sets the first step's size (end_time /
+// load_steps), the tolerance and the iterations. A step that does not converge in
+// max_iterations is cut in half (at most max_cuts times in a row); a step that converges in at
+// most 4 iterations lets the next one grow by 1.5 (never beyond the first step's size).
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "mpm/core/basis_extension.hpp"
+#include "mpm/core/materials.hpp"
+#include "mpm/core/shape_functions.hpp"
+#include "mpm/core/wall_mirror.hpp"
+#include "mpm/detect/detector.hpp"
+#include "mpm/step/case.hpp"
+#include "mpm/step/particles.hpp"
+#include "mpm/step/step_view.hpp"
+
+namespace pfm {
+
+/// One attempt at a load step: its end time, its size, the relative residual before each
+/// correction and after the last, and whether it converged.
+struct LoadStepLog {
+  double time = 0.0;
+  double dt = 0.0;
+  std::vector<double> residuals;
+  bool converged = false;
+};
+
+/// A step that could not be completed after max_cuts halvings: the simulation stops (exit 3 in a
+/// run, the outputs so far kept).
+class ImplicitDivergence : public SimulationError {
+ public:
+  using SimulationError::SimulationError;
+};
+
+class ImplicitSolver {
+ public:
+  /// Builds the particles of the case's bodies (and K0 stresses when asked); refuses
+  /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
+  /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
+  /// not do yet: loads on the grid-top nodes, constraints on the detected boundary, the
+  /// gravity-loading initial stress, a manufactured solution.
+  explicit ImplicitSolver(const Case& c);
+
+  /// Takes load steps until `end_time` (s of pseudo-time) is reached.
+  void run_to(double end_time);
+  /// One converged load step towards `end_time` (its size cut back or grown as the header
+  /// says). Throws ImplicitDivergence when max_cuts halvings in a row did not converge.
+  void advance(double end_time);
+
+  double time() const { return time_; }
+  const Particles& particles() const { return particles_; }
+  const Grid& grid() const { return case_.grid; }
+  /// Every attempt of every load step, in order.
+  const std::vector<LoadStepLog>& log() const { return log_; }
+  /// The last converged step's reactions: the internal minus the external force on each fixed
+  /// component, summed per node (kN/m).
+  const std::vector<Vec2>& reactions() const { return reaction_; }
+
+ private:
+  struct Prepared;
+  struct Iterate;
+  /// One attempt at a load step from time_ to time_ + dt: logged; true when it converged (then
+  /// the particles are updated).
+  bool try_step(double dt);
+  // The parts of a step, in order.
+  /// 1. Shape functions at the particles and the material under each node.
+  void locate(Prepared& s) const;
+  /// 2. The supports' increments over the step and the ties of the nodes with little material.
+  void hold_and_tie(Prepared& s);
+  /// 3. Gravity and the loads on the boundary detected now, at the step's end.
+  void apply_external_force(Prepared& s);
+  /// 4. Each node component as an affine function of the unknowns (supports, ties, mirrors).
+  void number_unknowns(Prepared& s);
+  /// 5. Each particle's B (B-bar with the mean dilatation).
+  void build_strain_operators(Prepared& s) const;
+  /// The residual T^T (f_ext - f_int) at the unknowns `x`, the particles' stresses and states
+  /// in `it`; with `tangent`, T^T K T in it.triplets.
+  Eigen::VectorXd evaluate(const Prepared& s, const Eigen::VectorXd& x, bool tangent,
+                           Iterate& it) const;
+  /// |residual| over the larger of the internal force's and the external force's norms.
+  static double relative(const Prepared& s, const Iterate& it, const Eigen::VectorXd& residual);
+  /// 6. Newton with a line search; the relative residuals in entry; true when converged.
+  bool newton(const Prepared& s, Iterate& it, LoadStepLog& entry) const;
+  /// 7. The particles moved, their stresses, states, F and volumes those of `it`.
+  void commit(const Prepared& s, const Iterate& it);
+
+  const Case& case_;
+  ImplicitSpec settings_;
+  Particles particles_;
+  std::vector<MaterialConstants> constants_;
+  std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
+  std::vector<unsigned> fixed_;         ///< FixMask per node
+  std::vector<Vec2> fixed_velocity_;    ///< velocity of the fixed components at unit factor, m/s
+  std::vector<int> fixed_condition_;    ///< the boundary condition fixing each node (-1: none)
+  BasisExtension extension_;
+  WallMirror mirror_;
+  DetectorState detector_state_;
+  double initial_spacing_ = 0.0;
+  double time_ = 0.0;
+  double step_size_ = 0.0;
+  double first_step_ = 0.0;
+  std::vector<LoadStepLog> log_;
+  std::vector<Vec2> reaction_;
+};
+
+}  // namespace pfm

@@ -1,0 +1,255 @@
+// The implicit quasi-static MPM (mpm/implicit/implicit_solver.hpp): the elastic column against its
+// closed form with every shape function, Newton's quadratic convergence on a plastic footing,
+// the cut-backs and the stop of a step that cannot converge, and the cases it refuses.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "mpm/core/json_input.hpp"
+#include "mpm/implicit/implicit_solver.hpp"
+
+namespace pfm {
+namespace {
+
+constexpr double kHeight = 4.0, kUnitWeight = 18.0, kSurcharge = 30.0;
+
+// A fixed base between rollers on the grid's edges.
+nlohmann::json base_and_rollers() {
+  return {{{"where", "bottom"}, {"fix", "xy"}},
+          {{"where", "left"}, {"fix", "x"}},
+          {{"where", "right"}, {"fix", "x"}}};
+}
+
+// A vertical pressure on the detected top over x in [0, 1] m.
+nlohmann::json pressure_on_top(double pressure, const nlohmann::json& time_function) {
+  return {{{"type", "vertical_pressure"},
+           {"pressure", pressure},
+           {"x_range", {0.0, 1.0}},
+           {"apply_on", "detected_boundary"},
+           {"time_function", time_function}}};
+}
+
+// An elastic column, 1 m wide and 4 m high, on a fixed base between rollers (the grid's edges),
+// under its weight and a pressure on its detected top, both ramped over the run (nu = 0.25).
+nlohmann::json column_case(const std::string& shape, double youngs_modulus) {
+  return {{"title", "implicit column"},
+          {"grid", {{"origin", {0.0, 0.0}}, {"cell_size", 0.25}, {"n_cells", {4, 20}}}},
+          {"materials",
+           {{{"name", "soil"},
+             {"model", "linear_elastic"},
+             {"youngs_modulus", youngs_modulus},
+             {"poisson_ratio", 0.25},
+             {"unit_weight", kUnitWeight}}}},
+          {"bodies",
+           {{{"name", "column"},
+             {"material", "soil"},
+             {"rectangle", {{0.0, 0.0}, {1.0, kHeight}}},
+             {"points_per_cell", 2}}}},
+          {"gravity", {{"g", 9.81}, {"ramp_time", 1.0}}},
+          {"boundary_conditions", base_and_rollers()},
+          {"loads", pressure_on_top(kSurcharge, {{"type", "ramp"}, {"ramp_time", 1.0}})},
+          {"solver", {{"type", "implicit"}, {"shape_function", shape}}},
+          {"implicit", {{"load_steps", 5}}},
+          {"time", {{"end_time", 1.0}}}};
+}
+
+TEST(ImplicitSolver, ElasticColumnMatchesTheClosedFormWithEveryShapeFunction) {
+  // E = 5e5 kPa: strains of 1e-4, so the small-strain closed form holds to about 1e-4.
+  //   u(y) = -[q y + gamma (H y - y^2 / 2)] / M,  sigma_yy(y) = -q - gamma (H - y),
+  // M = E (1 - nu) / ((1 + nu)(1 - 2 nu)).
+  const double e_modulus = 5e5, m = e_modulus * 0.75 / (1.25 * 0.5);
+  for (const char* shape : {"linear", "gimp", "quadratic_bspline", "cubic_bspline"}) {
+    SCOPED_TRACE(shape);
+    const Case c = parse_case(column_case(shape, e_modulus), "column.json");
+    ImplicitSolver solver(c);
+    solver.run_to(1.0);
+    EXPECT_DOUBLE_EQ(solver.time(), 1.0);
+    const Particles& p = solver.particles();
+    double top = 0.0;
+    for (const Vec2& x : p.reference_position) top = std::max(top, x.y());
+    // The top row's settlement, and the mean stress of the two rows next to mid-depth (one cell
+    // row: the linear functions' strain is constant in a cell); each of their points with
+    // B-splines.
+    double settlement = 0.0, top_row = 0.0, rows = 0.0, stress = 0.0, exact_stress = 0.0;
+    double worst_point = 0.0;
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      const double y = p.reference_position[k].y();
+      if (y == top) {
+        settlement += p.reference_position[k].y() - p.position[k].y();
+        top_row += 1.0;
+      }
+      if (std::abs(y - 0.5 * kHeight) < 0.125) {
+        const double exact = -kSurcharge - kUnitWeight * (kHeight - y);
+        stress += p.stress[k][kYY];
+        exact_stress += exact;
+        rows += 1.0;
+        worst_point = std::max(worst_point, std::abs(p.stress[k][kYY] / exact - 1.0));
+      }
+    }
+    ASSERT_EQ(top_row, 8.0);
+    ASSERT_EQ(rows, 16.0);
+    settlement /= top_row;
+    const double exact_settlement =
+        (kSurcharge * top + kUnitWeight * (kHeight * top - 0.5 * top * top)) / m;
+    EXPECT_NEAR(settlement / exact_settlement, 1.0, 1e-3);
+    EXPECT_NEAR(stress / exact_stress, 1.0, 1e-3);
+    if (std::string(shape).find("bspline") != std::string::npos) {
+      EXPECT_LE(worst_point, 1e-3);
+    }
+    // A linear problem: the first correction of every step leaves round-off.
+    ASSERT_EQ(solver.log().size(), 5u);
+    for (const LoadStepLog& e : solver.log()) {
+      EXPECT_TRUE(e.converged);
+      ASSERT_GE(e.residuals.size(), 2u);
+      EXPECT_LE(e.residuals[1], 1e-10);
+    }
+  }
+}
+
+TEST(ImplicitSolver, ElasticColumnOnWallsInsideTheGridMatchesTheClosedForm) {
+  // The base and the side walls as node sets with the nodes behind them (a margin of two
+  // cells): with B-splines the nodes behind mirror the nodes in front (wall_mirror.hpp), so the
+  // walls hold as the grid's edges do. Its weight alone (the detected top's corners are round
+  // here, which the walls are not about).
+  nlohmann::json document = column_case("quadratic_bspline", 5e5);
+  document["grid"] = {{"origin", {-0.5, -0.5}}, {"cell_size", 0.25}, {"n_cells", {8, 24}}};
+  document["node_sets"] = {{{"name", "base"}, {"box", {{-10.0, -10.0}, {10.0, 1e-9}}}},
+                           {{"name", "left_wall"}, {"box", {{-10.0, 0.0}, {1e-9, 10.0}}}},
+                           {{"name", "right_wall"}, {"box", {{1.0 - 1e-9, 0.0}, {10.0, 10.0}}}}};
+  document["boundary_conditions"] = {{{"where", "base"}, {"fix", "xy"}},
+                                     {{"where", "left_wall"}, {"fix", "x"}},
+                                     {{"where", "right_wall"}, {"fix", "x"}}};
+  document.erase("loads");
+  const Case c = parse_case(document, "column.json");
+  ImplicitSolver solver(c);
+  solver.run_to(1.0);
+  const Particles& p = solver.particles();
+  double top = 0.0;
+  for (const Vec2& x : p.reference_position) top = std::max(top, x.y());
+  const double m = 5e5 * 0.75 / (1.25 * 0.5);
+  const double exact = kUnitWeight * (kHeight * top - 0.5 * top * top) / m;
+  int row = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    if (p.reference_position[k].y() != top) continue;
+    ++row;
+    EXPECT_NEAR((top - p.position[k].y()) / exact, 1.0, 1e-3) << "x = " << p.position[k].x();
+  }
+  EXPECT_EQ(row, 8);
+}
+
+// A Tresca layer (c = 40 kPa, nu = 0.49, B-bar by default; weightless: g = 0) under a strip
+// pressure on its detected top, half of it by symmetry, ramped to `pressure` over the run (or at
+// once with `ramped` false).
+nlohmann::json footing_case(double pressure, int load_steps, int max_cuts, bool ramped = true) {
+  const nlohmann::json time_function = ramped ? nlohmann::json{{"type", "ramp"}, {"ramp_time", 1.0}}
+                                              : nlohmann::json{{"type", "constant"}};
+  return {
+      {"title", "implicit strip footing"},
+      {"grid", {{"origin", {0.0, 0.0}}, {"cell_size", 0.25}, {"n_cells", {24, 14}}}},
+      {"materials",
+       {{{"name", "clay"},
+         {"model", "tresca"},
+         {"youngs_modulus", 10000.0},
+         {"poisson_ratio", 0.49},
+         {"unit_weight", 20.0},
+         {"cohesion", 40.0}}}},
+      {"bodies",
+       {{{"name", "layer"},
+         {"material", "clay"},
+         {"rectangle", {{0.0, 0.0}, {6.0, 3.0}}},
+         {"points_per_cell", 2}}}},
+      {"gravity", {{"g", 0.0}}},
+      {"boundary_conditions", base_and_rollers()},
+      {"loads", pressure_on_top(pressure, time_function)},
+      {"solver", {{"type", "implicit"}}},
+      {"implicit", {{"load_steps", load_steps}, {"max_cuts", max_cuts}, {"max_iterations", 10}}},
+      {"time", {{"end_time", 1.0}}}};
+}
+
+constexpr double kPrandtl = (2.0 + std::numbers::pi) * 40.0;  // kPa
+
+TEST(ImplicitSolver, NewtonConvergesQuadraticallyOnAPlasticFooting) {
+  const Case c = parse_case(footing_case(0.9 * kPrandtl, 10, 8), "footing.json");
+  ImplicitSolver solver(c);
+  solver.run_to(1.0);
+  int iterations = 0, steps = 0, quadratic = 0;
+  for (const LoadStepLog& e : solver.log()) {
+    ASSERT_TRUE(e.converged) << "t = " << e.time;
+    iterations += static_cast<int>(e.residuals.size()) - 1;
+    ++steps;
+    // Inside Newton's basin (a residual of 1e-3 and less) every correction cuts the relative
+    // residual by two orders at least, unless it ends at round-off.
+    for (std::size_t k = 1; k < e.residuals.size(); ++k) {
+      const double before = e.residuals[k - 1], after = e.residuals[k];
+      if (before > 1e-3 || before < 1e-11 || after < 1e-12) continue;
+      EXPECT_LE(after, 1e-2 * before) << "t = " << e.time << ", correction " << k;
+      ++quadratic;
+    }
+  }
+  EXPECT_EQ(steps, 10);
+  EXPECT_LE(iterations, 6 * steps);
+  EXPECT_GE(quadratic, 4);  // the plastic steps reach the basin
+  // Plastic points under the footing.
+  int plastic = 0;
+  for (const PointState& s : solver.particles().state) plastic += s.plastic_strain > 0.0;
+  EXPECT_GT(plastic, 20);
+}
+
+TEST(ImplicitSolver, AStepBeyondCollapseIsCutBackThenStops) {
+  // 1.5 x Prandtl's pressure at once has no equilibrium: every attempt fails, the step is
+  // halved twice, then the solver stops naming the step and the residuals.
+  const Case c = parse_case(footing_case(1.5 * kPrandtl, 1, 2, false), "footing.json");
+  ImplicitSolver solver(c);
+  try {
+    solver.run_to(1.0);
+    FAIL() << "no stop";
+  } catch (const ImplicitDivergence& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("did not converge"), std::string::npos) << what;
+    EXPECT_NE(what.find("relative residuals"), std::string::npos) << what;
+  }
+  ASSERT_EQ(solver.log().size(), 3u);
+  for (const LoadStepLog& e : solver.log()) EXPECT_FALSE(e.converged);
+  EXPECT_DOUBLE_EQ(solver.log()[2].dt, 0.25);
+  EXPECT_EQ(solver.time(), 0.0);
+}
+
+TEST(ImplicitSolver, RefusesWhatItCannotHonour) {
+  const auto refused = [](nlohmann::json document, const std::string& path) {
+    try {
+      const Case c = parse_case(document, "case.json");
+      ImplicitSolver solver(c);
+      ADD_FAILURE() << "accepted; expected a refusal at " << path;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("case.json: " + path), std::string::npos) << e.what();
+    }
+  };
+  nlohmann::json base = column_case("quadratic_bspline", 5e5);
+  nlohmann::json top_nodes = base;
+  top_nodes["loads"][0]["apply_on"] = "grid_top_nodes";
+  refused(top_nodes, "/loads");
+  nlohmann::json damped = base;
+  damped["solver"]["damping"] = 0.1;
+  refused(damped, "/solver/damping");
+  nlohmann::json cfl = base;
+  cfl["time"]["cfl"] = 0.5;
+  refused(cfl, "/time/cfl");
+  nlohmann::json gravity = base;
+  gravity["initial_stress"] = {{"method", "gravity"}};
+  refused(gravity, "/initial_stress/method");
+  // The implicit block belongs to the implicit solver.
+  nlohmann::json explicit_case = base;
+  explicit_case["solver"]["type"] = "explicit";
+  try {
+    (void)parse_case(explicit_case, "case.json");
+    ADD_FAILURE() << "an implicit block in an explicit case was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/implicit"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace pfm

@@ -1,0 +1,117 @@
+"""`pfm-mpm run` of a case with solver.type "implicit" (mpm/implicit/implicit_run.hpp): the files
+of a completed run and what they say, the stop of a step that cannot converge (exit 3, the
+outputs so far kept), and the refusals (exit 2 naming the JSON path, nothing created). The
+solver's physics is checked in tests/cpp/implicit/test_implicit_solver.cpp."""
+
+import csv
+import json
+import math
+
+import h5py
+
+from studies.stability import column_surcharge_case
+
+# E = 5e5 kPa, nu = 0.25: M = 6e5 kPa; unit weight 18 kN/m^3, H = 4 m, q = 30 kPa.
+MODULUS, HEIGHT, WEIGHT, SURCHARGE = 6e5, 4.0, 18.0, 30.0
+
+
+def column(load_steps=4):
+    """The stability study's column (studies.stability.column_surcharge_case), stiffer (strains of
+    1e-4, where the small-strain closed form holds), on the implicit solver."""
+    case = column_surcharge_case()
+    case["materials"][0]["youngs_modulus"] = 5e5
+    case["solver"] = {"type": "implicit"}
+    case["implicit"] = {"load_steps": load_steps}
+    case["time"] = {"end_time": 1.0}
+    case["output"] = {"interval": 0.5}
+    return case
+
+
+def test_a_completed_run_writes_its_steps_and_the_particles(tmp_path, run_case):
+    done = run_case(column(), tmp_path)
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "out"
+    run = json.loads((out / "run.json").read_text())
+    assert run["status"] == "completed"
+    assert run["provenance"]["solver"] == "implicit"
+    summary = run["summary"]
+    assert summary["n_steps"] == 4 and summary["n_attempts"] == 4
+    assert summary["final_time_s"] == 1.0
+    steps = run["load_steps"]
+    assert [s["time"] for s in steps] == [0.25, 0.5, 0.75, 1.0]
+    # A linear problem: one correction of each step leaves round-off.
+    assert all(s["converged"] and s["residuals"][1] < 1e-10 for s in steps)
+    assert summary["n_iterations"] == sum(len(s["residuals"]) - 1 for s in steps)
+    with open(out / "timeseries.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [float(r["time"]) for r in rows] == [0.25, 0.5, 0.75, 1.0]
+    assert all(int(r["attempts"]) == 1 for r in rows)
+    with h5py.File(out / "particles.h5", "r") as h5:
+        # t = 0, the output at 0.5 s (step 2) and the last step (4)
+        assert sorted(k for k in h5.keys() if k.startswith("step_")) == [
+            "step_00000000",
+            "step_00000002",
+            "step_00000004",
+        ]
+    # The top row settles as the closed form says at its height, on average (to the small
+    # strains' 1e-3; the points next to the detected top's corners differ by 0.2 %).
+    with open(out / "final_particles.csv") as f:
+        particles = list(csv.DictReader(f))
+    top = max(float(p["y"]) - float(p["uy"]) for p in particles)
+    exact = (SURCHARGE * top + WEIGHT * (HEIGHT * top - 0.5 * top * top)) / MODULUS
+    row = [p for p in particles if math.isclose(float(p["y"]) - float(p["uy"]), top)]
+    assert len(row) == 8
+    settlement = -sum(float(p["uy"]) for p in row) / len(row)
+    assert abs(settlement / exact - 1.0) < 1e-3
+
+
+def test_a_step_that_cannot_converge_stops_the_run_with_the_outputs_kept(
+    tmp_path, run_case
+):
+    case = column(load_steps=2)
+    case["materials"][0] = {
+        "name": "soil",
+        "model": "tresca",
+        "youngs_modulus": 5e5,
+        "poisson_ratio": 0.25,
+        "unit_weight": WEIGHT,
+        "cohesion": 1.0,
+    }
+    # Without its side walls a column of 1 kPa clay stands up to 2 kPa of vertical stress, and
+    # its weight alone asks for 72 kPa at the base: the first step finds no equilibrium.
+    case["boundary_conditions"] = [{"where": "bottom", "fix": "xy"}]
+    case["implicit"].update({"max_cuts": 2, "max_iterations": 8})
+    done = run_case(case, tmp_path)
+    assert done.returncode == 3, done.stderr
+    out = tmp_path / "out"
+    run = json.loads((out / "run.json").read_text())
+    assert run["status"] == "failed"
+    assert "did not converge" in run["error"]
+    assert [s["converged"] for s in run["load_steps"]] == [False] * 3
+    assert run["summary"]["n_steps"] == 0
+    with h5py.File(out / "particles.h5", "r") as h5:
+        assert "step_00000000" in h5  # the state at t = 0
+    assert (
+        out / "timeseries.csv"
+    ).read_text() == "time,dt,iterations,residual,attempts\n"
+
+
+def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
+    cases = {
+        "/solver/damping": lambda c: c["solver"].update({"damping": 0.1}),
+        "/time/cfl": lambda c: c["time"].update({"cfl": 0.5}),
+        "/loads": lambda c: c["loads"][0].update({"apply_on": "grid_top_nodes"}),
+        "/implicit": lambda c: c["solver"].update({"type": "explicit"}),
+        "/implicit/load_steps": lambda c: c["implicit"].update({"load_steps": 0}),
+    }
+    for path, change in cases.items():
+        case = column()
+        change(case)
+        folder = tmp_path / path.strip("/").replace("/", "_")
+        done = run_case(case, folder)
+        assert done.returncode == 2, (path, done.stderr)
+        assert f"case.json: {path}" in done.stderr, (path, done.stderr)
+        assert not (folder / "out").exists()
+    # The UL-FEM is explicit.
+    done = run_case(column(), tmp_path / "ulfem", "--solver", "ulfem")
+    assert done.returncode == 2 and "/solver/type" in done.stderr
