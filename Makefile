@@ -85,6 +85,7 @@ sanitize: deps
 	@cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=Sanitize -DPFM_BENCHMARKS=OFF -DPFM_PYTHON=OFF > /dev/null
 	@cmake --build $(SANITIZE_DIR) -j $(JOBS)
 	cd $(SANITIZE_DIR) && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  LSAN_OPTIONS=suppressions=$(abspath tests/lsan_suppressions.txt) \
 	  ctest --output-on-failure -j $(JOBS) --timeout 900
 
 # Reliability (issue 7): `make test` also runs the C++ tests under ASan + UBSan, and `make fuzz`
