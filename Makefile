@@ -21,7 +21,7 @@ DEB_PACKAGES := cmake make g++ git clang-format black \
 
 .PHONY: help deps build run test format-check test-cpp test-python test-studies sanitize bench format clean study \
   report study-boundary study-quadrature study-timing study-parametric study-convergence \
-  study-benchmarks study-stability study-near_boundary
+  study-benchmarks study-stability study-near_boundary study-implicit
 .DEFAULT_GOAL := help
 
 help:
@@ -32,7 +32,7 @@ help:
 	@echo "  deps          install the Debian packages the build, tests and studies need"
 	@echo "  bench         the benchmarks (pfm-bench, pfm-bench-detect)"
 	@echo "  study         every study; study-NAME one of boundary quadrature timing parametric"
-	@echo "                convergence benchmarks stability near_boundary (QUICK=1 quick variants,"
+	@echo "                convergence benchmarks stability near_boundary implicit (QUICK=1 quick variants,"
 	@echo "                SCHEDULER=tcp://... Dask)"
 	@echo "  report        the nightly accuracy report from the studies"
 	@echo "  fuzz          libFuzzer on the input readers and the detector (clang)"
@@ -109,7 +109,7 @@ bench: build
 # Studies (studies/): `make study-NAME`, `make study` for all, `make report` for the nightly
 # accuracy report. QUICK=1 runs the quick variants; SCHEDULER=tcp://host:8786 uses Dask.
 study-boundary study-quadrature study-timing study-parametric study-convergence study-benchmarks \
-  study-stability study-near_boundary: build
+  study-stability study-near_boundary study-implicit: build
 	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m studies $(@:study-%=%) $(STUDY_FLAGS)
 
 study: build

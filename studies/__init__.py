@@ -26,4 +26,5 @@ STUDY_NAMES = (
     "benchmarks",
     "stability",
     "near_boundary",
+    "implicit",
 )

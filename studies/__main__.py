@@ -5,7 +5,8 @@
     python -m studies report [--no-history] [...]                    # build the report
     python -m studies demo [--case C] [--out D] [--end-time T]       # `make run`
 
-NAME is one of boundary, quadrature, timing, parametric, convergence, benchmarks.
+NAME is one of boundary, quadrature, timing, parametric, convergence, benchmarks, stability,
+near_boundary, implicit.
 Exit code: 0 when every study ran or was recorded as "not run" (a prerequisite is missing),
 1 when a study failed; ``report`` exits 1 when a metric is past its threshold.
 """
