@@ -5,10 +5,11 @@
 //
 // A load step from t_n to t_n+1 = t_n + dt (the case's time is a pseudo-time: the loads and
 // gravity follow their time functions, nothing is inertial):
-//   1. at the particles' positions of t_n: the shape functions (the case's kind), the nodal
-//      masses, the ties of the nodes with little material (mpm/core/basis_extension.hpp, the
-//      explicit step's rule), the supports, and the external force at t_n+1: gravity
-//      sum_p N_I m_p g and the loads on the boundary detected at t_n (dead within the step);
+//   1. at the particles' positions of t_n: the shape functions (the case's kind), the material
+//      under each node (sum_p N_I V_p, which also a weightless material has), the ties of the
+//      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
+//      supports, and the external force at t_n+1: gravity sum_p N_I m_p g and the loads on the
+//      boundary detected at t_n (dead within the step);
 //   2. the unknowns: the displacement increment of every node component that is neither fixed
 //      nor tied; a fixed component takes its prescribed increment (the integral of its
 //      velocity over the step), a tied node the extrapolation of its array, a node behind a wall
@@ -18,8 +19,9 @@
 //      volume-weighted mean, mpm/core/kinematics.hpp), the stress from t_n's by the Jaumann
 //      rotation and the material's update with its consistent tangent D (materials.hpp, the same
 //      arithmetic as the explicit step with L dt = G), the residual R = f_ext - sum_p V_p B^T
-//      sigma_p and the tangent K = sum_p V_p B^T D B (the geometry of t_n: consistent with the
-//      stress update, which takes the increment on it); K du = R solved by UMFPACK (SuiteSparse,
+//      sigma_p and its tangent K = sum_p V_p B^T (D B + D D_e^-1 (d rotation / d du)) (the
+//      geometry of t_n, on which the stress update takes the increment; the second term is the
+//      Jaumann rotation's, which makes K unsymmetric); K du = R solved by UMFPACK (SuiteSparse,
 //      through Eigen), with a backtracking line search on |R|; converged when |R| <= tolerance x
 //      the internal force's norm over all components (the reactions' included) and the last
 //      correction is below tolerance^(1/2) of the increment;
