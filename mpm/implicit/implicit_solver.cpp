@@ -102,6 +102,17 @@ struct ImplicitSolver::Prepared {
   int n_dofs = 0;
   std::vector<Vec2> external;  // per node, kN/m
   Vector external_reduced;     // T^T f_ext
+  // The tangent's sparsity over the unknowns; per particle its unknowns (ascending) and where
+  // each pair of them (row-major) sits among the matrix's stored values.
+  SparseMatrix pattern;
+  std::vector<std::vector<int>> unknowns;
+  std::vector<std::vector<int>> position;
+  // Per particle, the unknowns of each component of its strain nodes as (place among its
+  // unknowns, weight): component 2 k + d of strain node k holds terms[start[2 k + d]] ..
+  // terms[start[2 k + d + 1] - 1]; and the strain node of each of its stencil nodes.
+  std::vector<std::vector<std::pair<int, double>>> terms;
+  std::vector<std::vector<int>> start;
+  std::vector<std::vector<int>> stencil_in_strain;
 };
 
 // What an iterate of the displacement increments gives (ImplicitSolver::evaluate).
@@ -112,7 +123,7 @@ struct ImplicitSolver::Iterate {
   std::vector<PointState> state;
   std::vector<Vec2> internal;  // per node, sum_p V_p B^T sigma_p, kN/m
   double internal_norm = 0.0;  // over the node components with material, reactions included
-  std::vector<Eigen::Triplet<double>> triplets;  // T^T K T
+  SparseMatrix tangent;        // T^T K T on the step's pattern
 };
 
 ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) {
@@ -415,7 +426,8 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     }
   }
   std::fill(it.internal.begin(), it.internal.end(), Vec2::Zero());
-  if (tangent) it.triplets.clear();
+  if (tangent) std::fill_n(it.tangent.valuePtr(), it.tangent.nonZeros(), 0.0);
+  std::vector<double> local;  // a particle's T^T K T over its unknowns, row-major
   for (std::size_t p = 0; p < n_particles; ++p) {
     Strain de = Strain::Zero();
     for (const NodeStrain& ns : s.strain[p])
@@ -447,31 +459,44 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     const Stress& before = particles_.stress[p];
     const Stress turn(2.0 * before[kXY], -2.0 * before[kXY], before[kYY] - before[kXX], 0.0);
     const Stress turned = d * (hooke_inverse_[mi] * turn);
-    const auto add_block = [&](int row_node, int col_node, const Mat2& block) {
-      for (int da = 0; da < 2; ++da) {
-        const Affine& ra =
-            s.map[2 * static_cast<std::size_t>(row_node) + static_cast<std::size_t>(da)];
-        if (ra.terms.empty()) continue;
-        for (int db = 0; db < 2; ++db) {
-          const Affine& cb =
-              s.map[2 * static_cast<std::size_t>(col_node) + static_cast<std::size_t>(db)];
-          const double k = block(da, db);
-          if (k == 0.0) continue;
-          for (const auto& [i, wi] : ra.terms)
-            for (const auto& [j, wj] : cb.terms) it.triplets.emplace_back(i, j, wi * wj * k);
+    const std::size_t m = s.unknowns[p].size();
+    local.assign(m * m, 0.0);
+    const std::vector<std::pair<int, double>>& terms = s.terms[p];
+    const std::vector<int>& start = s.start[p];
+    // Adds the 2 x 2 block of strain nodes (row, col) over their components' unknowns.
+    const auto add_block = [&](std::size_t row, std::size_t col, const Mat2& block) {
+      for (std::size_t da = 0; da < 2; ++da) {
+        for (int ti = start[2 * row + da]; ti < start[2 * row + da + 1]; ++ti) {
+          const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
+          double* line = local.data() + static_cast<std::size_t>(a) * m;
+          for (std::size_t db = 0; db < 2; ++db) {
+            const double k =
+                wa * block(static_cast<Eigen::Index>(da), static_cast<Eigen::Index>(db));
+            if (k == 0.0) continue;
+            for (int tj = start[2 * col + db]; tj < start[2 * col + db + 1]; ++tj) {
+              const auto [b, wb] = terms[static_cast<std::size_t>(tj)];
+              line[b] += k * wb;
+            }
+          }
         }
       }
     };
-    for (const NodeStrain& row : s.strain[p]) {
-      const Eigen::Matrix<double, 2, 4> left = volume * row.b.transpose() * d;
-      for (const NodeStrain& col : s.strain[p]) add_block(row.node, col.node, left * col.b);
-      if (before[kXY] == 0.0 && before[kXX] == before[kYY]) continue;
-      const Vec2 force = volume * row.b.transpose() * turned;
-      for (const NodeWeight& w : s.nodes[p]) {
-        const Vec2 spin(0.5 * w.gradient.y(), -0.5 * w.gradient.x());
-        add_block(row.node, w.node, force * spin.transpose());
+    const std::vector<NodeStrain>& strain = s.strain[p];
+    const bool turning = !(before[kXY] == 0.0 && before[kXX] == before[kYY]);
+    for (std::size_t r = 0; r < strain.size(); ++r) {
+      const Eigen::Matrix<double, 2, 4> left = volume * strain[r].b.transpose() * d;
+      for (std::size_t c = 0; c < strain.size(); ++c) add_block(r, c, left * strain[c].b);
+      if (!turning) continue;
+      const Vec2 force = volume * strain[r].b.transpose() * turned;
+      for (std::size_t k = 0; k < s.nodes[p].size(); ++k) {
+        const Vec2& g = s.nodes[p][k].gradient;
+        const Vec2 spin(0.5 * g.y(), -0.5 * g.x());
+        add_block(r, static_cast<std::size_t>(s.stencil_in_strain[p][k]), force * spin.transpose());
       }
     }
+    double* values = it.tangent.valuePtr();
+    const std::vector<int>& where = s.position[p];
+    for (std::size_t k = 0; k < m * m; ++k) values[where[k]] += local[k];
   }
   Vector residual = s.external_reduced;
   it.internal_norm = 0.0;
@@ -508,10 +533,8 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
       converged = true;
       break;
     }
-    SparseMatrix k(s.n_dofs, s.n_dofs);
-    k.setFromTriplets(it.triplets.begin(), it.triplets.end());
     Eigen::UmfPackLU<SparseMatrix> solver;
-    solver.compute(k);
+    solver.compute(it.tangent);
     if (solver.info() != Eigen::Success) break;
     const Vector correction = solver.solve(residual);
     if (solver.info() != Eigen::Success || !correction.allFinite()) break;
@@ -567,6 +590,67 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   time_ = s.t_end;
 }
 
+void ImplicitSolver::build_pattern(Prepared& s) const {
+  const std::size_t n_particles = particles_.size();
+  s.unknowns.resize(n_particles);
+  s.position.resize(n_particles);
+  s.terms.resize(n_particles);
+  s.start.resize(n_particles);
+  s.stencil_in_strain.resize(n_particles);
+  std::vector<Eigen::Triplet<double>> pairs;
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    std::vector<int>& own = s.unknowns[p];
+    for (const NodeStrain& ns : s.strain[p]) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(ns.node) + static_cast<std::size_t>(d)].terms)
+          own.push_back(dof);
+      }
+    }
+    std::sort(own.begin(), own.end());
+    own.erase(std::unique(own.begin(), own.end()), own.end());
+    for (const int i : own)
+      for (const int j : own) pairs.emplace_back(i, j, 0.0);
+    std::vector<std::pair<int, double>>& terms = s.terms[p];
+    std::vector<int>& start = s.start[p];
+    start.assign(1, 0);
+    for (const NodeStrain& ns : s.strain[p]) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(ns.node) + static_cast<std::size_t>(d)].terms) {
+          const auto place = std::lower_bound(own.begin(), own.end(), dof) - own.begin();
+          terms.emplace_back(static_cast<int>(place), w);
+        }
+        start.push_back(static_cast<int>(terms.size()));
+      }
+    }
+    for (const NodeWeight& w : s.nodes[p]) {
+      const auto& strain = s.strain[p];
+      const auto k = std::find_if(strain.begin(), strain.end(),
+                                  [&](const NodeStrain& e) { return e.node == w.node; });
+      s.stencil_in_strain[p].push_back(static_cast<int>(k - strain.begin()));
+    }
+  }
+  s.pattern.resize(s.n_dofs, s.n_dofs);
+  s.pattern.setFromTriplets(pairs.begin(), pairs.end());
+  s.pattern.makeCompressed();
+  const int* outer = s.pattern.outerIndexPtr();
+  const int* inner = s.pattern.innerIndexPtr();
+  for (std::size_t p = 0; p < n_particles; ++p) {
+    const std::vector<int>& own = s.unknowns[p];
+    std::vector<int>& where = s.position[p];
+    where.resize(own.size() * own.size());
+    for (std::size_t a = 0; a < own.size(); ++a) {
+      for (std::size_t b = 0; b < own.size(); ++b) {
+        const int column = own[b];  // column-major storage: rows of `column` ascending
+        const int* found =
+            std::lower_bound(inner + outer[column], inner + outer[column + 1], own[a]);
+        where[a * own.size() + b] = static_cast<int>(found - inner);
+      }
+    }
+  }
+}
+
 bool ImplicitSolver::try_step(double dt) {
   const std::size_t n_particles = particles_.size();
   const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
@@ -578,7 +662,9 @@ bool ImplicitSolver::try_step(double dt) {
   apply_external_force(s);
   number_unknowns(s);
   build_strain_operators(s);
+  build_pattern(s);
   Iterate it;
+  it.tangent = s.pattern;
   it.increment.assign(n_nodes, Vec2::Zero());
   it.internal.assign(n_nodes, Vec2::Zero());
   it.gradient.resize(n_particles);

@@ -105,15 +105,17 @@ class ImplicitSolver {
   void number_unknowns(Prepared& s);
   /// 5. Each particle's B (B-bar with the mean dilatation).
   void build_strain_operators(Prepared& s) const;
+  /// 6. The tangent's sparsity, and where each particle's pairs of unknowns go in it.
+  void build_pattern(Prepared& s) const;
   /// The residual T^T (f_ext - f_int) at the unknowns `x`, the particles' stresses and states
-  /// in `it`; with `tangent`, T^T K T in it.triplets.
+  /// in `it`; with `tangent`, T^T K T in it.tangent.
   Eigen::VectorXd evaluate(const Prepared& s, const Eigen::VectorXd& x, bool tangent,
                            Iterate& it) const;
   /// |residual| over the larger of the internal force's and the external force's norms.
   static double relative(const Prepared& s, const Iterate& it, const Eigen::VectorXd& residual);
-  /// 6. Newton with a line search; the relative residuals in entry; true when converged.
+  /// 7. Newton with a line search; the relative residuals in entry; true when converged.
   bool newton(const Prepared& s, Iterate& it, LoadStepLog& entry) const;
-  /// 7. The particles moved, their stresses, states, F and volumes those of `it`.
+  /// 8. The particles moved, their stresses, states, F and volumes those of `it`.
   void commit(const Prepared& s, const Iterate& it);
 
   const Case& case_;
