@@ -706,13 +706,18 @@ void MohrCoulomb::update(const Strain& strain_increment, Stress& stress, PointSt
   mohr_coulomb_update(*this, constants, strain_increment, stress, state);
 }
 
-ReturnInfo update_with_tangent(const Material& material, const Strain& strain_increment,
-                               Stress& stress, PointState& state, Tangent& tangent) {
-  return std::visit(
-      [&](const auto& m) {
-        return m.update_with_tangent(strain_increment, stress, state, tangent);
-      },
-      material);
+ReturnInfo update_with_tangent(const Material& material, const MaterialConstants& constants,
+                               const Strain& strain_increment, Stress& stress, PointState& state,
+                               Tangent& tangent) {
+  if (const auto* tresca = std::get_if<Tresca>(&material)) {
+    return tresca_update(*tresca, constants, strain_increment, stress, state, &tangent);
+  }
+  if (const auto* mc = std::get_if<MohrCoulomb>(&material)) {
+    return mohr_coulomb_update(*mc, constants, strain_increment, stress, state, &tangent);
+  }
+  stress += elastic_stress_increment(constants, strain_increment);
+  tangent = elastic_tangent(constants);
+  return ReturnInfo{};
 }
 
 }  // namespace pfm

@@ -216,8 +216,10 @@ const ElasticParameters& elastic_parameters(const Material& material);
 /// The constants() of whichever model `material` holds.
 MaterialConstants material_constants(const Material& material);
 
-/// update_with_tangent() of whichever model `material` holds.
-ReturnInfo update_with_tangent(const Material& material, const Strain& strain_increment,
-                               Stress& stress, PointState& state, Tangent& tangent);
+/// update_with_tangent() of whichever model `material` holds, with its constants() computed once
+/// by the caller (the hot path of an implicit solver's iterations).
+ReturnInfo update_with_tangent(const Material& material, const MaterialConstants& constants,
+                               const Strain& strain_increment, Stress& stress, PointState& state,
+                               Tangent& tangent);
 
 }  // namespace pfm

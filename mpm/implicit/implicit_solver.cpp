@@ -30,6 +30,11 @@ struct Affine {
   double offset = 0.0;
   std::vector<std::pair<int, double>> terms;
   bool used = false;  ///< the component belongs to a node with material (or tied)
+  /// Adds w times `other` (a tie's or a mirror's weight on the component it takes).
+  void add_scaled(const Affine& other, double w) {
+    offset += w * other.offset;
+    for (const auto& [dof, v] : other.terms) terms.emplace_back(dof, w * v);
+  }
 };
 
 // A grid node a particle's functions reach, with the function's value and gradient there.
@@ -93,10 +98,7 @@ struct ImplicitSolver::Prepared {
   // The material under each node, sum_p N_I V_p (m^2): what decides the nodes with material and
   // the ties (as the explicit step's masses do, also for a weightless material).
   std::vector<double> material;
-  PrescribedVelocity prescribed;                // the moving supports over the step
   bool tied = false;                            // nodes with little material are tied
-  std::vector<int> cell;                        // per particle (B-bar)
-  std::vector<double> cell_volume;              // per cell (B-bar)
   std::vector<std::vector<NodeStrain>> strain;  // per particle: B (or B-bar) per node
   std::vector<Affine> map;                      // per node component (2 n + d)
   int n_dofs = 0;
@@ -165,6 +167,7 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
   const Grid& grid = c.grid;
   const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
   fixed_.assign(n_nodes, kFixNone);
+  prescribed_ = PrescribedVelocity(c.boundary_conditions, n_nodes);
   std::vector<unsigned> at_zero(n_nodes, kFixNone);
   for (std::size_t k = 0; k < c.boundary_conditions.size(); ++k) {
     const BoundaryCondition& bc = c.boundary_conditions[k];
@@ -174,6 +177,7 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
         const auto n = static_cast<std::size_t>(grid.node_index(i, j));
         fixed_[n] |= bc.fix;
         if (!bc.moving) at_zero[n] |= bc.fix;
+        prescribed_.add(k, n);
       }
     }
   }
@@ -182,7 +186,6 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
     extension_ = BasisExtension(grid, c.solver.shape_function, c.solver.outer_node_fraction);
   }
   initial_spacing_ = initial_particle_spacing(c);
-  reaction_.assign(n_nodes, Vec2::Zero());
 }
 
 void ImplicitSolver::run_to(double end_time) {
@@ -238,20 +241,10 @@ void ImplicitSolver::locate(Prepared& s) const {
 }
 
 void ImplicitSolver::hold_and_tie(Prepared& s) {
-  const Case& c = case_;
-  const Grid& grid = c.grid;
-  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
-  s.prescribed = PrescribedVelocity(c.boundary_conditions, n_nodes);
-  for (std::size_t k = 0; k < c.boundary_conditions.size(); ++k) {
-    for (int j = 0; j < grid.n_nodes_y(); ++j)
-      for (int i = 0; i < grid.n_nodes_x(); ++i)
-        if (grid_node_held(c, c.boundary_conditions[k], i, j))
-          s.prescribed.add(k, static_cast<std::size_t>(grid.node_index(i, j)));
-  }
-  s.prescribed.update(time_, s.dt);
+  prescribed_.update(time_, s.dt);
   s.tied = extension_.enabled();
   if (s.tied) {
-    extension_.classify(s.material, 1.0, fixed_, s.prescribed.start(), s.prescribed.end());
+    extension_.classify(s.material, 1.0, fixed_, prescribed_.start(), prescribed_.end());
   }
 }
 
@@ -290,8 +283,7 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
       if (s.material[n] <= 0.0) loaded_without_mass.push_back(static_cast<int>(n));
     }
     if (s.tied && !loaded_without_mass.empty()) {
-      extension_.tie_massless(loaded_without_mass, fixed_, s.prescribed.start(),
-                              s.prescribed.end());
+      extension_.tie_massless(loaded_without_mass, fixed_, prescribed_.start(), prescribed_.end());
     }
   }
 }
@@ -305,7 +297,7 @@ void ImplicitSolver::number_unknowns(Prepared& s) {
       Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
       a.used = true;
       if (fixed_[n] & (d == 0 ? kFixX : kFixY)) {
-        a.offset = 0.5 * (s.prescribed.start()[n][d] + s.prescribed.end()[n][d]) * s.dt;
+        a.offset = 0.5 * (prescribed_.start()[n][d] + prescribed_.end()[n][d]) * s.dt;
       } else {
         a.terms.emplace_back(s.n_dofs++, 1.0);
       }
@@ -320,12 +312,9 @@ void ImplicitSolver::number_unknowns(Prepared& s) {
         a = Affine{};
         a.used = true;
         for (int t = ties.start[k]; t < ties.start[k + 1]; ++t) {
-          const Affine& inner =
-              s.map[2 * static_cast<std::size_t>(ties.inner[static_cast<std::size_t>(t)]) +
-                    static_cast<std::size_t>(d)];
-          const double w = ties.weight[static_cast<std::size_t>(t)];
-          a.offset += w * inner.offset;
-          for (const auto& [dof, v] : inner.terms) a.terms.emplace_back(dof, w * v);
+          const auto inner = static_cast<std::size_t>(ties.inner[static_cast<std::size_t>(t)]);
+          a.add_scaled(s.map[2 * inner + static_cast<std::size_t>(d)],
+                       ties.weight[static_cast<std::size_t>(t)]);
         }
       }
     }
@@ -344,8 +333,7 @@ void ImplicitSolver::number_unknowns(Prepared& s) {
         Affine& behind = s.map[2 * static_cast<std::size_t>(source.behind) + d];
         behind = Affine{};
         behind.used = true;
-        behind.offset = source.weight * front.offset;
-        for (const auto& [dof, v] : front.terms) behind.terms.emplace_back(dof, source.weight * v);
+        behind.add_scaled(front, source.weight);
       }
     }
   }
@@ -371,15 +359,15 @@ void ImplicitSolver::build_strain_operators(Prepared& s) const {
   if (bbar) {
     // The cell's volume-weighted mean of each node's dilatation gradient b_I = grad N_I, and
     // B-bar_I = B_I + 1/2 m (b-bar_I - b_I)^T with m = (1, 1, 0, 0).
-    s.cell.resize(n_particles);
-    s.cell_volume.assign(static_cast<std::size_t>(grid.n_cells()), 0.0);
+    std::vector<int> cell_of(n_particles);
+    std::vector<double> cell_volume(static_cast<std::size_t>(grid.n_cells()), 0.0);
     std::vector<std::vector<std::pair<int, Vec2>>> mean(static_cast<std::size_t>(grid.n_cells()));
     for (std::size_t p = 0; p < n_particles; ++p) {
       const Vec2& x = particles_.position[p];
       const int cell = grid.cell_index(std::clamp(grid.cell_i(x.x()), 0, grid.n_cells_x - 1),
                                        std::clamp(grid.cell_j(x.y()), 0, grid.n_cells_y - 1));
-      s.cell[p] = cell;
-      s.cell_volume[static_cast<std::size_t>(cell)] += particles_.volume[p];
+      cell_of[p] = cell;
+      cell_volume[static_cast<std::size_t>(cell)] += particles_.volume[p];
       auto& list = mean[static_cast<std::size_t>(cell)];
       for (const NodeStrain& ns : s.strain[p]) {
         const Vec2 b(ns.b(kXX, 0), ns.b(kYY, 1));
@@ -393,7 +381,7 @@ void ImplicitSolver::build_strain_operators(Prepared& s) const {
       }
     }
     for (std::size_t p = 0; p < n_particles; ++p) {
-      const auto cell = static_cast<std::size_t>(s.cell[p]);
+      const auto cell = static_cast<std::size_t>(cell_of[p]);
       std::vector<NodeStrain> with_mean;
       for (const auto& [node, sum] : mean[cell]) {
         NodeStrain ns{node, Eigen::Matrix<double, 4, 2>::Zero()};
@@ -403,7 +391,7 @@ void ImplicitSolver::build_strain_operators(Prepared& s) const {
           ns.b = e.b;
           own = Vec2(e.b(kXX, 0), e.b(kYY, 1));
         }
-        const Vec2 shift = 0.5 * (sum / s.cell_volume[cell] - own);
+        const Vec2 shift = 0.5 * (sum / cell_volume[cell] - own);
         ns.b.row(kXX) += shift.transpose();
         ns.b.row(kYY) += shift.transpose();
         with_mean.push_back(ns);
@@ -446,7 +434,8 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     PointState point = particles_.state[p];
     Tangent d;
     const auto mi = static_cast<std::size_t>(particles_.material[p]);
-    update_with_tangent(case_.materials[mi].model, strain_increment(g_bar, 1.0), sigma, point, d);
+    update_with_tangent(case_.materials[mi].model, constants_[mi], strain_increment(g_bar, 1.0),
+                        sigma, point, d);
     it.stress[p] = sigma;
     it.state[p] = point;
     const double volume = particles_.volume[p];
@@ -521,18 +510,13 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
   Vector x = Vector::Zero(s.n_dofs);
   Vector residual = evaluate(s, x, true, it);
   entry.residuals.push_back(relative(s, it, residual));
-  bool converged = false;
   double last_correction = std::numeric_limits<double>::infinity();
-  for (int iteration = 0; iteration < settings_.max_iterations; ++iteration) {
-    if (entry.residuals.back() <= settings_.tolerance &&
-        last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300)) {
-      converged = true;
-      break;
-    }
-    if (s.n_dofs == 0) {
-      converged = true;
-      break;
-    }
+  const auto converged = [&] {
+    return s.n_dofs == 0 ||
+           (entry.residuals.back() <= settings_.tolerance &&
+            last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300));
+  };
+  for (int iteration = 0; iteration < settings_.max_iterations && !converged(); ++iteration) {
     Eigen::UmfPackLU<SparseMatrix> solver;
     solver.compute(it.tangent);
     if (solver.info() != Eigen::Success) break;
@@ -553,16 +537,11 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
     entry.residuals.push_back(relative(s, it, residual));
     if (!std::isfinite(entry.residuals.back())) break;
   }
-  if (!converged && entry.residuals.back() <= settings_.tolerance &&
-      last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300)) {
-    converged = true;
-  }
-  return converged;
+  return converged();
 }
 
 void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   const std::size_t n_particles = particles_.size();
-  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
   for (std::size_t p = 0; p < n_particles; ++p) {
     Vec2 du = Vec2::Zero();
     for (const NodeWeight& w : s.nodes[p])
@@ -578,13 +557,6 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
     if (!(particles_.volume[p] > 0.0)) {
       throw SimulationError("particle " + std::to_string(p) +
                             " inverted (det F <= 0) at t = " + std::to_string(s.t_end) + " s");
-    }
-  }
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    reaction_[n] = Vec2::Zero();
-    for (int d = 0; d < 2; ++d) {
-      const Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
-      if (a.used && a.terms.empty()) reaction_[n][d] = it.internal[n][d] - s.external[n][d];
     }
   }
   time_ = s.t_end;
@@ -664,7 +636,7 @@ bool ImplicitSolver::try_step(double dt) {
   build_strain_operators(s);
   build_pattern(s);
   Iterate it;
-  it.tangent = s.pattern;
+  it.tangent = std::move(s.pattern);  // the values are the iterations'; s keeps the places
   it.increment.assign(n_nodes, Vec2::Zero());
   it.internal.assign(n_nodes, Vec2::Zero());
   it.gradient.resize(n_particles);

@@ -44,6 +44,7 @@
 #include "mpm/detect/detector.hpp"
 #include "mpm/step/case.hpp"
 #include "mpm/step/particles.hpp"
+#include "mpm/step/prescribed_velocity.hpp"
 #include "mpm/step/step_view.hpp"
 
 namespace pfm {
@@ -84,9 +85,6 @@ class ImplicitSolver {
   const Grid& grid() const { return case_.grid; }
   /// Every attempt of every load step, in order.
   const std::vector<LoadStepLog>& log() const { return log_; }
-  /// The last converged step's reactions: the internal minus the external force on each fixed
-  /// component, summed per node (kN/m).
-  const std::vector<Vec2>& reactions() const { return reaction_; }
 
  private:
   struct Prepared;
@@ -124,8 +122,7 @@ class ImplicitSolver {
   std::vector<MaterialConstants> constants_;
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
   std::vector<unsigned> fixed_;         ///< FixMask per node
-  std::vector<Vec2> fixed_velocity_;    ///< velocity of the fixed components at unit factor, m/s
-  std::vector<int> fixed_condition_;    ///< the boundary condition fixing each node (-1: none)
+  PrescribedVelocity prescribed_;       ///< the moving supports' velocities over a step
   BasisExtension extension_;
   WallMirror mirror_;
   DetectorState detector_state_;
@@ -134,7 +131,6 @@ class ImplicitSolver {
   double step_size_ = 0.0;
   double first_step_ = 0.0;
   std::vector<LoadStepLog> log_;
-  std::vector<Vec2> reaction_;
 };
 
 }  // namespace pfm

@@ -73,7 +73,14 @@ struct Owned {
   std::vector<T> vector() const { return std::vector<T>(data, data + n); }
 };
 
-vectorpair pairs(const Owned<int>& flat) {
+// The (dimension, tag) pairs that `list` (gmshModelGetEntities or gmshModelGetPhysicalGroups)
+// gives for dimension `dim` (-1: all), as a flat array.
+template <class F>
+vectorpair pairs_of(F* list, int dim, const char* what) {
+  int ierr = 0;
+  Owned<int> flat;
+  list(&flat.data, &flat.n, dim, &ierr);
+  check(ierr, what);
   vectorpair out;
   for (std::size_t k = 0; k + 1 < flat.n; k += 2) out.emplace_back(flat.data[k], flat.data[k + 1]);
   return out;
@@ -123,19 +130,11 @@ void add(const std::string& name) {
 }
 
 void getEntities(vectorpair& dim_tags, int dim) {
-  int ierr = 0;
-  Owned<int> flat;
-  PFM_GMSH(gmshModelGetEntities)(&flat.data, &flat.n, dim, &ierr);
-  check(ierr, "model::getEntities");
-  dim_tags = pairs(flat);
+  dim_tags = pairs_of(PFM_GMSH(gmshModelGetEntities), dim, "model::getEntities");
 }
 
 void getPhysicalGroups(vectorpair& dim_tags, int dim) {
-  int ierr = 0;
-  Owned<int> flat;
-  PFM_GMSH(gmshModelGetPhysicalGroups)(&flat.data, &flat.n, dim, &ierr);
-  check(ierr, "model::getPhysicalGroups");
-  dim_tags = pairs(flat);
+  dim_tags = pairs_of(PFM_GMSH(gmshModelGetPhysicalGroups), dim, "model::getPhysicalGroups");
 }
 
 void getPhysicalName(int dim, int tag, std::string& name) {

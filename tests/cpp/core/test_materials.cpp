@@ -716,7 +716,7 @@ TEST(Materials, TangentOfTheMaterialVariantIsTheModels) {
   Stress a(-30.0, -40.0, 5.0, -35.0), b = a;
   PointState sa, sb;
   Tangent ta, tb;
-  update_with_tangent(material, d, a, sa, ta);
+  update_with_tangent(material, material_constants(material), d, a, sa, ta);
   std::get<MohrCoulomb>(material).update_with_tangent(d, b, sb, tb);
   EXPECT_EQ(ta, tb);
   EXPECT_EQ(a, b);

@@ -159,6 +159,32 @@ TEST(MarchingSquares, OutputOrderIsCanonicalAndDeterministic) {
   }
 }
 
+TEST(MarchingSquares, NarrowBandOnALargeFieldGivesTheFullFieldsContours) {
+  // A checkerboard of 20 x 20 nodes (every edge between them crossed: about two crossings per
+  // cell, where the band's edge table starts with room for one) on a 200 x 200 field: given
+  // only the block's cells, marching_squares_cells takes its sparse edge table, which has to
+  // grow, and must give the contours of the whole field, point for point.
+  const int n = 200, lo = 90, hi = 110;
+  std::vector<double> v(static_cast<std::size_t>(n) * n, 0.0);
+  for (int j = lo; j < hi; ++j)
+    for (int i = lo; i < hi; ++i) v[static_cast<std::size_t>(j) * n + i] = (i + j) % 2 ? 1.0 : 0.2;
+  const auto f = make_field(n, n, 1.0, v);
+  std::vector<int> cells;
+  for (int j = lo - 1; j < hi; ++j)
+    for (int i = lo - 1; i < hi; ++i) cells.push_back(j * (n - 1) + i);
+  const auto node_value = [&f](int i, int j) {
+    return f.values[static_cast<std::size_t>(j) * f.n_x + i];
+  };
+  const DetectedBoundary whole = marching_squares(f, 0.5);
+  const DetectedBoundary band = marching_squares_cells(f, node_value, cells, 0.5);
+  ASSERT_GT(whole.contours.size(), 100u);  // one diamond per material node, joined at saddles
+  ASSERT_EQ(band.contours.size(), whole.contours.size());
+  for (std::size_t c = 0; c < whole.contours.size(); ++c) {
+    EXPECT_EQ(band.contours[c].closed, whole.contours[c].closed);
+    EXPECT_EQ(band.contours[c].points, whole.contours[c].points) << "contour " << c;
+  }
+}
+
 TEST(MarchingSquares, RejectsMalformedFields) {
   EXPECT_THROW(marching_squares(make_field(1, 3, 1.0, {0, 0, 0}), 0.5), std::invalid_argument);
   EXPECT_THROW(marching_squares(make_field(2, 2, 1.0, {0, 0, 0}), 0.5), std::invalid_argument);
