@@ -13,58 +13,21 @@
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"
 #include "mpm/core/wall_mirror.hpp"
+#include "mpm/implicit/implicit_internal.hpp"
 #include "mpm/step/body_fill.hpp"
 #include "mpm/step/prescribed_velocity.hpp"
 #include "mpm/step/step_view.hpp"
 
 namespace pfm {
 
+using implicit_detail::Affine;
+using implicit_detail::grid_nodes;
+using implicit_detail::NodeStrain;
+using implicit_detail::NodeWeight;
+using implicit_detail::SparseMatrix;
+using implicit_detail::Vector;
+
 namespace {
-
-using SparseMatrix = Eigen::SparseMatrix<double>;
-using Vector = Eigen::VectorXd;
-
-// A node component's displacement increment as an affine function of the unknowns x:
-// offset + sum weight x[dof].
-struct Affine {
-  double offset = 0.0;
-  std::vector<std::pair<int, double>> terms;
-  bool used = false;  ///< the component belongs to a node with material (or tied)
-  /// Adds w times `other` (a tie's or a mirror's weight on the component it takes).
-  void add_scaled(const Affine& other, double w) {
-    offset += w * other.offset;
-    for (const auto& [dof, v] : other.terms) terms.emplace_back(dof, w * v);
-  }
-};
-
-// A grid node a particle's functions reach, with the function's value and gradient there.
-struct NodeWeight {
-  int node = 0;
-  double value = 0.0;
-  Vec2 gradient = Vec2::Zero();
-};
-
-// The nodes of a stencil that lie on the grid (a B-spline stencil at the grid's edge starts
-// one node outside it, with zero weight there).
-std::vector<NodeWeight> grid_nodes(const Grid& grid, const ShapeStencil& st) {
-  std::vector<NodeWeight> nodes;
-  for (int b = 0; b < st.width; ++b) {
-    for (int a = 0; a < st.width; ++a) {
-      const int i = st.base_i + a, j = st.base_j + b;
-      if (i < 0 || j < 0 || i >= grid.n_nodes_x() || j >= grid.n_nodes_y()) continue;
-      const auto k = static_cast<std::size_t>(b * st.width + a);
-      nodes.push_back({grid.node_index(i, j), st.value[k], st.gradient[k]});
-    }
-  }
-  return nodes;
-}
-
-// What a particle's B (or B-bar) operator is made of: per node, the strain of a unit
-// displacement of its x and y components, (xx, yy, gamma_xy, zz) each.
-struct NodeStrain {
-  int node = 0;
-  Eigen::Matrix<double, 4, 2> b = Eigen::Matrix<double, 4, 2>::Zero();
-};
 
 // B_I of a node whose function has gradient g at the point.
 Eigen::Matrix<double, 4, 2> strain_operator(const Vec2& g) {
@@ -91,43 +54,6 @@ constexpr double kGrowth = 1.5;
 
 }  // namespace
 
-// The state of t_n that a load step's iterations share.
-struct ImplicitSolver::Prepared {
-  double dt = 0.0, t_end = 0.0;                // s
-  std::vector<std::vector<NodeWeight>> nodes;  // per particle: the grid nodes it reaches
-  // The material under each node, sum_p N_I V_p (m^2): what decides the nodes with material and
-  // the ties (as the explicit step's masses do, also for a weightless material).
-  std::vector<double> material;
-  bool tied = false;                            // nodes with little material are tied
-  std::vector<std::vector<NodeStrain>> strain;  // per particle: B (or B-bar) per node
-  std::vector<Affine> map;                      // per node component (2 n + d)
-  int n_dofs = 0;
-  std::vector<Vec2> external;  // per node, kN/m
-  Vector external_reduced;     // T^T f_ext
-  // The tangent's sparsity over the unknowns; per particle its unknowns (ascending) and where
-  // each pair of them (row-major) sits among the matrix's stored values.
-  SparseMatrix pattern;
-  std::vector<std::vector<int>> unknowns;
-  std::vector<std::vector<int>> position;
-  // Per particle, the unknowns of each component of its strain nodes as (place among its
-  // unknowns, weight): component 2 k + d of strain node k holds terms[start[2 k + d]] ..
-  // terms[start[2 k + d + 1] - 1]; and the strain node of each of its stencil nodes.
-  std::vector<std::vector<std::pair<int, double>>> terms;
-  std::vector<std::vector<int>> start;
-  std::vector<std::vector<int>> stencil_in_strain;
-};
-
-// What an iterate of the displacement increments gives (ImplicitSolver::evaluate).
-struct ImplicitSolver::Iterate {
-  std::vector<Vec2> increment;  // per node, m
-  std::vector<Mat2> gradient;   // per particle: the increment gradient with B-bar's dilatation
-  std::vector<Stress> stress;   // per particle, kPa
-  std::vector<PointState> state;
-  std::vector<Vec2> internal;  // per node, sum_p V_p B^T sigma_p, kN/m
-  double internal_norm = 0.0;  // over the node components with material, reactions included
-  SparseMatrix tangent;        // T^T K T on the step's pattern
-};
-
 ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) {
   for (const char* key : {"scheme", "damping", "damping_form", "pic_fraction"}) {
     if (c.source.contains("solver") && c.source["solver"].contains(key)) {
@@ -148,8 +74,6 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
            "the implicit solver takes loads on the detected boundary only "
            "(apply_on \"detected_boundary\"), not on the grid-top nodes yet");
   }
-  if (!c.constraints.empty())
-    refuse(c, "/constraints", "the implicit solver does not hold constraints yet");
   if (c.initial_stress.method == InitialStressMethod::kGravity) {
     refuse(c, "/initial_stress/method",
            "\"gravity\" loading is a dynamic relaxation; the implicit solver takes \"zero\" (and "
@@ -186,6 +110,13 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
     extension_ = BasisExtension(grid, c.solver.shape_function, c.solver.outer_node_fraction);
   }
   initial_spacing_ = initial_particle_spacing(c);
+  constraint_reports_.assign(c.constraints.size(), ConstraintReport{});
+  constraint_target_.assign(c.constraints.size(), Vec2::Zero());
+  // A displacement starts at its time function's value at 0 (a velocity integrates from 0).
+  for (std::size_t k = 0; k < c.constraints.size(); ++k) {
+    const ConstraintSpec& spec = c.constraints[k];
+    if (!spec.velocity) constraint_target_[k] = spec.time_function.factor(0.0) * spec.value;
+  }
 }
 
 void ImplicitSolver::run_to(double end_time) {
@@ -260,9 +191,7 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
       s.external[static_cast<std::size_t>(w.node)].y() -= w.value * particles_.mass[p] * g;
   }
   if (!c.loads.empty()) {
-    ParticleCloud cloud{particles_.position, particles_.volume, particles_.deformation_gradient,
-                        initial_spacing_};
-    const DetectedBoundary boundary = detect(cloud, grid, c.detection->detector, detector_state_);
+    const DetectedBoundary& boundary = detected(s);
     boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
     std::vector<Vec2> load(n_nodes, Vec2::Zero());
     for (const LoadSpec& l : c.loads) {
@@ -286,6 +215,16 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
       extension_.tie_massless(loaded_without_mass, fixed_, prescribed_.start(), prescribed_.end());
     }
   }
+}
+
+const DetectedBoundary& ImplicitSolver::detected(Prepared& s) {
+  if (!s.detected) {
+    ParticleCloud cloud{particles_.position, particles_.volume, particles_.deformation_gradient,
+                        initial_spacing_};
+    s.boundary = detect(cloud, case_.grid, case_.detection->detector, detector_state_);
+    s.detected = true;
+  }
+  return s.boundary;
 }
 
 void ImplicitSolver::number_unknowns(Prepared& s) {
@@ -486,6 +425,27 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     double* values = it.tangent.valuePtr();
     const std::vector<int>& where = s.position[p];
     for (std::size_t k = 0; k < m * m; ++k) values[where[k]] += local[k];
+    if (!s.fitted.empty() && s.fitted[p]) {
+      // d sigma_p / d (its unknowns), for Nitsche's term: D B plus the rotation's part.
+      Eigen::MatrixXd& jacobian = it.stress_jacobian[p];
+      jacobian.setZero(4, static_cast<Eigen::Index>(m));
+      const auto add_column = [&](std::size_t node, std::size_t da, const Stress& change) {
+        for (int ti = start[2 * node + da]; ti < start[2 * node + da + 1]; ++ti) {
+          const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
+          jacobian.col(a) += wa * change;
+        }
+      };
+      for (std::size_t c = 0; c < strain.size(); ++c) {
+        const Eigen::Matrix<double, 4, 2> db = d * strain[c].b;
+        for (std::size_t da = 0; da < 2; ++da) add_column(c, da, db.col(static_cast<int>(da)));
+      }
+      for (std::size_t k = 0; turning && k < s.nodes[p].size(); ++k) {
+        const Vec2& g = s.nodes[p][k].gradient;
+        const auto c = static_cast<std::size_t>(s.stencil_in_strain[p][k]);
+        add_column(c, 0, 0.5 * g.y() * turned);
+        add_column(c, 1, -0.5 * g.x() * turned);
+      }
+    }
   }
   Vector residual = s.external_reduced;
   it.internal_norm = 0.0;
@@ -498,6 +458,7 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     }
   }
   it.internal_norm = std::sqrt(it.internal_norm);
+  if (!s.points.empty()) add_constraints(s, tangent, it, residual);
   return residual;
 }
 
@@ -559,6 +520,8 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
                             " inverted (det F <= 0) at t = " + std::to_string(s.t_end) + " s");
     }
   }
+  constraint_target_ = s.constraint_target;
+  constraint_reports_ = it.reports;
   time_ = s.t_end;
 }
 
@@ -603,6 +566,7 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
       s.stencil_in_strain[p].push_back(static_cast<int>(k - strain.begin()));
     }
   }
+  add_constraint_pairs(s, pairs);
   s.pattern.resize(s.n_dofs, s.n_dofs);
   s.pattern.setFromTriplets(pairs.begin(), pairs.end());
   s.pattern.makeCompressed();
@@ -621,6 +585,7 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
       }
     }
   }
+  place_constraint_pairs(s);
 }
 
 bool ImplicitSolver::try_step(double dt) {
@@ -634,6 +599,7 @@ bool ImplicitSolver::try_step(double dt) {
   apply_external_force(s);
   number_unknowns(s);
   build_strain_operators(s);
+  place_constraints(s);
   build_pattern(s);
   Iterate it;
   it.tangent = std::move(s.pattern);  // the values are the iterations'; s keeps the places
@@ -642,6 +608,8 @@ bool ImplicitSolver::try_step(double dt) {
   it.gradient.resize(n_particles);
   it.stress.resize(n_particles);
   it.state.resize(n_particles);
+  if (!s.fitted.empty()) it.stress_jacobian.resize(n_particles);
+  it.reports.assign(case_.constraints.size(), ConstraintReport{});
   LoadStepLog entry;
   entry.time = s.t_end;
   entry.dt = dt;

@@ -9,7 +9,9 @@
 //      under each node (sum_p N_I V_p, which also a weightless material has), the ties of the
 //      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
 //      supports, and the external force at t_n+1: gravity sum_p N_I m_p g and the loads on the
-//      boundary detected at t_n (dead within the step);
+//      boundary detected at t_n (dead within the step); the constraints on that boundary (penalty
+//      or Nitsche's method, implicit_constraints.cpp), their forces and stiffness in the
+//      residual and the tangent;
 //   2. the unknowns: the displacement increment of every node component that is neither fixed
 //      nor tied; a fixed component takes its prescribed increment (the integral of its
 //      velocity over the step), a tied node the extrapolation of its array, a node behind a wall
@@ -34,6 +36,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <string>
 #include <vector>
 
@@ -43,6 +46,7 @@
 #include "mpm/core/wall_mirror.hpp"
 #include "mpm/detect/detector.hpp"
 #include "mpm/step/case.hpp"
+#include "mpm/step/energy_ledger.hpp"
 #include "mpm/step/particles.hpp"
 #include "mpm/step/prescribed_velocity.hpp"
 #include "mpm/step/step_view.hpp"
@@ -70,8 +74,8 @@ class ImplicitSolver {
   /// Builds the particles of the case's bodies (and K0 stresses when asked); refuses
   /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
   /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
-  /// not do yet: loads on the grid-top nodes, constraints on the detected boundary, the
-  /// gravity-loading initial stress, a manufactured solution.
+  /// not do yet: loads on the grid-top nodes, the gravity-loading initial stress, a
+  /// manufactured solution.
   explicit ImplicitSolver(const Case& c);
 
   /// Takes load steps until `end_time` (s of pseudo-time) is reached.
@@ -85,6 +89,9 @@ class ImplicitSolver {
   const Grid& grid() const { return case_.grid; }
   /// Every attempt of every load step, in order.
   const std::vector<LoadStepLog>& log() const { return log_; }
+  /// Per constraint, at the last converged step: the force on the body (kN/m), the
+  /// root-mean-square gap (m) and the part's length (m).
+  const std::vector<ConstraintReport>& constraint_reports() const { return constraint_reports_; }
 
  private:
   struct Prepared;
@@ -99,21 +106,33 @@ class ImplicitSolver {
   void hold_and_tie(Prepared& s);
   /// 3. Gravity and the loads on the boundary detected now, at the step's end.
   void apply_external_force(Prepared& s);
+  /// The boundary detected at t_n, once per step.
+  const DetectedBoundary& detected(Prepared& s);
   /// 4. Each node component as an affine function of the unknowns (supports, ties, mirrors).
   void number_unknowns(Prepared& s);
   /// 5. Each particle's B (B-bar with the mean dilatation).
   void build_strain_operators(Prepared& s) const;
-  /// 6. The tangent's sparsity, and where each particle's pairs of unknowns go in it.
+  /// 6. The constraints' quadrature points on the boundary detected at t_n: their nodes, the
+  /// gap at a zero increment, the fit (implicit_constraints.cpp).
+  void place_constraints(Prepared& s);
+  /// 7. The tangent's sparsity, and where each particle's pairs of unknowns go in it.
   void build_pattern(Prepared& s) const;
+  /// The constraint points' pairs of unknowns (rows, columns), and then their places.
+  static void add_constraint_pairs(Prepared& s, std::vector<Eigen::Triplet<double>>& pairs);
+  static void place_constraint_pairs(Prepared& s);
+  /// The constraints' forces added to `residual` (and their stiffness to it.tangent), their
+  /// reports into it.reports.
+  void add_constraints(const Prepared& s, bool tangent, Iterate& it,
+                       Eigen::VectorXd& residual) const;
   /// The residual T^T (f_ext - f_int) at the unknowns `x`, the particles' stresses and states
   /// in `it`; with `tangent`, T^T K T in it.tangent.
   Eigen::VectorXd evaluate(const Prepared& s, const Eigen::VectorXd& x, bool tangent,
                            Iterate& it) const;
   /// |residual| over the larger of the internal force's and the external force's norms.
   static double relative(const Prepared& s, const Iterate& it, const Eigen::VectorXd& residual);
-  /// 7. Newton with a line search; the relative residuals in entry; true when converged.
+  /// 8. Newton with a line search; the relative residuals in entry; true when converged.
   bool newton(const Prepared& s, Iterate& it, LoadStepLog& entry) const;
-  /// 8. The particles moved, their stresses, states, F and volumes those of `it`.
+  /// 9. The particles moved, their stresses, states, F and volumes those of `it`.
   void commit(const Prepared& s, const Iterate& it);
 
   const Case& case_;
@@ -131,6 +150,8 @@ class ImplicitSolver {
   double step_size_ = 0.0;
   double first_step_ = 0.0;
   std::vector<LoadStepLog> log_;
+  std::vector<Vec2> constraint_target_;  ///< u_bar per constraint at time_, m
+  std::vector<ConstraintReport> constraint_reports_;
 };
 
 }  // namespace pfm

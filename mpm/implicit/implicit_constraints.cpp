@@ -1,0 +1,285 @@
+// Essential conditions on the detected boundary in the implicit step (case-file "constraints",
+// issue 47): penalty and Nitsche's method on the boundary detected at the step's start.
+//
+// At a quadrature point x of a constraint's part (BoundaryLoadIntegrator::quadrature_points, the
+// loads' rule), with n the curve's outward normal:
+//   the material's displacement at t_n, u_n(x) = sum_p c_p (x_p - X_p), the weighted
+//     least-squares linear fit to the particles over the part's x_range (all particles without
+//     one) with weights V_p phi((x_p - x) / h) (phi the quadratic B-spline, product in x and y:
+//     support 1.5 h); c_p are the fit's coefficients at x (where the particles within reach lie
+//     on a line, the weighted mean's); the fit is exact for an affine field;
+//   the gap at the step's end, g = P (u_n(x) + sum_I N_I(x) du_I - u_bar(t_n+1)), with N_I the
+//     loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise) over the
+//     nodes with material, normalised to sum 1, and P = n_w n_w^T for normal_only (n_w the part's
+//     normal-window direction, else the curve's normal), the identity otherwise;
+//   the force on the body, weight x (t - beta g) shared by the nodes as N_I(x) (Galerkin: the
+//     internal force of a uniform stress has the same shares, the patch test): penalty t = 0;
+//     Nitsche t = P sigma(x) n with sigma(x) = sum_p c_p sigma_p, the same fit to the particles'
+//     stresses at the iterate (the non-symmetric "incomplete" form: consistent, beta its
+//     stabilisation; Nitsche 1971, Hansbo 2005). The stiffness of both terms is in the tangent:
+//     beta w N_I N_J P, and -w N_I P (d sigma(x) / d du) n through each fitted particle's
+//     D (B + the Jaumann rotation's part).
+// beta is the constraint's penalty (penalty_factor x the largest constrained modulus / h unless
+// given). The gap is the total one (u_n(x) enters), so a penalty's error does not accumulate
+// over the steps. u_bar: a displacement's value x time function at t_n+1, or a velocity's
+// integral (the value at mid-step times dt per step).
+// Units: kN, m, s, t, kPa.
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "mpm/boundary/bezier.hpp"
+#include "mpm/boundary/surface_load.hpp"
+#include "mpm/implicit/implicit_internal.hpp"
+#include "mpm/implicit/implicit_solver.hpp"
+
+namespace pfm {
+
+using implicit_detail::ConstraintPoint;
+
+namespace {
+
+// The quadratic B-spline of r (in cells): support |r| < 1.5.
+double quadratic_kernel(double r) {
+  r = std::abs(r);
+  if (r < 0.5) return 0.75 - r * r;
+  if (r < 1.5) return 0.5 * (1.5 - r) * (1.5 - r);
+  return 0.0;
+}
+
+// The particles in each cell, for the fits' neighbourhoods.
+struct CellLists {
+  std::vector<std::vector<int>> cells;
+  CellLists(const Grid& grid, const Particles& particles) {
+    cells.resize(static_cast<std::size_t>(grid.n_cells()));
+    for (std::size_t p = 0; p < particles.size(); ++p) {
+      const Vec2& x = particles.position[p];
+      const int i = std::clamp(grid.cell_i(x.x()), 0, grid.n_cells_x - 1);
+      const int j = std::clamp(grid.cell_j(x.y()), 0, grid.n_cells_y - 1);
+      cells[static_cast<std::size_t>(grid.cell_index(i, j))].push_back(static_cast<int>(p));
+    }
+  }
+};
+
+// The weighted least-squares linear fit at x (header comment): its coefficients c_p, empty when
+// no particle is within reach.
+std::vector<std::pair<int, double>> linear_fit(const Grid& grid, const CellLists& lists,
+                                               const Particles& particles, const Vec2& x,
+                                               const std::optional<Vec2>& x_range) {
+  const double h = grid.cell_size;
+  std::vector<std::pair<int, double>> fit;
+  const int ci = grid.cell_i(x.x()), cj = grid.cell_j(x.y());
+  Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
+  double total = 0.0;
+  for (int j = std::max(cj - 2, 0); j <= std::min(cj + 2, grid.n_cells_y - 1); ++j) {
+    for (int i = std::max(ci - 2, 0); i <= std::min(ci + 2, grid.n_cells_x - 1); ++i) {
+      for (const int p : lists.cells[static_cast<std::size_t>(grid.cell_index(i, j))]) {
+        const Vec2& xp = particles.position[static_cast<std::size_t>(p)];
+        if (x_range && (xp.x() < x_range->x() || xp.x() > x_range->y())) continue;
+        const Vec2 d = (xp - x) / h;
+        const double w = particles.volume[static_cast<std::size_t>(p)] * quadratic_kernel(d.x()) *
+                         quadratic_kernel(d.y());
+        if (w <= 0.0) continue;
+        const Eigen::Vector3d e(1.0, d.x(), d.y());
+        moments += w * e * e.transpose();
+        total += w;
+        fit.emplace_back(p, w);
+      }
+    }
+  }
+  if (fit.empty()) return fit;
+  // The linear fit where the moments are well conditioned, else the weighted mean.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(moments / total);
+  if (eigen.eigenvalues().minCoeff() > 1e-6) {
+    const Eigen::Vector3d row = (moments.inverse()).col(0);  // symmetric: e1^T M^-1
+    for (auto& [p, w] : fit) {
+      const Vec2 d = (particles.position[static_cast<std::size_t>(p)] - x) / h;
+      w *= row.dot(Eigen::Vector3d(1.0, d.x(), d.y()));
+    }
+  } else {
+    for (auto& [p, w] : fit) w /= total;
+  }
+  return fit;
+}
+
+}  // namespace
+
+void ImplicitSolver::place_constraints(Prepared& s) {
+  s.points.clear();
+  s.constraint_target = constraint_target_;
+  if (case_.constraints.empty()) return;
+  const Grid& grid = case_.grid;
+  const int degree = shape_degree(case_.solver.shape_function);
+  const DetectedBoundary& boundary = detected(s);
+  boundary::BoundaryLoadIntegrator integrator(grid, degree);
+  const CellLists lists(grid, particles_);
+  std::vector<boundary::CurvePoint> points;
+  for (std::size_t k = 0; k < case_.constraints.size(); ++k) {
+    const ConstraintSpec& spec = case_.constraints[k];
+    Vec2& u_bar = s.constraint_target[k];
+    u_bar = spec.velocity
+                ? Vec2(u_bar + s.dt * spec.time_function.factor(time_ + 0.5 * s.dt) * spec.value)
+                : Vec2(spec.time_function.factor(s.t_end) * spec.value);
+    const bool nitsche = spec.method == ConstraintMethod::kNitsche;
+    const auto curves = boundary::make_composite_beziers(boundary.contours, spec.part.curve);
+    integrator.quadrature_points(curves, spec.part, points);
+    for (const boundary::CurvePoint& point : points) {
+      if (!grid.contains(point.x)) continue;
+      ConstraintPoint q;
+      q.constraint = static_cast<int>(k);
+      q.weight = point.weight;
+      q.normal = point.normal;
+      // The loads' grid functions at x over the nodes with material.
+      const ShapeStencil st =
+          degree > 1 ? bspline_stencil(grid, degree, point.x) : linear_stencil(grid, point.x);
+      double sum = 0.0;
+      for (const implicit_detail::NodeWeight& w : implicit_detail::grid_nodes(grid, st)) {
+        if (w.value == 0.0 || !s.map[2 * static_cast<std::size_t>(w.node)].used) continue;
+        q.nodes.emplace_back(w.node, w.value);
+        sum += w.value;
+      }
+      if (!(sum > 0.0)) continue;
+      for (auto& node : q.nodes) node.second /= sum;
+      std::vector<std::pair<int, double>> fit =
+          linear_fit(grid, lists, particles_, point.x, spec.part.x_range);
+      if (fit.empty()) continue;
+      Vec2 u_n = Vec2::Zero();
+      for (const auto& [p, c] : fit) {
+        const auto i = static_cast<std::size_t>(p);
+        u_n += c * (particles_.position[i] - particles_.reference_position[i]);
+      }
+      Vec2 target = u_bar;
+      if (spec.normal_only) {
+        const Vec2 n = spec.part.normal_window ? spec.part.normal_window->direction : q.normal;
+        q.projector = n * n.transpose();
+        target = u_bar.x() * n;
+      }
+      q.offset = q.projector * (u_n - target);
+      if (nitsche) {
+        if (s.fitted.empty()) s.fitted.assign(particles_.size(), 0);
+        for (const auto& [p, c] : fit) s.fitted[static_cast<std::size_t>(p)] = 1;
+        q.fit = std::move(fit);
+      }
+      s.points.push_back(std::move(q));
+    }
+  }
+}
+
+void ImplicitSolver::add_constraint_pairs(Prepared& s, std::vector<Eigen::Triplet<double>>& pairs) {
+  for (ConstraintPoint& q : s.points) {
+    q.rows.clear();
+    for (const auto& [node, value] : q.nodes) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms)
+          q.rows.push_back(dof);
+      }
+    }
+    std::sort(q.rows.begin(), q.rows.end());
+    q.rows.erase(std::unique(q.rows.begin(), q.rows.end()), q.rows.end());
+    q.cols = q.rows;
+    for (const auto& [p, c] : q.fit) {
+      const std::vector<int>& own = s.unknowns[static_cast<std::size_t>(p)];
+      q.cols.insert(q.cols.end(), own.begin(), own.end());
+    }
+    std::sort(q.cols.begin(), q.cols.end());
+    q.cols.erase(std::unique(q.cols.begin(), q.cols.end()), q.cols.end());
+    for (const int i : q.rows)
+      for (const int j : q.cols) pairs.emplace_back(i, j, 0.0);
+  }
+}
+
+void ImplicitSolver::place_constraint_pairs(Prepared& s) {
+  const int* outer = s.pattern.outerIndexPtr();
+  const int* inner = s.pattern.innerIndexPtr();
+  for (ConstraintPoint& q : s.points) {
+    q.position.resize(q.rows.size() * q.cols.size());
+    for (std::size_t a = 0; a < q.rows.size(); ++a) {
+      for (std::size_t b = 0; b < q.cols.size(); ++b) {
+        const int column = q.cols[b];
+        const int* found =
+            std::lower_bound(inner + outer[column], inner + outer[column + 1], q.rows[a]);
+        q.position[a * q.cols.size() + b] = static_cast<int>(found - inner);
+      }
+    }
+  }
+}
+
+void ImplicitSolver::add_constraints(const Prepared& s, bool tangent, Iterate& it,
+                                     Eigen::VectorXd& residual) const {
+  std::vector<double> gap_squared(it.reports.size(), 0.0);
+  for (ConstraintReport& r : it.reports) r = ConstraintReport{};
+  double* values = tangent ? it.tangent.valuePtr() : nullptr;
+  Eigen::MatrixXd stiffness;  // d (t - beta g) / d (the point's columns), 2 x cols
+  for (const ConstraintPoint& q : s.points) {
+    const ConstraintSpec& spec = case_.constraints[static_cast<std::size_t>(q.constraint)];
+    const double beta = spec.penalty;
+    Vec2 du = Vec2::Zero();
+    for (const auto& [node, value] : q.nodes)
+      du += value * it.increment[static_cast<std::size_t>(node)];
+    const Vec2 gap = q.offset + q.projector * du;
+    Vec2 traction = Vec2::Zero();
+    if (!q.fit.empty()) {
+      Stress sigma = Stress::Zero();
+      for (const auto& [p, c] : q.fit) sigma += c * it.stress[static_cast<std::size_t>(p)];
+      traction = q.projector * Vec2(sigma[kXX] * q.normal.x() + sigma[kXY] * q.normal.y(),
+                                    sigma[kXY] * q.normal.x() + sigma[kYY] * q.normal.y());
+    }
+    const Vec2 force = q.weight * (traction - beta * gap);
+    ConstraintReport& report = it.reports[static_cast<std::size_t>(q.constraint)];
+    report.force += force;
+    report.length += q.weight;
+    gap_squared[static_cast<std::size_t>(q.constraint)] += q.weight * gap.squaredNorm();
+    for (const auto& [node, value] : q.nodes) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms)
+          residual[dof] += w * value * force[d];
+      }
+    }
+    if (!tangent) continue;
+    const auto column = [&](int dof) {
+      return std::lower_bound(q.cols.begin(), q.cols.end(), dof) - q.cols.begin();
+    };
+    stiffness.setZero(2, static_cast<Eigen::Index>(q.cols.size()));
+    for (const auto& [node, value] : q.nodes) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms)
+          stiffness.col(column(dof)) -= beta * w * value * q.projector.col(d);
+      }
+    }
+    for (const auto& [p, c] : q.fit) {
+      const auto i = static_cast<std::size_t>(p);
+      const Eigen::MatrixXd& jacobian = it.stress_jacobian[i];
+      const std::vector<int>& own = s.unknowns[i];
+      for (std::size_t b = 0; b < own.size(); ++b) {
+        const auto k = static_cast<Eigen::Index>(b);
+        const Vec2 change(jacobian(kXX, k) * q.normal.x() + jacobian(kXY, k) * q.normal.y(),
+                          jacobian(kXY, k) * q.normal.x() + jacobian(kYY, k) * q.normal.y());
+        stiffness.col(column(own[b])) += c * (q.projector * change);
+      }
+    }
+    // K = -d R / d x: the rows of the point's nodes take -w N_I times the force's derivative.
+    const std::size_t n_cols = q.cols.size();
+    for (const auto& [node, value] : q.nodes) {
+      for (int d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] :
+             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms) {
+          const auto row = static_cast<std::size_t>(
+              std::lower_bound(q.rows.begin(), q.rows.end(), dof) - q.rows.begin());
+          const double scale = q.weight * w * value;
+          for (std::size_t b = 0; b < n_cols; ++b)
+            values[q.position[row * n_cols + b]] -=
+                scale * stiffness(d, static_cast<Eigen::Index>(b));
+        }
+      }
+    }
+  }
+  for (std::size_t k = 0; k < it.reports.size(); ++k) {
+    ConstraintReport& r = it.reports[k];
+    r.rms_gap = r.length > 0.0 ? std::sqrt(gap_squared[k] / r.length) : 0.0;
+  }
+}
+
+}  // namespace pfm
