@@ -14,8 +14,11 @@ OUT ?= results/bearing_quasi_static
 DEB_PYTHON_PREFIX := $(basename $(notdir $(PYTHON)))-
 DEB_PYTHON_MODULES := numpy scipy matplotlib pandas skimage pytest jinja2 tqdm tabulate h5py \
   meshio gmsh dolfinx distributed docutils
+# libopenblas0-serial: the BLAS under UMFPACK (the implicit solver's factorisation); Debian's
+# alternatives take it over the reference BLAS once installed. Serial: one thread, the same bytes
+# from run to run.
 DEB_PACKAGES := cmake make g++ git clang-format black \
-  libeigen3-dev libsuitesparse-dev nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev \
+  libeigen3-dev libsuitesparse-dev libopenblas0-serial nlohmann-json3-dev libcli11-dev libhdf5-dev zlib1g-dev \
   libgtest-dev libgmock-dev libbenchmark-dev libgmsh-dev gmsh pybind11-dev $(DEB_PYTHON_PREFIX)dev \
   $(addprefix $(DEB_PYTHON_PREFIX),$(DEB_PYTHON_MODULES))
 

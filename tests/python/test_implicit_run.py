@@ -8,6 +8,7 @@ import json
 import math
 
 import h5py
+import pytest
 
 from studies.stability import column_surcharge_case
 
@@ -63,6 +64,35 @@ def test_a_completed_run_writes_its_steps_and_the_particles(tmp_path, run_case):
     assert len(row) == 8
     settlement = -sum(float(p["uy"]) for p in row) / len(row)
     assert abs(settlement / exact - 1.0) < 1e-3
+
+
+def test_a_constraint_writes_its_force_and_gap_per_load_step(tmp_path, run_case):
+    # The column without weight or surcharge, its detected top pushed down 4 mm (a ramp) by
+    # Nitsche's method: the force on the body is -M ln(H / (H - 4 mm)) x 1 m at the end (uniaxial
+    # strain, increments on the current height) and a quarter of the push's at the first step.
+    case = column()
+    case["materials"][0]["unit_weight"] = 0.0
+    case["loads"] = []
+    case["constraints"] = [
+        {
+            "apply_on": "detected_boundary",
+            "faces": "top",
+            "normal_displacement": -0.004,
+            "time_function": {"type": "ramp", "ramp_time": 1.0},
+            "method": "nitsche",
+        }
+    ]
+    done = run_case(case, tmp_path)
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "out" / "timeseries.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4
+    for row in rows:
+        push = 0.004 * float(row["time"])
+        exact = -MODULUS * math.log(HEIGHT / (HEIGHT - push))
+        assert float(row["constraint_0_fy"]) == pytest.approx(exact, rel=1e-3)
+        assert abs(float(row["constraint_0_fx"])) < 1e-6
+        assert 0.0 <= float(row["constraint_0_gap"]) < 1e-4 * push
 
 
 def test_a_step_that_cannot_converge_stops_the_run_with_the_outputs_kept(
