@@ -116,10 +116,8 @@ void ImplicitSolver::place_constraints(Prepared& s) {
   std::vector<boundary::CurvePoint> points;
   for (std::size_t k = 0; k < case_.constraints.size(); ++k) {
     const ConstraintSpec& spec = case_.constraints[k];
-    Vec2& u_bar = s.constraint_target[k];
-    u_bar = spec.velocity
-                ? Vec2(u_bar + s.dt * spec.time_function.factor(time_ + 0.5 * s.dt) * spec.value)
-                : Vec2(spec.time_function.factor(s.t_end) * spec.value);
+    const Vec2 u_bar = constraint_target(k, s.dt);
+    s.constraint_target[k] = u_bar;
     const bool nitsche = spec.method == ConstraintMethod::kNitsche;
     const auto curves = boundary::make_composite_beziers(boundary.contours, spec.part.curve);
     integrator.quadrature_points(curves, spec.part, points);

@@ -48,6 +48,13 @@ double factor_of_gravity(const GravitySpec& g, double t) {
 constexpr int kFastIterations = 4;
 constexpr double kGrowth = 1.5;
 
+// A number as %g with 6 significant digits.
+std::string format_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
 [[noreturn]] void refuse(const Case& c, const std::string& path, const std::string& why) {
   throw InputError(c.file + ": " + path + ": " + why);
 }
@@ -136,19 +143,44 @@ void ImplicitSolver::advance(double end_time) {
       if (iterations <= kFastIterations) step_size_ = std::min(first_step_, step_size_ * kGrowth);
       return;
     }
-    if (cut == settings_.max_cuts) {
-      std::string history;
-      for (const double r : log_.back().residuals) {
-        char text[32];
-        std::snprintf(text, sizeof text, "%s%.3e", history.empty() ? "" : ", ", r);
-        history += text;
-      }
-      throw ImplicitDivergence("load step from t = " + std::to_string(time_) + " s (dt " +
-                               std::to_string(dt) + " s, after " + std::to_string(cut) +
-                               " halvings) did not converge; relative residuals " + history);
-    }
+    if (cut == settings_.max_cuts) throw ImplicitDivergence(divergence_message(dt, cut));
     step_size_ = 0.5 * dt;
   }
+}
+
+std::string ImplicitSolver::divergence_message(double dt, int cut) const {
+  std::string history;
+  for (const double r : log_.back().residuals) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%.3e", history.empty() ? "" : ", ", r);
+    history += text;
+  }
+  // The step's number and what it asked for at its end: gravity's factor, each load's (its time
+  // function), each constraint's prescribed displacement.
+  const long number =
+      1 + std::count_if(log_.begin(), log_.end(), [](const LoadStepLog& e) { return e.converged; });
+  const double t_end = time_ + dt;
+  std::string asked = "gravity factor " + format_number(factor_of_gravity(case_.gravity, t_end));
+  for (std::size_t k = 0; k < case_.loads.size(); ++k) {
+    asked += ", load " + std::to_string(k) + " factor " +
+             format_number(case_.loads[k].time_function.factor(t_end));
+  }
+  for (std::size_t k = 0; k < case_.constraints.size(); ++k) {
+    const Vec2 u = constraint_target(k, dt);
+    asked += ", constraint " + std::to_string(k) + " displacement " +
+             (case_.constraints[k].normal_only
+                  ? format_number(u.x()) + " m (normal)"
+                  : "(" + format_number(u.x()) + ", " + format_number(u.y()) + ") m");
+  }
+  return "load step " + std::to_string(number) + " from t = " + format_number(time_) + " s to " +
+         format_number(t_end) + " s (" + asked + "; after " + std::to_string(cut) +
+         " halvings) did not converge; relative residuals " + history;
+}
+
+Vec2 ImplicitSolver::constraint_target(std::size_t k, double dt) const {
+  const ConstraintSpec& spec = case_.constraints[k];
+  if (!spec.velocity) return spec.time_function.factor(time_ + dt) * spec.value;
+  return constraint_target_[k] + dt * spec.time_function.factor(time_ + 0.5 * dt) * spec.value;
 }
 
 void ImplicitSolver::locate(Prepared& s) const {

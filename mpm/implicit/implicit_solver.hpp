@@ -81,7 +81,9 @@ class ImplicitSolver {
   /// Takes load steps until `end_time` (s of pseudo-time) is reached.
   void run_to(double end_time);
   /// One converged load step towards `end_time` (its size cut back or grown as the header
-  /// says). Throws ImplicitDivergence when max_cuts halvings in a row did not converge.
+  /// says). Throws ImplicitDivergence when max_cuts halvings in a row did not converge, naming
+  /// the step, what it asked for (gravity's and each load's factor, each constraint's
+  /// displacement) and the last attempt's residuals.
   void advance(double end_time);
 
   double time() const { return time_; }
@@ -106,6 +108,11 @@ class ImplicitSolver {
   void hold_and_tie(Prepared& s);
   /// 3. Gravity and the loads on the boundary detected now, at the step's end.
   void apply_external_force(Prepared& s);
+  /// The message of a step that did not converge after `cut` halvings, the last of size dt.
+  std::string divergence_message(double dt, int cut) const;
+  /// Constraint k's prescribed displacement at time_ + dt (u_bar: a displacement's value times
+  /// its time function, or a velocity's integral, the value at mid-step times dt per step).
+  Vec2 constraint_target(std::size_t k, double dt) const;
   /// The boundary detected at t_n, once per step.
   const DetectedBoundary& detected(Prepared& s);
   /// 4. Each node component as an affine function of the unknowns (supports, ties, mirrors).

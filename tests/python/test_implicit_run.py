@@ -117,6 +117,8 @@ def test_a_step_that_cannot_converge_stops_the_run_with_the_outputs_kept(
     run = json.loads((out / "run.json").read_text())
     assert run["status"] == "failed"
     assert "did not converge" in run["error"]
+    assert "load step 1 from t = 0 s to " in run["error"]
+    assert "gravity factor" in run["error"] and "relative residuals" in run["error"]
     assert [s["converged"] for s in run["load_steps"]] == [False] * 3
     assert run["summary"]["n_steps"] == 0
     with h5py.File(out / "particles.h5", "r") as h5:

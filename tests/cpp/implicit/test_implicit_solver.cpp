@@ -200,7 +200,7 @@ TEST(ImplicitSolver, NewtonConvergesQuadraticallyOnAPlasticFooting) {
 
 TEST(ImplicitSolver, AStepBeyondCollapseIsCutBackThenStops) {
   // 1.5 x Prandtl's pressure at once has no equilibrium: every attempt fails, the step is
-  // halved twice, then the solver stops naming the step and the residuals.
+  // halved twice, then the solver stops naming the step, its load factor and the residuals.
   const Case c = parse_case(footing_case(1.5 * kPrandtl, 1, 2, false), "footing.json");
   ImplicitSolver solver(c);
   try {
@@ -210,6 +210,10 @@ TEST(ImplicitSolver, AStepBeyondCollapseIsCutBackThenStops) {
     const std::string what = e.what();
     EXPECT_NE(what.find("did not converge"), std::string::npos) << what;
     EXPECT_NE(what.find("relative residuals"), std::string::npos) << what;
+    // The step, the load factor it asked for at its end (the first step halved twice; the
+    // pressure at once).
+    EXPECT_NE(what.find("load step 1 from t = 0 s to 0.25 s"), std::string::npos) << what;
+    EXPECT_NE(what.find("load 0 factor 1"), std::string::npos) << what;
   }
   ASSERT_EQ(solver.log().size(), 3u);
   for (const LoadStepLog& e : solver.log()) EXPECT_FALSE(e.converged);
