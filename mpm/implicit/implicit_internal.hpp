@@ -125,6 +125,9 @@ struct ImplicitSolver::Iterate {
   // Per fitted particle, d sigma_p / d (its unknowns), 4 x their count (with the tangent).
   std::vector<Eigen::MatrixXd> stress_jacobian;
   std::vector<ConstraintReport> reports;  // per constraint
+  // The second and later threads' own tangent values and internal forces (evaluate).
+  std::vector<std::vector<double>> thread_values;
+  std::vector<std::vector<Vec2>> thread_internal;
 };
 
 }  // namespace pfm

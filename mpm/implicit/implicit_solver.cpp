@@ -1,5 +1,7 @@
 #include "mpm/implicit/implicit_solver.hpp"
 
+#include <omp.h>
+
 #include <Eigen/Sparse>
 #include <Eigen/UmfPackSupport>
 #include <algorithm>
@@ -43,6 +45,9 @@ double factor_of_gravity(const GravitySpec& g, double t) {
   if (g.ramp_time <= 0.0) return 1.0;
   return std::min(1.0, t / g.ramp_time);
 }
+
+// Below this many particles a load step's evaluations run on one thread.
+constexpr std::size_t kMinParallelParticles = 2000;
 
 // A step that converges in at most kFastIterations lets the next one grow by kGrowth.
 constexpr int kFastIterations = 4;
@@ -167,10 +172,13 @@ std::string ImplicitSolver::divergence_message(double dt, int cut) const {
   }
   for (std::size_t k = 0; k < case_.constraints.size(); ++k) {
     const Vec2 u = constraint_target(k, dt);
-    asked += ", constraint " + std::to_string(k) + " displacement " +
-             (case_.constraints[k].normal_only
-                  ? format_number(u.x()) + " m (normal)"
-                  : "(" + format_number(u.x()) + ", " + format_number(u.y()) + ") m");
+    asked += ", constraint " + std::to_string(k) + " displacement ";
+    if (case_.constraints[k].normal_only) {
+      asked += format_number(u.x()) + " m (normal)";
+    } else {
+      asked += '(';
+      asked += format_number(u.x()) + ", " + format_number(u.y()) + ") m";
+    }
   }
   return "load step " + std::to_string(number) + " from t = " + format_number(time_) + " s to " +
          format_number(t_end) + " s (" + asked + "; after " + std::to_string(cut) +
@@ -372,6 +380,99 @@ void ImplicitSolver::build_strain_operators(Prepared& s) const {
   }
 }
 
+void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool tangent, Iterate& it,
+                                       double* values, Vec2* internal,
+                                       std::vector<double>& local) const {
+  Strain de = Strain::Zero();
+  for (const NodeStrain& ns : s.strain[p])
+    de += ns.b * it.increment[static_cast<std::size_t>(ns.node)];
+  // The increment gradient with B-bar's dilatation: G_bar such that sym(G_bar) = de; its
+  // spin from the plain gradient.
+  Mat2 plain = Mat2::Zero();
+  for (const NodeWeight& w : s.nodes[p])
+    plain += it.increment[static_cast<std::size_t>(w.node)] * w.gradient.transpose();
+  Mat2 g_bar = plain;
+  g_bar(0, 0) = de[kXX];
+  g_bar(1, 1) = de[kYY];
+  it.gradient[p] = g_bar;
+  Stress sigma = particles_.stress[p];
+  jaumann_rotate(g_bar, 1.0, sigma);
+  PointState point = particles_.state[p];
+  Tangent d;
+  const auto mi = static_cast<std::size_t>(particles_.material[p]);
+  update_with_tangent(case_.materials[mi].model, constants_[mi], strain_increment(g_bar, 1.0),
+                      sigma, point, d);
+  it.stress[p] = sigma;
+  it.state[p] = point;
+  const double volume = particles_.volume[p];
+  for (const NodeStrain& ns : s.strain[p])
+    internal[static_cast<std::size_t>(ns.node)] += volume * ns.b.transpose() * sigma;
+  if (!tangent) return;
+  // The Jaumann rotation's part: sigma_n turned by w = (G01 - G10) / 2 changes the trial
+  // stress by turn x dw, dw / du_I = (dN_I/dy, -dN_I/dx) / 2, and the update passes a
+  // change of the trial stress on by d sigma / d trial = D_alg D^-1.
+  const Stress& before = particles_.stress[p];
+  const Stress turn(2.0 * before[kXY], -2.0 * before[kXY], before[kYY] - before[kXX], 0.0);
+  const Stress turned = d * (hooke_inverse_[mi] * turn);
+  const std::size_t m = s.unknowns[p].size();
+  local.assign(m * m, 0.0);
+  const std::vector<std::pair<int, double>>& terms = s.terms[p];
+  const std::vector<int>& start = s.start[p];
+  // Adds the 2 x 2 block of strain nodes (row, col) over their components' unknowns.
+  const auto add_block = [&](std::size_t row, std::size_t col, const Mat2& block) {
+    for (std::size_t da = 0; da < 2; ++da) {
+      for (int ti = start[2 * row + da]; ti < start[2 * row + da + 1]; ++ti) {
+        const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
+        double* line = local.data() + static_cast<std::size_t>(a) * m;
+        for (std::size_t db = 0; db < 2; ++db) {
+          const double k = wa * block(static_cast<Eigen::Index>(da), static_cast<Eigen::Index>(db));
+          if (k == 0.0) continue;
+          for (int tj = start[2 * col + db]; tj < start[2 * col + db + 1]; ++tj) {
+            const auto [b, wb] = terms[static_cast<std::size_t>(tj)];
+            line[b] += k * wb;
+          }
+        }
+      }
+    }
+  };
+  const std::vector<NodeStrain>& strain = s.strain[p];
+  const bool turning = !(before[kXY] == 0.0 && before[kXX] == before[kYY]);
+  for (std::size_t r = 0; r < strain.size(); ++r) {
+    const Eigen::Matrix<double, 2, 4> left = volume * strain[r].b.transpose() * d;
+    for (std::size_t c = 0; c < strain.size(); ++c) add_block(r, c, left * strain[c].b);
+    if (!turning) continue;
+    const Vec2 force = volume * strain[r].b.transpose() * turned;
+    for (std::size_t k = 0; k < s.nodes[p].size(); ++k) {
+      const Vec2& g = s.nodes[p][k].gradient;
+      const Vec2 spin(0.5 * g.y(), -0.5 * g.x());
+      add_block(r, static_cast<std::size_t>(s.stencil_in_strain[p][k]), force * spin.transpose());
+    }
+  }
+  const std::vector<int>& where = s.position[p];
+  for (std::size_t k = 0; k < m * m; ++k) values[where[k]] += local[k];
+  if (!s.fitted.empty() && s.fitted[p]) {
+    // d sigma_p / d (its unknowns), for Nitsche's term: D B plus the rotation's part.
+    Eigen::MatrixXd& jacobian = it.stress_jacobian[p];
+    jacobian.setZero(4, static_cast<Eigen::Index>(m));
+    const auto add_column = [&](std::size_t node, std::size_t da, const Stress& change) {
+      for (int ti = start[2 * node + da]; ti < start[2 * node + da + 1]; ++ti) {
+        const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
+        jacobian.col(a) += wa * change;
+      }
+    };
+    for (std::size_t c = 0; c < strain.size(); ++c) {
+      const Eigen::Matrix<double, 4, 2> db = d * strain[c].b;
+      for (std::size_t da = 0; da < 2; ++da) add_column(c, da, db.col(static_cast<int>(da)));
+    }
+    for (std::size_t k = 0; turning && k < s.nodes[p].size(); ++k) {
+      const Vec2& g = s.nodes[p][k].gradient;
+      const auto c = static_cast<std::size_t>(s.stencil_in_strain[p][k]);
+      add_column(c, 0, 0.5 * g.y() * turned);
+      add_column(c, 1, -0.5 * g.x() * turned);
+    }
+  }
+}
+
 Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangent,
                                 Iterate& it) const {
   const std::size_t n_particles = particles_.size();
@@ -386,98 +487,37 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
   }
   std::fill(it.internal.begin(), it.internal.end(), Vec2::Zero());
   if (tangent) std::fill_n(it.tangent.valuePtr(), it.tangent.nonZeros(), 0.0);
-  std::vector<double> local;  // a particle's T^T K T over its unknowns, row-major
-  for (std::size_t p = 0; p < n_particles; ++p) {
-    Strain de = Strain::Zero();
-    for (const NodeStrain& ns : s.strain[p])
-      de += ns.b * it.increment[static_cast<std::size_t>(ns.node)];
-    // The increment gradient with B-bar's dilatation: G_bar such that sym(G_bar) = de; its
-    // spin from the plain gradient.
-    Mat2 plain = Mat2::Zero();
-    for (const NodeWeight& w : s.nodes[p])
-      plain += it.increment[static_cast<std::size_t>(w.node)] * w.gradient.transpose();
-    Mat2 g_bar = plain;
-    g_bar(0, 0) = de[kXX];
-    g_bar(1, 1) = de[kYY];
-    it.gradient[p] = g_bar;
-    Stress sigma = particles_.stress[p];
-    jaumann_rotate(g_bar, 1.0, sigma);
-    PointState point = particles_.state[p];
-    Tangent d;
-    const auto mi = static_cast<std::size_t>(particles_.material[p]);
-    update_with_tangent(case_.materials[mi].model, constants_[mi], strain_increment(g_bar, 1.0),
-                        sigma, point, d);
-    it.stress[p] = sigma;
-    it.state[p] = point;
-    const double volume = particles_.volume[p];
-    for (const NodeStrain& ns : s.strain[p])
-      it.internal[static_cast<std::size_t>(ns.node)] += volume * ns.b.transpose() * sigma;
+  // The particles in contiguous ranges, one per thread: each thread adds into its own copy of
+  // the tangent's values and of the internal forces (the first into it's), and the copies are
+  // added in thread order, so a thread count gives the same bytes at every run.
+  const int n_threads = n_particles >= kMinParallelParticles ? omp_get_max_threads() : 1;
+  const auto copies = static_cast<std::size_t>(n_threads - 1);
+  const auto n_values = static_cast<std::size_t>(it.tangent.nonZeros());
+  it.thread_values.resize(copies);
+  it.thread_internal.resize(copies);
+#pragma omp parallel num_threads(n_threads)
+  {
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    double* values = nullptr;
+    Vec2* internal = it.internal.data();
+    if (t > 0) {
+      it.thread_internal[t - 1].assign(n_nodes, Vec2::Zero());
+      internal = it.thread_internal[t - 1].data();
+    }
+    if (tangent) {
+      if (t > 0) it.thread_values[t - 1].assign(n_values, 0.0);
+      values = t > 0 ? it.thread_values[t - 1].data() : it.tangent.valuePtr();
+    }
+    std::vector<double> local;  // a particle's T^T K T over its unknowns, row-major
+    const auto threads = static_cast<std::size_t>(n_threads);
+    for (std::size_t p = n_particles * t / threads; p < n_particles * (t + 1) / threads; ++p)
+      evaluate_particle(s, p, tangent, it, values, internal, local);
+  }
+  for (std::size_t t = 0; t < copies; ++t) {
+    for (std::size_t n = 0; n < n_nodes; ++n) it.internal[n] += it.thread_internal[t][n];
     if (!tangent) continue;
-    // The Jaumann rotation's part: sigma_n turned by w = (G01 - G10) / 2 changes the trial
-    // stress by turn x dw, dw / du_I = (dN_I/dy, -dN_I/dx) / 2, and the update passes a
-    // change of the trial stress on by d sigma / d trial = D_alg D^-1.
-    const Stress& before = particles_.stress[p];
-    const Stress turn(2.0 * before[kXY], -2.0 * before[kXY], before[kYY] - before[kXX], 0.0);
-    const Stress turned = d * (hooke_inverse_[mi] * turn);
-    const std::size_t m = s.unknowns[p].size();
-    local.assign(m * m, 0.0);
-    const std::vector<std::pair<int, double>>& terms = s.terms[p];
-    const std::vector<int>& start = s.start[p];
-    // Adds the 2 x 2 block of strain nodes (row, col) over their components' unknowns.
-    const auto add_block = [&](std::size_t row, std::size_t col, const Mat2& block) {
-      for (std::size_t da = 0; da < 2; ++da) {
-        for (int ti = start[2 * row + da]; ti < start[2 * row + da + 1]; ++ti) {
-          const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
-          double* line = local.data() + static_cast<std::size_t>(a) * m;
-          for (std::size_t db = 0; db < 2; ++db) {
-            const double k =
-                wa * block(static_cast<Eigen::Index>(da), static_cast<Eigen::Index>(db));
-            if (k == 0.0) continue;
-            for (int tj = start[2 * col + db]; tj < start[2 * col + db + 1]; ++tj) {
-              const auto [b, wb] = terms[static_cast<std::size_t>(tj)];
-              line[b] += k * wb;
-            }
-          }
-        }
-      }
-    };
-    const std::vector<NodeStrain>& strain = s.strain[p];
-    const bool turning = !(before[kXY] == 0.0 && before[kXX] == before[kYY]);
-    for (std::size_t r = 0; r < strain.size(); ++r) {
-      const Eigen::Matrix<double, 2, 4> left = volume * strain[r].b.transpose() * d;
-      for (std::size_t c = 0; c < strain.size(); ++c) add_block(r, c, left * strain[c].b);
-      if (!turning) continue;
-      const Vec2 force = volume * strain[r].b.transpose() * turned;
-      for (std::size_t k = 0; k < s.nodes[p].size(); ++k) {
-        const Vec2& g = s.nodes[p][k].gradient;
-        const Vec2 spin(0.5 * g.y(), -0.5 * g.x());
-        add_block(r, static_cast<std::size_t>(s.stencil_in_strain[p][k]), force * spin.transpose());
-      }
-    }
     double* values = it.tangent.valuePtr();
-    const std::vector<int>& where = s.position[p];
-    for (std::size_t k = 0; k < m * m; ++k) values[where[k]] += local[k];
-    if (!s.fitted.empty() && s.fitted[p]) {
-      // d sigma_p / d (its unknowns), for Nitsche's term: D B plus the rotation's part.
-      Eigen::MatrixXd& jacobian = it.stress_jacobian[p];
-      jacobian.setZero(4, static_cast<Eigen::Index>(m));
-      const auto add_column = [&](std::size_t node, std::size_t da, const Stress& change) {
-        for (int ti = start[2 * node + da]; ti < start[2 * node + da + 1]; ++ti) {
-          const auto [a, wa] = terms[static_cast<std::size_t>(ti)];
-          jacobian.col(a) += wa * change;
-        }
-      };
-      for (std::size_t c = 0; c < strain.size(); ++c) {
-        const Eigen::Matrix<double, 4, 2> db = d * strain[c].b;
-        for (std::size_t da = 0; da < 2; ++da) add_column(c, da, db.col(static_cast<int>(da)));
-      }
-      for (std::size_t k = 0; turning && k < s.nodes[p].size(); ++k) {
-        const Vec2& g = s.nodes[p][k].gradient;
-        const auto c = static_cast<std::size_t>(s.stencil_in_strain[p][k]);
-        add_column(c, 0, 0.5 * g.y() * turned);
-        add_column(c, 1, -0.5 * g.x() * turned);
-      }
-    }
+    for (std::size_t k = 0; k < n_values; ++k) values[k] += it.thread_values[t][k];
   }
   Vector residual = s.external_reduced;
   it.internal_norm = 0.0;

@@ -135,6 +135,11 @@ class ImplicitSolver {
   /// in `it`; with `tangent`, T^T K T in it.tangent.
   Eigen::VectorXd evaluate(const Prepared& s, const Eigen::VectorXd& x, bool tangent,
                            Iterate& it) const;
+  /// Particle p's stress, state and increment gradient at it.increment into `it`, its internal
+  /// force into `internal` and, with `tangent`, its T^T K T into `values` (the tangent's) and
+  /// its d sigma / d du when a Nitsche point fits it.
+  void evaluate_particle(const Prepared& s, std::size_t p, bool tangent, Iterate& it,
+                         double* values, Vec2* internal, std::vector<double>& local) const;
   /// |residual| over the larger of the internal force's and the external force's norms.
   static double relative(const Prepared& s, const Iterate& it, const Eigen::VectorXd& residual);
   /// 8. Newton with a line search; the relative residuals in entry; true when converged.
