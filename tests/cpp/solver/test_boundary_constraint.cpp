@@ -13,6 +13,7 @@
 #include "mpm/solver/boundary_coupling.hpp"
 #include "mpm/solver/mpm_solver.hpp"
 #include "mpm/step/case.hpp"
+#include "tests/cpp/inclined_block.hpp"
 
 namespace pfm {
 namespace {
@@ -41,10 +42,8 @@ struct BlockResult {
   double constraint_work_ratio = 0.0;  // constraint work / elastic energy at the end
 };
 
-// cases/constraint_inclined_block.json with the penalty factor given (0: the default): uniaxial
-// strain along n = (cos 30, sin 30), the face moved in by 0.01 of the block's 1 m. The solver's
-// rate form integrates the stretching, so the strain is ln(0.99) = -0.0100503 (small strain's
-// -0.01 would read the exact answer as 0.5 % off).
+// cases/constraint_inclined_block.json with the penalty factor given (0: the default), against
+// its closed form (tests/cpp/inclined_block.hpp).
 BlockResult run_inclined_block(double penalty_factor,
                                ConstraintMethod method = ConstraintMethod::kPenalty) {
   const OneThread one_thread;
@@ -61,34 +60,15 @@ BlockResult run_inclined_block(double penalty_factor,
   const long steps = static_cast<long>(std::ceil(c.time.end_time / solver.dt() - 1e-9));
   for (long s = 0; s < steps; ++s) solver.step();
 
-  const ElasticParameters e = elastic_parameters(c.materials[0].model);
-  const double strain = std::log(1.0 - 0.01);
-  const double exact_nn = e.constrained_modulus() * strain, exact_tt = e.lame_lambda() * strain;
-  const double angle = std::numbers::pi / 6.0;
-  const Vec2 n(std::cos(angle), std::sin(angle)), t(-std::sin(angle), std::cos(angle));
-  const Vec2 centre(1.5, 1.5);
-  const Particles& p = solver.particles();
-  double sum_nn = 0.0, sum_tt = 0.0, worst = 0.0;
-  int count = 0;
-  for (std::size_t k = 0; k < p.size(); ++k) {
-    const Vec2 r = p.position[k] - centre;
-    if (std::abs(r.dot(n)) > 0.3 || std::abs(r.dot(t)) > 0.3) continue;  // the interior
-    const Stress& s = p.stress[k];
-    const Mat2 sigma = (Mat2() << s[kXX], s[kXY], s[kXY], s[kYY]).finished();
-    const double nn = n.dot(sigma * n), tt = t.dot(sigma * t);
-    sum_nn += nn;
-    sum_tt += tt;
-    worst = std::max(worst, std::abs(nn / exact_nn - 1.0));
-    ++count;
-  }
+  const inclined_block::Errors errors =
+      inclined_block::measure(solver.particles(), elastic_parameters(c.materials[0].model),
+                              coupling.constraints().reports());
   BlockResult r;
-  r.interior_nn_error = sum_nn / count / exact_nn - 1.0;
-  r.interior_tt_error = sum_tt / count / exact_tt - 1.0;
-  r.worst_point_error = worst;
-  const auto& reports = coupling.constraints().reports();
-  const double face_force = std::abs(exact_nn) * 1.0;  // kN/m on the 1 m face
-  r.reaction_error = reports[0].force.dot(-n) / face_force - 1.0;
-  r.opposite_error = reports[1].force.dot(n) / face_force - 1.0;
+  r.interior_nn_error = errors.interior_nn;
+  r.interior_tt_error = errors.interior_tt;
+  r.worst_point_error = errors.worst_point;
+  r.reaction_error = errors.reaction;
+  r.opposite_error = errors.opposite;
   const EnergyBalance b = solver.energy();
   r.energy_error = std::abs(b.energy_error()) / b.elastic_energy;
   r.kinetic_ratio = b.kinetic_energy / b.elastic_energy;
