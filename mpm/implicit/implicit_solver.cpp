@@ -487,17 +487,20 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
   }
   std::fill(it.internal.begin(), it.internal.end(), Vec2::Zero());
   if (tangent) std::fill_n(it.tangent.valuePtr(), it.tangent.nonZeros(), 0.0);
-  // The particles in contiguous ranges, one per thread: each thread adds into its own copy of
-  // the tangent's values and of the internal forces (the first into it's), and the copies are
-  // added in thread order, so a thread count gives the same bytes at every run.
-  const int n_threads = n_particles >= kMinParallelParticles ? omp_get_max_threads() : 1;
-  const auto copies = static_cast<std::size_t>(n_threads - 1);
+  // The particles in contiguous ranges, one per thread of the team (as many as OpenMP gives):
+  // each thread adds into its own copy of the tangent's values and of the internal forces (the
+  // first into it's), and the copies are added in thread order, so a thread count gives the
+  // same bytes at every run.
+  const int requested = n_particles >= kMinParallelParticles ? omp_get_max_threads() : 1;
   const auto n_values = static_cast<std::size_t>(it.tangent.nonZeros());
-  it.thread_values.resize(copies);
-  it.thread_internal.resize(copies);
-#pragma omp parallel num_threads(n_threads)
+  it.thread_values.resize(static_cast<std::size_t>(requested - 1));
+  it.thread_internal.resize(static_cast<std::size_t>(requested - 1));
+  std::size_t team = 1;
+#pragma omp parallel num_threads(requested)
   {
     const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    const auto threads = static_cast<std::size_t>(omp_get_num_threads());
+    if (t == 0) team = threads;
     double* values = nullptr;
     Vec2* internal = it.internal.data();
     if (t > 0) {
@@ -509,11 +512,10 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
       values = t > 0 ? it.thread_values[t - 1].data() : it.tangent.valuePtr();
     }
     std::vector<double> local;  // a particle's T^T K T over its unknowns, row-major
-    const auto threads = static_cast<std::size_t>(n_threads);
     for (std::size_t p = n_particles * t / threads; p < n_particles * (t + 1) / threads; ++p)
       evaluate_particle(s, p, tangent, it, values, internal, local);
   }
-  for (std::size_t t = 0; t < copies; ++t) {
+  for (std::size_t t = 0; t + 1 < team; ++t) {
     for (std::size_t n = 0; n < n_nodes; ++n) it.internal[n] += it.thread_internal[t][n];
     if (!tangent) continue;
     double* values = it.tangent.valuePtr();

@@ -1,0 +1,23 @@
+// What the implicit tests assert of a linear problem's load steps.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstddef>
+
+#include "mpm/implicit/implicit_solver.hpp"
+
+namespace pfm {
+
+/// A linear problem (elastic, small rotations): `steps` load steps, each converged, each one's
+/// first correction leaving round-off (relative residual below 1e-10).
+inline void expect_one_correction_per_step(const ImplicitSolver& solver, std::size_t steps) {
+  ASSERT_EQ(solver.log().size(), steps);
+  for (const LoadStepLog& e : solver.log()) {
+    EXPECT_TRUE(e.converged);
+    ASSERT_GE(e.residuals.size(), 2u);
+    EXPECT_LE(e.residuals[1], 1e-10);
+  }
+}
+
+}  // namespace pfm
