@@ -1,5 +1,6 @@
 // Essential conditions on the detected boundary in the implicit step (case-file "constraints",
-// issue 47): penalty and Nitsche's method on the boundary detected at the step's start.
+// issue 47): penalty, Nitsche's method and the Implicit Boundary Method on the boundary detected
+// at the step's start.
 //
 // At a quadrature point x of a constraint's part (BoundaryLoadIntegrator::quadrature_points, the
 // loads' rule), with n the curve's outward normal:
@@ -12,21 +13,38 @@
 //     loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise) over the
 //     nodes with material, normalised to sum 1, and P = n_w n_w^T for normal_only (n_w the part's
 //     normal-window direction, else the curve's normal), the identity otherwise;
-//   the force on the body, weight x (t - beta g) shared by the nodes as N_I(x) (Galerkin: the
-//     internal force of a uniform stress has the same shares, the patch test): penalty t = 0;
-//     Nitsche t = P sigma(x) n with sigma(x) = sum_p c_p sigma_p, the same fit to the particles'
-//     stresses at the iterate (the non-symmetric "incomplete" form: consistent, beta its
-//     stabilisation; Nitsche 1971, Hansbo 2005). The stiffness of both terms is in the tangent:
-//     beta w N_I N_J P, and -w N_I P (d sigma(x) / d du) n through each fitted particle's
-//     D (B + the Jaumann rotation's part).
-// beta is the constraint's penalty (penalty_factor x the largest constrained modulus / h unless
-// given). The gap is the total one (u_n(x) enters), so a penalty's error does not accumulate
-// over the steps. u_bar: a displacement's value x time function at t_n+1, or a velocity's
-// integral (the value at mid-step times dt per step).
+//   the force on the body, weight x (share t - S g) shared by the nodes as N_I(x) (Galerkin: the
+//     internal force of a uniform stress has the same shares, the patch test), with
+//     t = P sigma(x) n, sigma(x) = sum_p c_p sigma_p the same fit to the particles' stresses at
+//     the iterate:
+//     penalty: share 0, S = beta P;
+//     Nitsche: share 1, S = beta P (the non-symmetric "incomplete" form: consistent, beta its
+//       stabilisation; Nitsche 1971, Hansbo 2005);
+//     the Implicit Boundary Method (thesis 3.3.3 and appendix A; Burla and Kumar 2008, Cortis et
+//       al.): the displacement is D u_grid + u_a with the Dirichlet function D = 2 s / delta -
+//       s^2 / delta^2 rising over a band of depth s in [0, delta] inside the boundary (eq. A.3)
+//       on the constrained components, 1 on the free ones (A.4). With u_a the prescribed value,
+//       the band's strain is D eps(u) + D' sym(n x g): its energy's cross term (K2 and K2^T,
+//       eq. A.7) and square term (K3, A.8), integrated across the band (int D D' = 1/2, int D'^2
+//       = 4 / (3 delta), band_integrals), give share 1/2 with the symmetric counterpart weight
+//       x 1/2 (d sigma(x) / d du)^T n . g on the fit's particles' unknowns, and the band's
+//       stiffness S = 4 / (3 delta) P^T (n.C.n) P, C the elastic moduli of the material there.
+//       N, grad N and sigma are taken at the boundary (the band is delta = band_factor x h thin;
+//       the default 1e-3 h changes them by 1e-3 of a cell's variation), and sigma(V) of the
+//       test functions is the fit's d sigma / d du (for an elastic material C B, eq. A.7's; for a
+//       plastic one its consistent tangent).
+// The stiffness of every term is in the tangent: S N_I N_J P, -share w N_I P (d sigma(x) / d du) n
+// through each fitted particle's D (B + the Jaumann rotation's part), and the IBM's transposed
+// term's derivative along g (its change of d sigma / d du with the iterate, times g, is left out:
+// g is O(delta)). beta is the constraint's penalty (penalty_factor x the largest constrained
+// modulus / h unless given). The gap is the total one (u_n(x) enters), so a penalty's error does
+// not accumulate over the steps. u_bar: a displacement's value x time function at t_n+1, or a
+// velocity's integral (the value at mid-step times dt per step).
 // Units: kN, m, s, t, kPa.
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "mpm/boundary/bezier.hpp"
 #include "mpm/boundary/surface_load.hpp"
@@ -102,7 +120,45 @@ std::vector<std::pair<int, double>> linear_fit(const Grid& grid, const CellLists
   return fit;
 }
 
+// The Implicit Boundary Method's Dirichlet function across its band, D(s) = 2 s / delta -
+// s^2 / delta^2 for the depth s in [0, delta] (thesis eq. A.3; 1 deeper): the integrals over the
+// band that its K2 and K3 take (eqs. A.7, A.8), by 2-point Gauss (exact: D D' is cubic, D'^2
+// quadratic in s): rise = int D D' ds = 1/2, slope_squared = int D'^2 ds = 4 / (3 delta).
+struct BandIntegrals {
+  double rise = 0.0;           // -
+  double slope_squared = 0.0;  // 1/m
+};
+
+BandIntegrals band_integrals(double delta) {
+  BandIntegrals b;
+  for (const double xi : {-1.0 / std::sqrt(3.0), 1.0 / std::sqrt(3.0)}) {
+    const double s = 0.5 * delta * (1.0 + xi), weight = 0.5 * delta;
+    const double d = 2.0 * s / delta - s * s / (delta * delta);
+    const double slope = 2.0 / delta - 2.0 * s / (delta * delta);
+    b.rise += weight * d * slope;
+    b.slope_squared += weight * slope * slope;
+  }
+  return b;
+}
+
+// n . C . n of an isotropic elastic material (plane strain), kPa: the stiffness of the band
+// against a displacement u at its inner side, (n x u) : C : (n x u) = u . (n . C . n) . u.
+Mat2 normal_stiffness(const ElasticParameters& e, const Vec2& n) {
+  const double mu = e.shear_modulus(), lambda = e.lame_lambda();
+  return mu * Mat2::Identity() + (lambda + mu) * n * n.transpose();
+}
+
 }  // namespace
+
+const ElasticParameters& ImplicitSolver::band_material(
+    const std::vector<std::pair<int, double>>& fit) const {
+  const auto largest = std::max_element(fit.begin(), fit.end(), [](const auto& a, const auto& b) {
+    return std::abs(a.second) < std::abs(b.second);
+  });
+  const auto p = static_cast<std::size_t>(largest->first);
+  return elastic_parameters(
+      case_.materials[static_cast<std::size_t>(particles_.material[p])].model);
+}
 
 void ImplicitSolver::place_constraints(Prepared& s) {
   s.points.clear();
@@ -119,6 +175,8 @@ void ImplicitSolver::place_constraints(Prepared& s) {
     const Vec2 u_bar = constraint_target(k, s.dt);
     s.constraint_target[k] = u_bar;
     const bool nitsche = spec.method == ConstraintMethod::kNitsche;
+    const bool ibm = spec.method == ConstraintMethod::kImplicitBoundary;
+    const BandIntegrals band = band_integrals(spec.band_factor * grid.cell_size);
     const auto curves = boundary::make_composite_beziers(boundary.contours, spec.part.curve);
     integrator.quadrature_points(curves, spec.part, points);
     for (const boundary::CurvePoint& point : points) {
@@ -153,7 +211,16 @@ void ImplicitSolver::place_constraints(Prepared& s) {
         target = u_bar.x() * n;
       }
       q.offset = q.projector * (u_n - target);
-      if (nitsche) {
+      if (ibm) {
+        q.share = band.rise;
+        q.spring = band.slope_squared * q.projector.transpose() *
+                   normal_stiffness(band_material(fit), q.normal) * q.projector;
+        q.symmetric = true;
+      } else {
+        q.share = nitsche ? 1.0 : 0.0;
+        q.spring = spec.penalty * q.projector;
+      }
+      if (q.share > 0.0) {
         if (s.fitted.empty()) s.fitted.assign(particles_.size(), 0);
         for (const auto& [p, c] : fit) s.fitted[static_cast<std::size_t>(p)] = 1;
         q.fit = std::move(fit);
@@ -184,21 +251,32 @@ void ImplicitSolver::add_constraint_pairs(Prepared& s, std::vector<Eigen::Triple
     q.cols.erase(std::unique(q.cols.begin(), q.cols.end()), q.cols.end());
     for (const int i : q.rows)
       for (const int j : q.cols) pairs.emplace_back(i, j, 0.0);
+    if (!q.symmetric) continue;
+    for (const auto& [p, c] : q.fit) {
+      for (const int i : s.unknowns[static_cast<std::size_t>(p)])
+        for (const int j : q.rows) pairs.emplace_back(i, j, 0.0);
+    }
   }
 }
 
 void ImplicitSolver::place_constraint_pairs(Prepared& s) {
   const int* outer = s.pattern.outerIndexPtr();
   const int* inner = s.pattern.innerIndexPtr();
+  const auto place = [&](int row, int column) {
+    return static_cast<int>(
+        std::lower_bound(inner + outer[column], inner + outer[column + 1], row) - inner);
+  };
   for (ConstraintPoint& q : s.points) {
     q.position.resize(q.rows.size() * q.cols.size());
     for (std::size_t a = 0; a < q.rows.size(); ++a) {
-      for (std::size_t b = 0; b < q.cols.size(); ++b) {
-        const int column = q.cols[b];
-        const int* found =
-            std::lower_bound(inner + outer[column], inner + outer[column + 1], q.rows[a]);
-        q.position[a * q.cols.size() + b] = static_cast<int>(found - inner);
-      }
+      for (std::size_t b = 0; b < q.cols.size(); ++b)
+        q.position[a * q.cols.size() + b] = place(q.rows[a], q.cols[b]);
+    }
+    q.transposed.clear();
+    if (!q.symmetric) continue;
+    for (const auto& [p, c] : q.fit) {
+      for (const int i : s.unknowns[static_cast<std::size_t>(p)])
+        for (const int j : q.rows) q.transposed.push_back(place(i, j));
     }
   }
 }
@@ -208,10 +286,12 @@ void ImplicitSolver::add_constraints(const Prepared& s, bool tangent, Iterate& i
   std::vector<double> gap_squared(it.reports.size(), 0.0);
   for (ConstraintReport& r : it.reports) r = ConstraintReport{};
   double* values = tangent ? it.tangent.valuePtr() : nullptr;
-  Eigen::MatrixXd stiffness;  // d (t - beta g) / d (the point's columns), 2 x cols
+  Eigen::MatrixXd stiffness;  // d (share t - S g) / d (the point's columns), 2 x cols
+  Eigen::MatrixXd opening;    // d g / d (the point's rows), 2 x rows
   for (const ConstraintPoint& q : s.points) {
-    const ConstraintSpec& spec = case_.constraints[static_cast<std::size_t>(q.constraint)];
-    const double beta = spec.penalty;
+    if (q.symmetric && !tangent) {
+      throw std::logic_error("add_constraints: the IBM's term needs the stress Jacobians");
+    }
     Vec2 du = Vec2::Zero();
     for (const auto& [node, value] : q.nodes)
       du += value * it.increment[static_cast<std::size_t>(node)];
@@ -223,7 +303,7 @@ void ImplicitSolver::add_constraints(const Prepared& s, bool tangent, Iterate& i
       traction = q.projector * Vec2(sigma[kXX] * q.normal.x() + sigma[kXY] * q.normal.y(),
                                     sigma[kXY] * q.normal.x() + sigma[kYY] * q.normal.y());
     }
-    const Vec2 force = q.weight * (traction - beta * gap);
+    const Vec2 force = q.weight * (q.share * traction - q.spring * gap);
     ConstraintReport& report = it.reports[static_cast<std::size_t>(q.constraint)];
     report.force += force;
     report.length += q.weight;
@@ -239,23 +319,39 @@ void ImplicitSolver::add_constraints(const Prepared& s, bool tangent, Iterate& i
     const auto column = [&](int dof) {
       return std::lower_bound(q.cols.begin(), q.cols.end(), dof) - q.cols.begin();
     };
+    const auto row_of = [&](int dof) {
+      return std::lower_bound(q.rows.begin(), q.rows.end(), dof) - q.rows.begin();
+    };
     stiffness.setZero(2, static_cast<Eigen::Index>(q.cols.size()));
+    opening.setZero(2, static_cast<Eigen::Index>(q.rows.size()));
+    const Mat2 spring_opening = q.spring * q.projector;
     for (const auto& [node, value] : q.nodes) {
       for (int d = 0; d < 2; ++d) {
         for (const auto& [dof, w] :
-             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms)
-          stiffness.col(column(dof)) -= beta * w * value * q.projector.col(d);
+             s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms) {
+          stiffness.col(column(dof)) -= w * value * spring_opening.col(d);
+          opening.col(row_of(dof)) += w * value * q.projector.col(d);
+        }
       }
     }
+    // The traction's change through each fitted particle's stress, and the IBM's transposed
+    // term: weight share (d sigma_p / d x_b) n . g on the particle's unknown b (a force on
+    // the fit's particles), its derivative weight share c_p (d sigma_p / d x_b) n . d g / d x.
+    std::size_t k = 0;
     for (const auto& [p, c] : q.fit) {
       const auto i = static_cast<std::size_t>(p);
       const Eigen::MatrixXd& jacobian = it.stress_jacobian[i];
       const std::vector<int>& own = s.unknowns[i];
       for (std::size_t b = 0; b < own.size(); ++b) {
-        const auto k = static_cast<Eigen::Index>(b);
-        const Vec2 change(jacobian(kXX, k) * q.normal.x() + jacobian(kXY, k) * q.normal.y(),
-                          jacobian(kXY, k) * q.normal.x() + jacobian(kYY, k) * q.normal.y());
-        stiffness.col(column(own[b])) += c * (q.projector * change);
+        const auto kb = static_cast<Eigen::Index>(b);
+        const Vec2 change(jacobian(kXX, kb) * q.normal.x() + jacobian(kXY, kb) * q.normal.y(),
+                          jacobian(kXY, kb) * q.normal.x() + jacobian(kYY, kb) * q.normal.y());
+        stiffness.col(column(own[b])) += q.share * c * (q.projector * change);
+        if (!q.symmetric) continue;
+        const double scale = q.weight * q.share * c;
+        residual[own[b]] += scale * change.dot(gap);
+        for (Eigen::Index a = 0; a < opening.cols(); ++a)
+          values[q.transposed[k++]] -= scale * change.dot(opening.col(a));
       }
     }
     // K = -d R / d x: the rows of the point's nodes take -w N_I times the force's derivative.
@@ -264,8 +360,7 @@ void ImplicitSolver::add_constraints(const Prepared& s, bool tangent, Iterate& i
       for (int d = 0; d < 2; ++d) {
         for (const auto& [dof, w] :
              s.map[2 * static_cast<std::size_t>(node) + static_cast<std::size_t>(d)].terms) {
-          const auto row = static_cast<std::size_t>(
-              std::lower_bound(q.rows.begin(), q.rows.end(), dof) - q.rows.begin());
+          const auto row = static_cast<std::size_t>(row_of(dof));
           const double scale = q.weight * w * value;
           for (std::size_t b = 0; b < n_cols; ++b)
             values[q.position[row * n_cols + b]] -=

@@ -63,19 +63,24 @@ struct NodeStrain {
 };
 
 // A quadrature point of a constraint's part (implicit_constraints.cpp): the gap there is
-// g = offset + P sum_I N_I du_I, the force on the body weight (t - beta g), on the nodes as
-// N_I(x), with Nitsche's t = P sigma(x) n, sigma(x) = sum_p c_p sigma_p.
+// g = offset + P sum_I N_I du_I, the force on the body weight (share t - S g), on the nodes as
+// N_I(x), with t = P sigma(x) n, sigma(x) = sum_p c_p sigma_p; the Implicit Boundary Method adds
+// weight share (d sigma(x) / d du)^T n . g on its fit's particles' unknowns.
 struct ConstraintPoint {
   int constraint = 0;
   double weight = 0.0;  ///< m, the rule's weight
   Vec2 normal = Vec2::Zero();
-  Mat2 projector = Mat2::Identity();          ///< P
-  Vec2 offset = Vec2::Zero();                 ///< P (u_n(x) - u_bar(t_n+1)), m
+  Mat2 projector = Mat2::Identity();  ///< P
+  Mat2 spring = Mat2::Zero();         ///< S, kPa/m: beta P, or the band's P (n.C.n) P 4 / (3 delta)
+  double share = 0.0;                 ///< of the traction: penalty 0, Nitsche 1, the IBM 1/2
+  bool symmetric = false;             ///< the IBM's transposed term
+  Vec2 offset = Vec2::Zero();         ///< P (u_n(x) - u_bar(t_n+1)), m
   std::vector<std::pair<int, double>> nodes;  ///< (node, N_I(x)) over the nodes with material
-  std::vector<std::pair<int, double>> fit;    ///< (particle, c_p), Nitsche's only
+  std::vector<std::pair<int, double>> fit;    ///< (particle, c_p), with a share only
   /// The tangent's places: its nodes' unknowns (rows), those and its fit particles' (columns),
-  /// both ascending; position[row * cols.size() + col] among the matrix's stored values.
-  std::vector<int> rows, cols, position;
+  /// both ascending; position[row * cols.size() + col] among the matrix's stored values; with
+  /// the transposed term, transposed[k] for the k-th (fit particle, its unknown, row) in order.
+  std::vector<int> rows, cols, position, transposed;
 };
 
 }  // namespace implicit_detail
@@ -99,7 +104,7 @@ struct ImplicitSolver::Prepared {
   implicit_detail::Vector external_reduced;              // T^T f_ext
   std::vector<implicit_detail::ConstraintPoint> points;  // of every constraint
   std::vector<Vec2> constraint_target;                   // u_bar(t_n+1) per constraint, m
-  std::vector<char> fitted;                              // per particle: in a Nitsche point's fit
+  std::vector<char> fitted;                              // per particle: in a point's fit
   // The tangent's sparsity over the unknowns; per particle its unknowns (ascending) and where
   // each pair of them (row-major) sits among the matrix's stored values.
   implicit_detail::SparseMatrix pattern;

@@ -9,8 +9,9 @@
 //      under each node (sum_p N_I V_p, which also a weightless material has), the ties of the
 //      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
 //      supports, and the external force at t_n+1: gravity sum_p N_I m_p g and the loads on the
-//      boundary detected at t_n (dead within the step); the constraints on that boundary (penalty
-//      or Nitsche's method, implicit_constraints.cpp), their forces and stiffness in the
+//      boundary detected at t_n (dead within the step); the constraints on that boundary (penalty,
+//      Nitsche's method or the Implicit Boundary Method, implicit_constraints.cpp), their forces
+//      and stiffness in the
 //      residual and the tangent;
 //   2. the unknowns: the displacement increment of every node component that is neither fixed
 //      nor tied; a fixed component takes its prescribed increment (the integral of its
@@ -122,6 +123,9 @@ class ImplicitSolver {
   /// 6. The constraints' quadrature points on the boundary detected at t_n: their nodes, the
   /// gap at a zero increment, the fit (implicit_constraints.cpp).
   void place_constraints(Prepared& s);
+  /// The elastic parameters of the Implicit Boundary Method's band at a point: those of the
+  /// material of the fit's (particle, coefficient) with the largest coefficient.
+  const ElasticParameters& band_material(const std::vector<std::pair<int, double>>& fit) const;
   /// 7. The tangent's sparsity, and where each particle's pairs of unknowns go in it.
   void build_pattern(Prepared& s) const;
   /// The constraint points' pairs of unknowns (rows, columns), and then their places.
@@ -137,7 +141,7 @@ class ImplicitSolver {
                            Iterate& it) const;
   /// Particle p's stress, state and increment gradient at it.increment into `it`, its internal
   /// force into `internal` and, with `tangent`, its T^T K T into `values` (the tangent's) and
-  /// its d sigma / d du when a Nitsche point fits it.
+  /// its d sigma / d du when a constraint point (Nitsche's, the IBM's) fits it.
   void evaluate_particle(const Prepared& s, std::size_t p, bool tangent, Iterate& it,
                          double* values, Vec2* internal, std::vector<double>& local) const;
   /// |residual| over the larger of the internal force's and the external force's norms.

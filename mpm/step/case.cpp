@@ -773,7 +773,8 @@ void parse_constraints(const JsonView& root, Case& c) {
       const JsonView v = constraints->at(k);
       v.expect_object({"apply_on", "x_range", "faces", "normal", "curve", "interval",
                        "gauss_points", "normal_displacement", "displacement", "normal_velocity",
-                       "velocity", "time_function", "method", "penalty", "penalty_factor"});
+                       "velocity", "time_function", "method", "penalty", "penalty_factor",
+                       "band_factor"});
       v.at("apply_on").as_choice({"detected_boundary"});
       ConstraintSpec constraint;
       constraint.raw = v.raw();
@@ -804,9 +805,24 @@ void parse_constraints(const JsonView& root, Case& c) {
           constraint.normal_only ? Vec2(v.at(key).as_number(), 0.0) : v.at(key).as_vec2();
       if (v.has("time_function"))
         constraint.time_function = parse_time_function(v.at("time_function"));
-      constraint.method = v.choice_or("method", {"penalty", "nitsche"}, "penalty") == "penalty"
-                              ? ConstraintMethod::kPenalty
-                              : ConstraintMethod::kNitsche;
+      const std::string method = v.choice_or("method", {"penalty", "nitsche", "ibm"}, "penalty");
+      constraint.method = method == "penalty"   ? ConstraintMethod::kPenalty
+                          : method == "nitsche" ? ConstraintMethod::kNitsche
+                                                : ConstraintMethod::kImplicitBoundary;
+      if (constraint.method == ConstraintMethod::kImplicitBoundary) {
+        for (const char* unused : {"penalty", "penalty_factor"}) {
+          if (v.has(unused))
+            v.at(unused).fail("is not read by \"ibm\" (its band's stiffness is the material's)");
+        }
+        constraint.band_factor = v.number_or("band_factor", constraint.band_factor);
+        if (v.has("band_factor")) {
+          v.at("band_factor")
+              .require(constraint.band_factor > 0.0 && constraint.band_factor < 1.0,
+                       "must be in (0, 1): the band's thickness over h");
+        }
+      } else if (v.has("band_factor")) {
+        v.at("band_factor").fail("is read only with method \"ibm\"");
+      }
       v.require(!(v.has("penalty") && v.has("penalty_factor")),
                 "give penalty (kPa/m) or penalty_factor, not both");
       constraint.penalty_factor = v.number_or("penalty_factor", constraint.penalty_factor);
@@ -886,6 +902,17 @@ void parse_solver(const JsonView& root, Case& c) {
         .at("outer_node_fraction")
         .fail(
             "must be 0 in a case with constraints (the constraints do not act through tied nodes)");
+  }
+  // The Implicit Boundary Method changes the stiffness matrix, which only the implicit step has
+  // (thesis 3.3.3: "IBM is therefore not applicable to explicit MPM").
+  for (std::size_t k = 0; k < c.constraints.size(); ++k) {
+    if (c.constraints[k].method == ConstraintMethod::kImplicitBoundary &&
+        c.solver.type != SolverType::kImplicit) {
+      root.at("constraints")
+          .at(k)
+          .at("method")
+          .fail("\"ibm\" (the Implicit Boundary Method) needs solver.type \"implicit\"");
+    }
   }
   const bool tied = c.solver.shape_function != ShapeFunctionKind::kLinear && c.constraints.empty();
   c.solver.outer_node_fraction =

@@ -66,10 +66,9 @@ def test_a_completed_run_writes_its_steps_and_the_particles(tmp_path, run_case):
     assert abs(settlement / exact - 1.0) < 1e-3
 
 
-def test_a_constraint_writes_its_force_and_gap_per_load_step(tmp_path, run_case):
-    # The column without weight or surcharge, its detected top pushed down 4 mm (a ramp) by
-    # Nitsche's method: the force on the body is -M ln(H / (H - 4 mm)) x 1 m at the end (uniaxial
-    # strain, increments on the current height) and a quarter of the push's at the first step.
+def pushed_column(method):
+    """The column without weight or surcharge, its detected top pushed down 4 mm (a ramp) by
+    `method`."""
     case = column()
     case["materials"][0]["unit_weight"] = 0.0
     case["loads"] = []
@@ -79,10 +78,17 @@ def test_a_constraint_writes_its_force_and_gap_per_load_step(tmp_path, run_case)
             "faces": "top",
             "normal_displacement": -0.004,
             "time_function": {"type": "ramp", "ramp_time": 1.0},
-            "method": "nitsche",
+            "method": method,
         }
     ]
-    done = run_case(case, tmp_path)
+    return case
+
+
+def test_a_constraint_writes_its_force_and_gap_per_load_step(tmp_path, run_case):
+    # By Nitsche's method the force on the body is -M ln(H / (H - 4 mm)) x 1 m at the end
+    # (uniaxial strain, increments on the current height) and a quarter of the push's at the
+    # first step.
+    done = run_case(pushed_column("nitsche"), tmp_path)
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "out" / "timeseries.csv") as f:
         rows = list(csv.DictReader(f))
@@ -128,6 +134,19 @@ def test_a_step_that_cannot_converge_stops_the_run_with_the_outputs_kept(
     ).read_text() == "time,dt,iterations,residual,attempts\n"
 
 
+def expect_refused(cases, make, tmp_path, run_case):
+    """Each of `cases` ({JSON path: change of the case `make()` gives}) exits 2 naming its path,
+    and creates no output folder."""
+    for path, change in cases.items():
+        case = make()
+        change(case)
+        folder = tmp_path / path.strip("/").replace("/", "_")
+        done = run_case(case, folder)
+        assert done.returncode == 2, (path, done.stderr)
+        assert f"case.json: {path}" in done.stderr, (path, done.stderr)
+        assert not (folder / "out").exists()
+
+
 def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
     cases = {
         "/solver/damping": lambda c: c["solver"].update({"damping": 0.1}),
@@ -136,14 +155,31 @@ def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
         "/implicit": lambda c: c["solver"].update({"type": "explicit"}),
         "/implicit/load_steps": lambda c: c["implicit"].update({"load_steps": 0}),
     }
-    for path, change in cases.items():
-        case = column()
-        change(case)
-        folder = tmp_path / path.strip("/").replace("/", "_")
-        done = run_case(case, folder)
-        assert done.returncode == 2, (path, done.stderr)
-        assert f"case.json: {path}" in done.stderr, (path, done.stderr)
-        assert not (folder / "out").exists()
+    expect_refused(cases, column, tmp_path, run_case)
     # The UL-FEM is explicit.
     done = run_case(column(), tmp_path / "ulfem", "--solver", "ulfem")
     assert done.returncode == 2 and "/solver/type" in done.stderr
+
+
+def test_what_the_implicit_boundary_method_cannot_honour_is_refused(tmp_path, run_case):
+    # The IBM changes the stiffness matrix, which the explicit step does not have; its band's
+    # stiffness is the material's, so a penalty is not read, and the band only by the IBM.
+    def constraint(c):
+        return c["constraints"][0]
+
+    cases = {
+        "/constraints/0/method": lambda c: c["solver"].update({"type": "explicit"})
+        or c.pop("implicit"),
+        "/constraints/0/penalty_factor": lambda c: constraint(c).update(
+            {"penalty_factor": 16.0}
+        ),
+        "/constraints/0/penalty": lambda c: constraint(c).update({"penalty": 1e7}),
+        "/constraints/0/band_factor": lambda c: constraint(c).update(
+            {"band_factor": 0.0}
+        ),
+    }
+    expect_refused(cases, lambda: pushed_column("ibm"), tmp_path, run_case)
+    case = pushed_column("nitsche")
+    constraint(case)["band_factor"] = 1e-3
+    done = run_case(case, tmp_path / "nitsche")
+    assert done.returncode == 2 and "/constraints/0/band_factor" in done.stderr

@@ -1,7 +1,8 @@
 // Essential conditions on the detected boundary in the implicit step
 // (mpm/implicit/implicit_constraints.cpp): a weightless elastic column pressed down by its
-// detected top, by penalty and by Nitsche's method, with every shape function, and the shipped
-// block turned 30 degrees to the grid, against the closed form of uniaxial strain.
+// detected top, by penalty, Nitsche's method and the Implicit Boundary Method, with every shape
+// function, and the shipped block turned 30 degrees to the grid, against the closed form of
+// uniaxial strain.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -50,15 +51,15 @@ nlohmann::json pressed_column(const std::string& shape, const std::string& metho
           {"time", {{"end_time", 1.0}}}};
 }
 
-TEST(ImplicitConstraints, PressedColumnMatchesUniaxialStrainByPenaltyAndNitsche) {
+TEST(ImplicitConstraints, PressedColumnMatchesUniaxialStrainByEachMethod) {
   // Uniaxial strain under a hypoelastic law whose increments are taken on the current height:
   // sigma_yy = -M ln(H / (H - kPush)) throughout (M = E (1 - nu) / ((1 + nu)(1 - 2 nu))), the
   // force on the body that times 1 m. Nitsche's method is consistent: its gap is a round-off
-  // of the penalty's. The penalty's gap is its traction over beta (100 M / h), and its settlement
-  // kPush less that gap.
+  // of the penalty's; the IBM's band leaves 3 delta / 8 of the strain, 1e-7 of the push. The
+  // penalty's gap is its traction over beta (100 M / h), and its settlement kPush less that gap.
   const double m = kYoungs * (1.0 - kPoisson) / ((1.0 + kPoisson) * (1.0 - 2.0 * kPoisson));
   const double beta = 100.0 * m / 0.25;
-  for (const char* method : {"penalty", "nitsche"}) {
+  for (const char* method : {"penalty", "nitsche", "ibm"}) {
     for (const char* shape : {"linear", "gimp", "quadratic_bspline", "cubic_bspline"}) {
       SCOPED_TRACE(std::string(method) + ", " + shape);
       const Case c = parse_case(pressed_column(shape, method), "pressed.json");
@@ -67,9 +68,9 @@ TEST(ImplicitConstraints, PressedColumnMatchesUniaxialStrainByPenaltyAndNitsche)
       ASSERT_EQ(solver.constraint_reports().size(), 1u);
       const ConstraintReport& r = solver.constraint_reports()[0];
       EXPECT_NEAR(r.length, 1.0, 1e-4);  // the detected top's length
-      const bool nitsche = std::string(method) == "nitsche";
-      const double gap = nitsche ? 0.0 : m * kPush / kHeight / beta;
-      if (nitsche) {
+      const bool penalty = std::string(method) == "penalty";
+      const double gap = penalty ? m * kPush / kHeight / beta : 0.0;
+      if (!penalty) {
         EXPECT_LE(r.rms_gap, 1e-4 * kPush);
       } else {
         EXPECT_NEAR(r.rms_gap / gap, 1.0, 1e-2);
@@ -101,14 +102,14 @@ TEST(ImplicitConstraints, PressedColumnMatchesUniaxialStrainByPenaltyAndNitsche)
 }
 
 // The shipped inclined block (tests/cpp/inclined_block.hpp, quadratic B-splines) run implicitly
-// in 4 load steps over the push's smooth ramp, by penalty and by Nitsche's method.
+// in 4 load steps over the push's smooth ramp, by penalty, Nitsche's method and the IBM.
 TEST(ImplicitConstraints, InclinedBlockReachesUniaxialStrain) {
   std::ifstream in("cases/constraint_inclined_block.json");
   nlohmann::json document = nlohmann::json::parse(in);
   document["solver"] = {{"type", "implicit"}};
   document["time"] = {{"end_time", 0.1}};
   document["implicit"] = {{"load_steps", 4}};
-  for (const char* method : {"penalty", "nitsche"}) {
+  for (const char* method : {"penalty", "nitsche", "ibm"}) {
     SCOPED_TRACE(method);
     for (auto& constraint : document["constraints"]) constraint["method"] = method;
     const Case c = parse_case(document, "cases/constraint_inclined_block.json");
