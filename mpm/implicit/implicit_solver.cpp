@@ -571,6 +571,13 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
     residual = trial_residual;
     entry.residuals.push_back(relative(s, it, residual));
     if (!std::isfinite(entry.residuals.back())) break;
+    // Within the residual's tolerance, the correction the iterate would still ask for, by this
+    // factorisation: small, it ends the iteration without another tangent.
+    if (entry.residuals.back() <= settings_.tolerance) {
+      const Vector next = solver.solve(residual);
+      if (solver.info() == Eigen::Success && next.allFinite())
+        last_correction = std::min(last_correction, next.norm());
+    }
   }
   return converged();
 }

@@ -27,7 +27,9 @@
 //      Jaumann rotation's, which makes K unsymmetric); K du = R solved by UMFPACK (SuiteSparse,
 //      through Eigen), with a backtracking line search on |R|; converged when |R| <= tolerance x
 //      the internal force's norm over all components (the reactions' included) and the last
-//      correction is below tolerance^(1/2) of the increment;
+//      correction is below tolerance^(1/2) of the increment; once |R| is within its tolerance,
+//      the correction it would still ask for, K_prev^-1 R by the last factorisation (the tangent
+//      of the iterate before), stands for the last correction: a linear step ends after one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
 // The case's "implicit" block (ImplicitSpec, case.hpp) sets the first step's size (end_time /
