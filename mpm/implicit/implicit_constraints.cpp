@@ -33,6 +33,9 @@
 //       the default 1e-3 h changes them by 1e-3 of a cell's variation), and sigma(V) of the
 //       test functions is the fit's d sigma / d du (for an elastic material C B, eq. A.7's; for a
 //       plastic one its consistent tangent).
+// The nodes' forces and stiffness reach the unknowns through each node's map, so a tied node's
+// go to the inner nodes it is tied to (the ties are on by default here: a node over a sliver of
+// perfectly plastic points left free makes the tangent near singular).
 // The stiffness of every term is in the tangent: S N_I N_J P, -share w N_I P (d sigma(x) / d du) n
 // through each fitted particle's D (B + the Jaumann rotation's part), and the IBM's transposed
 // term's derivative along g (its change of d sigma / d du with the iterate, times g, is left out:

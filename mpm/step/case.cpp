@@ -894,15 +894,23 @@ void parse_solver(const JsonView& root, Case& c) {
     }
   }
   // The ties of nearly empty nodes (mpm/core/basis_extension.hpp): on by default with uGIMP and
-  // B-splines (linear functions, the thesis's, keep their results), but not with constraints on the
-  // detected boundary, whose penalty forces and implicit nodal stiffness go to the nodes with mass
-  // (boundary_constraint.hpp), not through the ties.
-  if (!c.constraints.empty() && outer_node_fraction.value_or(0.0) > 0.0) {
+  // B-splines (linear functions, the thesis's, keep their results). The explicit step's
+  // constraints on the detected boundary put their penalty forces and nodal stiffness on the nodes
+  // with mass (boundary_constraint.hpp), not through the ties, so an explicit case with
+  // constraints has none; the implicit step's act through each node's map of unknowns, ties
+  // included (implicit_constraints.cpp), and take them: without them a node over a sliver of
+  // perfectly plastic material leaves Newton's tangent near singular (the rigid footing's steps
+  // do not converge).
+  const bool explicit_constraints =
+      !c.constraints.empty() && c.solver.type == SolverType::kExplicit;
+  if (explicit_constraints && outer_node_fraction.value_or(0.0) > 0.0) {
     root.at("solver")
         .at("outer_node_fraction")
         .fail(
-            "must be 0 in a case with constraints (the constraints do not act through tied nodes)");
+            "must be 0 in an explicit case with constraints (their forces do not act through tied "
+            "nodes)");
   }
+  const bool tied = c.solver.shape_function != ShapeFunctionKind::kLinear && !explicit_constraints;
   // The Implicit Boundary Method changes the stiffness matrix, which only the implicit step has
   // (thesis 3.3.3: "IBM is therefore not applicable to explicit MPM").
   for (std::size_t k = 0; k < c.constraints.size(); ++k) {
@@ -914,7 +922,6 @@ void parse_solver(const JsonView& root, Case& c) {
           .fail("\"ibm\" (the Implicit Boundary Method) needs solver.type \"implicit\"");
     }
   }
-  const bool tied = c.solver.shape_function != ShapeFunctionKind::kLinear && c.constraints.empty();
   c.solver.outer_node_fraction =
       outer_node_fraction.value_or(tied ? kDefaultOuterNodeFraction : 0.0);
   // Checks that need the shape function, which has a default.

@@ -184,3 +184,16 @@ def test_what_the_implicit_boundary_method_cannot_honour_is_refused(tmp_path, ru
     constraint(case)["band_factor"] = 1e-3
     done = run_case(case, tmp_path / "nitsche")
     assert done.returncode == 2 and "/constraints/0/band_factor" in done.stderr
+
+
+def test_ties_act_with_constraints_only_in_the_implicit_solver(tmp_path, run_case):
+    # The implicit constraints act through each node's map of unknowns, ties included; the
+    # explicit ones put their forces on the nodes with mass and refuse ties.
+    case = pushed_column("nitsche")
+    case["solver"]["outer_node_fraction"] = 0.1
+    done = run_case(case, tmp_path / "implicit")
+    assert done.returncode == 0, done.stderr
+    case["solver"] = {"type": "explicit", "outer_node_fraction": 0.1}
+    del case["implicit"]
+    done = run_case(case, tmp_path / "explicit")
+    assert done.returncode == 2 and "/solver/outer_node_fraction" in done.stderr

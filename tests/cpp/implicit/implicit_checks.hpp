@@ -4,10 +4,18 @@
 #include <gtest/gtest.h>
 
 #include <cstddef>
+#include <nlohmann/json.hpp>
 
 #include "mpm/implicit/implicit_solver.hpp"
 
 namespace pfm {
+
+/// The boundary conditions of a block on the grid's bottom: fixed base, rollers on both sides.
+inline nlohmann::json base_and_rollers() {
+  return {{{"where", "bottom"}, {"fix", "xy"}},
+          {{"where", "left"}, {"fix", "x"}},
+          {{"where", "right"}, {"fix", "x"}}};
+}
 
 /// A linear problem (elastic, small rotations): `steps` load steps, each converged, each one's
 /// first correction leaving round-off (relative residual below 1e-10) and ending it (the next

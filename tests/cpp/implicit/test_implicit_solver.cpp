@@ -19,13 +19,6 @@ namespace {
 
 constexpr double kHeight = 4.0, kUnitWeight = 18.0, kSurcharge = 30.0;
 
-// A fixed base between rollers on the grid's edges.
-nlohmann::json base_and_rollers() {
-  return {{{"where", "bottom"}, {"fix", "xy"}},
-          {{"where", "left"}, {"fix", "x"}},
-          {{"where", "right"}, {"fix", "x"}}};
-}
-
 // A vertical pressure on the detected top over x in [0, 1] m.
 nlohmann::json pressure_on_top(double pressure, const nlohmann::json& time_function) {
   return {{{"type", "vertical_pressure"},
