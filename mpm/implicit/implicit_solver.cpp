@@ -400,8 +400,18 @@ void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool ta
   PointState point = particles_.state[p];
   Tangent d;
   const auto mi = static_cast<std::size_t>(particles_.material[p]);
-  update_with_tangent(case_.materials[mi].model, constants_[mi], strain_increment(g_bar, 1.0),
-                      sigma, point, d);
+  const Strain increment = strain_increment(g_bar, 1.0);
+  update_with_tangent(case_.materials[mi].model, constants_[mi], increment, sigma, point, d);
+  // A point that yielded in the last step and has no increment yet (the first iterate) would
+  // take the elastic tangent, though it goes on yielding as a rule: its tangent is probed with
+  // 1e-6 of the last step's increment instead (the consistent tangent of a vanishing plastic
+  // increment, the continuum one). Only the tangent changes, not the stress.
+  if (tangent && increment.isZero(0.0) && !yielding_.empty() && !yielding_[p].isZero(0.0)) {
+    Stress probe_sigma = sigma;
+    PointState probe_state = particles_.state[p];
+    update_with_tangent(case_.materials[mi].model, constants_[mi], 1e-6 * yielding_[p], probe_sigma,
+                        probe_state, d);
+  }
   it.stress[p] = sigma;
   it.state[p] = point;
   const double volume = particles_.volume[p];
@@ -584,7 +594,11 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
 
 void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   const std::size_t n_particles = particles_.size();
+  yielding_.resize(n_particles);
   for (std::size_t p = 0; p < n_particles; ++p) {
+    yielding_[p] = it.state[p].plastic_strain > particles_.state[p].plastic_strain
+                       ? strain_increment(it.gradient[p], 1.0)
+                       : Strain::Zero();
     Vec2 du = Vec2::Zero();
     for (const NodeWeight& w : s.nodes[p])
       du += w.value * it.increment[static_cast<std::size_t>(w.node)];

@@ -21,15 +21,17 @@
 //      G = sum_I du_I (x) grad N_I (B-bar: its in-plane trace replaced by the cell's
 //      volume-weighted mean, mpm/core/kinematics.hpp), the stress from t_n's by the Jaumann
 //      rotation and the material's update with its consistent tangent D (materials.hpp, the same
-//      arithmetic as the explicit step with L dt = G), the residual R = f_ext - sum_p V_p B^T
-//      sigma_p and its tangent K = sum_p V_p B^T (D B + D D_e^-1 (d rotation / d du)) (the
-//      geometry of t_n, on which the stress update takes the increment; the second term is the
-//      Jaumann rotation's, which makes K unsymmetric); K du = R solved by UMFPACK (SuiteSparse,
-//      through Eigen), with a backtracking line search on |R|; converged when |R| <= tolerance x
-//      the internal force's norm over all components (the reactions' included) and the last
-//      correction is below tolerance^(1/2) of the increment; once |R| is within its tolerance,
-//      the correction it would still ask for, K_prev^-1 R by the last factorisation (the tangent
-//      of the iterate before), stands for the last correction: a linear step ends after one;
+//      arithmetic as the explicit step with L dt = G; at a zero increment, a point that yielded
+//      in the last step takes the tangent of 1e-6 of that step's increment, its plastic one), the
+//      residual R = f_ext - sum_p V_p B^T sigma_p and its tangent K = sum_p V_p B^T (D B + D D_e^-1
+//      (d rotation / d du)) (the geometry of t_n, on which the stress update takes the increment;
+//      the second term is the Jaumann rotation's, which makes K unsymmetric); K du = R solved by
+//      UMFPACK (SuiteSparse, through Eigen), with a backtracking line search on |R|; converged when
+//      |R| <= tolerance x the internal force's norm over all components (the reactions' included)
+//      and the last correction is below tolerance^(1/2) of the increment; once |R| is within its
+//      tolerance, the correction it would still ask for, K_prev^-1 R by the last factorisation (the
+//      tangent of the iterate before), stands for the last correction: a linear step ends after
+//      one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
 // The case's "implicit" block (ImplicitSpec, case.hpp) sets the first step's size (end_time /
@@ -158,8 +160,11 @@ class ImplicitSolver {
   Particles particles_;
   std::vector<MaterialConstants> constants_;
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
-  std::vector<unsigned> fixed_;         ///< FixMask per node
-  PrescribedVelocity prescribed_;       ///< the moving supports' velocities over a step
+  /// Per particle, the strain increment of the last converged step if the point yielded in it
+  /// (zero otherwise): a zero increment's tangent is probed along it (evaluate_particle).
+  std::vector<Strain> yielding_;
+  std::vector<unsigned> fixed_;    ///< FixMask per node
+  PrescribedVelocity prescribed_;  ///< the moving supports' velocities over a step
   BasisExtension extension_;
   WallMirror mirror_;
   DetectorState detector_state_;

@@ -136,15 +136,19 @@ nlohmann::json pushed_footing(const nlohmann::json& solver) {
 TEST(ImplicitConstraints, RigidFootingConvergesIntoPerfectlyPlasticSoil) {
   // With the ties of the nearly empty nodes (the default), every load step converges at its
   // first attempt; without them (outer_node_fraction 0) the steps past the yield of the soil
-  // under the footing's edge are cut back (Newton stalls where a node's support is a sliver of
-  // plastic points).
+  // under the footing's edge are cut back, or the run stops (Newton stalls where a node's
+  // support is a sliver of plastic points).
   for (const double fraction : {-1.0, 0.0}) {
     SCOPED_TRACE("outer_node_fraction " + std::to_string(fraction));
     nlohmann::json solver = {{"type", "implicit"}, {"shape_function", "gimp"}};
     if (fraction >= 0.0) solver["outer_node_fraction"] = fraction;
     const Case c = parse_case(pushed_footing(solver), "footing.json");
     ImplicitSolver solver_run(c);
-    solver_run.run_to(1.0);
+    try {
+      solver_run.run_to(1.0);
+    } catch (const ImplicitDivergence&) {
+      EXPECT_EQ(fraction, 0.0);  // without the ties it may stop altogether
+    }
     const auto& log = solver_run.log();
     const auto cut =
         std::count_if(log.begin(), log.end(), [](const LoadStepLog& e) { return !e.converged; });
@@ -154,6 +158,11 @@ TEST(ImplicitConstraints, RigidFootingConvergesIntoPerfectlyPlasticSoil) {
     }
     EXPECT_EQ(cut, 0);
     ASSERT_EQ(log.size(), 10u);
+    // At most 6 Newton iterations per step on average (must-show 1): the points that yielded in
+    // the last step start from their plastic tangent (8 per step from the elastic one).
+    std::size_t iterations = 0;
+    for (const LoadStepLog& e : log) iterations += e.residuals.size() - 1;
+    EXPECT_LE(iterations, 6u * log.size());
     // The reaction at 0.0375 b, on the plateau: Prandtl's (2 + pi) c, which a grid of 4 cells
     // under b exceeds (a first-order excess: 6 % at 8 cells, 3 % at 16 in the benchmarks).
     const double prandtl = (2.0 + std::numbers::pi) * 10.0;
