@@ -151,8 +151,8 @@ struct ConstraintSpec {
   double penalty_factor = 100.0;
   /// The Implicit Boundary Method's band: delta = band_factor x h (m), the thickness over which
   /// its Dirichlet function rises from 0 to 1. The thin band leaves a gap of 3 delta / 8 times
-  /// the normal stress over n.C.n; a thinner one stiffens the matrix (1e-5 h, the thesis's
-  /// delta, leaves residuals of 4e-10 after a linear step's solve against the 1e-9 tolerance).
+  /// the normal stress over n.C.n; a thinner one stiffens the matrix and raises the solve's
+  /// round-off towards Newton's tolerance (README: constraints[].band_factor).
   double band_factor = 1e-3;
   nlohmann::json raw;  ///< the entry as written
 };
