@@ -135,24 +135,34 @@ nlohmann::json pushed_footing(const nlohmann::json& solver) {
 
 TEST(ImplicitConstraints, RigidFootingConvergesIntoPerfectlyPlasticSoil) {
   // With the ties of the nearly empty nodes (the default), every load step converges at its
-  // first attempt; without them (outer_node_fraction 0) the steps past the yield of the soil
-  // under the footing's edge are cut back, or the run stops (Newton stalls where a node's
-  // support is a sliver of plastic points).
-  for (const double fraction : {-1.0, 0.0}) {
-    SCOPED_TRACE("outer_node_fraction " + std::to_string(fraction));
-    nlohmann::json solver = {{"type", "implicit"}, {"shape_function", "gimp"}};
-    if (fraction >= 0.0) solver["outer_node_fraction"] = fraction;
+  // first attempt, on uGIMP (the benchmarks' functions) and on the default quadratic B-splines;
+  // without them (outer_node_fraction 0) the steps past the yield of the soil under the
+  // footing's edge are cut back, or the run stops (Newton stalls where a node's support is a
+  // sliver of plastic points).
+  struct Run {
+    const char* shape;  // nullptr: the default
+    bool tied;
+    double max_reaction;  // over (2 + pi) c
+  };
+  // The reaction at 0.0375 b, on the plateau: Prandtl's (2 + pi) c, which a grid of 4 cells under
+  // b exceeds at first order (uGIMP: 6 % at 8 cells, 3 % at 16 in the benchmarks; the B-splines'
+  // cell-wise mean dilatation is stiffer, 1.29 here, 1.14-1.16 at 8 cells).
+  for (const Run run : {Run{"gimp", true, 1.12}, Run{nullptr, true, 1.35}, Run{"gimp", false, 0}}) {
+    SCOPED_TRACE(std::string(run.shape ? run.shape : "default") + (run.tied ? "" : ", no ties"));
+    nlohmann::json solver = {{"type", "implicit"}};
+    if (run.shape) solver["shape_function"] = run.shape;
+    if (!run.tied) solver["outer_node_fraction"] = 0.0;
     const Case c = parse_case(pushed_footing(solver), "footing.json");
     ImplicitSolver solver_run(c);
     try {
       solver_run.run_to(1.0);
     } catch (const ImplicitDivergence&) {
-      EXPECT_EQ(fraction, 0.0);  // without the ties it may stop altogether
+      EXPECT_FALSE(run.tied);  // without the ties it may stop altogether
     }
     const auto& log = solver_run.log();
     const auto cut =
         std::count_if(log.begin(), log.end(), [](const LoadStepLog& e) { return !e.converged; });
-    if (fraction == 0.0) {
+    if (!run.tied) {
       EXPECT_GT(cut, 0);
       continue;
     }
@@ -163,12 +173,10 @@ TEST(ImplicitConstraints, RigidFootingConvergesIntoPerfectlyPlasticSoil) {
     std::size_t iterations = 0;
     for (const LoadStepLog& e : log) iterations += e.residuals.size() - 1;
     EXPECT_LE(iterations, 6u * log.size());
-    // The reaction at 0.0375 b, on the plateau: Prandtl's (2 + pi) c, which a grid of 4 cells
-    // under b exceeds (a first-order excess: 6 % at 8 cells, 3 % at 16 in the benchmarks).
     const double prandtl = (2.0 + std::numbers::pi) * 10.0;
     const double q = -solver_run.constraint_reports()[0].force.y() / prandtl;
     EXPECT_GT(q, 1.0);
-    EXPECT_LT(q, 1.12);
+    EXPECT_LT(q, run.max_reaction);
   }
 }
 
