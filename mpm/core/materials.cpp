@@ -137,6 +137,37 @@ MaterialConstants material_constants(const Material& material) {
 namespace {
 
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
+
+PiecewiseLinear divided(PiecewiseLinear law, double factor) {
+  for (double& y : law.y) y /= factor;
+  return law;
+}
+
+double reduced_angle_deg(double angle_deg, double factor) {
+  return std::atan(std::tan(angle_deg * kRadiansPerDegree) / factor) / kRadiansPerDegree;
+}
+
+}  // namespace
+
+Material reduced_strength(const Material& material, double factor) {
+  if (const auto* tresca = std::get_if<Tresca>(&material)) {
+    Tresca reduced = *tresca;
+    reduced.cohesion = divided(tresca->cohesion, factor);
+    return reduced;
+  }
+  if (const auto* mc = std::get_if<MohrCoulomb>(&material)) {
+    MohrCoulomb reduced = *mc;
+    reduced.cohesion = divided(mc->cohesion, factor);
+    reduced.friction_angle_deg = reduced_angle_deg(mc->friction_angle_deg, factor);
+    reduced.dilation_angle_deg = reduced_angle_deg(mc->dilation_angle_deg, factor);
+    reduced.tension_cutoff = mc->tension_cutoff / factor;
+    return reduced;
+  }
+  return material;
+}
+
+namespace {
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Kuhn-Tucker checks: a multiplier may be negative by this fraction of the largest one, a yield
 // function positive by this fraction of the stress scale (round-off only).

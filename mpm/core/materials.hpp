@@ -216,6 +216,12 @@ const ElasticParameters& elastic_parameters(const Material& material);
 /// The constants() of whichever model `material` holds.
 MaterialConstants material_constants(const Material& material);
 
+/// `material` with its strength divided by `factor` (>= 1), as the shear strength reduction
+/// method does (Zienkiewicz, Humpheson & Lewis 1975; Griffiths & Lane 1999): every cohesion of
+/// the law c(eps_p) over factor, tan(phi) and tan(psi) over factor, the tension cut-off over
+/// factor; the elastic parameters kept. A linear elastic material is returned as it is.
+Material reduced_strength(const Material& material, double factor);
+
 /// update_with_tangent() of whichever model `material` holds, with its constants() computed once
 /// by the caller (the hot path of an implicit solver's iterations).
 ReturnInfo update_with_tangent(const Material& material, const MaterialConstants& constants,

@@ -33,7 +33,10 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
   std::unique_ptr<ParticleSeriesWriter> writer;
   // Per constraint its force on the body (kN/m) and root-mean-square gap (m), as the explicit
   // run's columns.
+  // With strength_reduction, the factor of each step after the attempts.
+  const bool reduction = c.implicit.strength_reduction.has_value();
   std::string table = "time,dt,iterations,residual,attempts";
+  if (reduction) table += ",strength_factor";
   for (std::size_t k = 0; k < c.constraints.size(); ++k) {
     const std::string name = "constraint_" + std::to_string(k);
     table += ',' + name + "_fx," + name + "_fy," + name + "_gap";
@@ -52,16 +55,23 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
     writer->write(0.0, 0, solver.particles());
     RunProgress progress(options.progress);
     double next_output = c.output.interval;
+    double written_at = 0.0;
     const double eps = 1e-9 * end;
     try {
       while (solver.time() < end - eps) {
         const std::size_t before = solver.log().size();
         solver.advance(end);
+        if (solver.collapsed()) {  // the strength reduction's answer: the last step stands
+          if (solver.time() > written_at) writer->write(solver.time(), steps, solver.particles());
+          write_file_atomically(folder.file("timeseries.csv"), table);
+          break;
+        }
         ++steps;
         const LoadStepLog& e = solver.log().back();
         table += format_exact(e.time) + ',' + format_exact(e.dt) + ',' +
                  std::to_string(e.residuals.size() - 1) + ',' + format_exact(e.residuals.back()) +
                  ',' + std::to_string(solver.log().size() - before);
+        if (reduction) table += ',' + format_exact(solver.strength_factor());
         for (const ConstraintReport& r : solver.constraint_reports()) {
           table += ',' + format_exact(r.force.x()) + ',' + format_exact(r.force.y()) + ',' +
                    format_exact(r.rms_gap);
@@ -70,6 +80,7 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
         const bool last = solver.time() >= end - eps;
         if (solver.time() >= next_output - eps || last) {
           writer->write(solver.time(), steps, solver.particles());
+          written_at = solver.time();
           write_file_atomically(folder.file("timeseries.csv"), table);
           while (next_output <= solver.time() + eps) next_output += c.output.interval;
         }
@@ -106,6 +117,14 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
                     {"wall_time_s", wall},
                     {"particle_steps_per_s", wall > 0.0 ? n_particles * steps / wall : 0.0},
                     {"threads", governor.summary()}};
+  if (reduction) {
+    // The factor of safety lies between the last converged factor and the failed one (none
+    // when the run reached its final factor).
+    run["summary"]["strength_reduction"] = {
+        {"collapsed", solver.collapsed()},
+        {"last_converged_factor", solver.strength_factor()},
+        {"failed_factor", solver.collapsed() ? nlohmann::json(solver.failed_factor()) : nullptr}};
+  }
   run["load_steps"] = attempts;
   return finish_run(folder, run, table, options, status);
 }

@@ -96,6 +96,7 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
   if (particles_.size() == 0) refuse(c, "/bodies", "the bodies hold no material point");
   if (c.initial_stress.method == InitialStressMethod::kK0) apply_k0_stress(c, particles_);
   for (const MaterialRecord& m : c.materials) {
+    models_.push_back(m.model);
     constants_.push_back(material_constants(m.model));
     hooke_inverse_.push_back(elastic_tangent(constants_.back()).inverse());
   }
@@ -132,10 +133,22 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
 }
 
 void ImplicitSolver::run_to(double end_time) {
-  while (time_ < end_time * (1.0 - 1e-12)) advance(end_time);
+  while (time_ < end_time * (1.0 - 1e-12) && !collapsed()) advance(end_time);
+}
+
+void ImplicitSolver::reduce_strength(double t) {
+  const auto& reduction = settings_.strength_reduction;
+  const double factor = reduction ? reduction->factor(t, case_.time.end_time) : 1.0;
+  if (factor == strength_factor_) return;
+  strength_factor_ = factor;
+  for (std::size_t m = 0; m < models_.size(); ++m) {
+    models_[m] = reduced_strength(case_.materials[m].model, factor);
+    constants_[m] = material_constants(models_[m]);
+  }
 }
 
 void ImplicitSolver::advance(double end_time) {
+  if (collapsed()) return;
   if (first_step_ == 0.0) {
     first_step_ = end_time / settings_.load_steps;
     step_size_ = first_step_;
@@ -148,7 +161,14 @@ void ImplicitSolver::advance(double end_time) {
       if (iterations <= kFastIterations) step_size_ = std::min(first_step_, step_size_ * kGrowth);
       return;
     }
-    if (cut == settings_.max_cuts) throw ImplicitDivergence(divergence_message(dt, cut));
+    if (cut == settings_.max_cuts) {
+      const auto& reduction = settings_.strength_reduction;
+      if (reduction && time_ + dt > reduction->start_time) {
+        failed_factor_ = strength_factor_;
+        return;
+      }
+      throw ImplicitDivergence(divergence_message(dt, cut));
+    }
     step_size_ = 0.5 * dt;
   }
 }
@@ -166,6 +186,8 @@ std::string ImplicitSolver::divergence_message(double dt, int cut) const {
       1 + std::count_if(log_.begin(), log_.end(), [](const LoadStepLog& e) { return e.converged; });
   const double t_end = time_ + dt;
   std::string asked = "gravity factor " + format_number(factor_of_gravity(case_.gravity, t_end));
+  if (settings_.strength_reduction)
+    asked += ", strength reduction factor " + format_number(strength_factor_);
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     asked += ", load " + std::to_string(k) + " factor " +
              format_number(case_.loads[k].time_function.factor(t_end));
@@ -401,7 +423,7 @@ void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool ta
   Tangent d;
   const auto mi = static_cast<std::size_t>(particles_.material[p]);
   const Strain increment = strain_increment(g_bar, 1.0);
-  update_with_tangent(case_.materials[mi].model, constants_[mi], increment, sigma, point, d);
+  update_with_tangent(models_[mi], constants_[mi], increment, sigma, point, d);
   // A point that yielded in the last step and has no increment yet (the first iterate) would
   // take the elastic tangent, though it goes on yielding as a rule: its tangent is probed with
   // 1e-6 of the last step's increment instead (the consistent tangent of a vanishing plastic
@@ -409,8 +431,8 @@ void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool ta
   if (tangent && increment.isZero(0.0) && !yielding_.empty() && !yielding_[p].isZero(0.0)) {
     Stress probe_sigma = sigma;
     PointState probe_state = particles_.state[p];
-    update_with_tangent(case_.materials[mi].model, constants_[mi], 1e-6 * yielding_[p], probe_sigma,
-                        probe_state, d);
+    update_with_tangent(models_[mi], constants_[mi], 1e-6 * yielding_[p], probe_sigma, probe_state,
+                        d);
   }
   it.stress[p] = sigma;
   it.state[p] = point;
@@ -556,10 +578,15 @@ bool ImplicitSolver::newton(const Prepared& s, Iterate& it, LoadStepLog& entry) 
   Vector residual = evaluate(s, x, true, it);
   entry.residuals.push_back(relative(s, it, residual));
   double last_correction = std::numeric_limits<double>::infinity();
+  // A step that asks for no motion (its increment at round-off: a load held, a strength not yet
+  // reached) has no increment to compare its correction with: a correction of tolerance x h per
+  // unknown is nothing to ask for.
+  const double floor =
+      settings_.tolerance * case_.grid.cell_size * std::sqrt(static_cast<double>(s.n_dofs));
   const auto converged = [&] {
     return s.n_dofs == 0 ||
            (entry.residuals.back() <= settings_.tolerance &&
-            last_correction <= std::sqrt(settings_.tolerance) * std::max(x.norm(), 1e-300));
+            last_correction <= std::max(std::sqrt(settings_.tolerance) * x.norm(), floor));
   };
   for (int iteration = 0; iteration < settings_.max_iterations && !converged(); ++iteration) {
     Eigen::UmfPackLU<SparseMatrix> solver;
@@ -689,6 +716,7 @@ bool ImplicitSolver::try_step(double dt) {
   Prepared s;
   s.dt = dt;
   s.t_end = time_ + dt;
+  reduce_strength(s.t_end);
   locate(s);
   hold_and_tie(s);
   apply_external_force(s);
@@ -710,7 +738,10 @@ bool ImplicitSolver::try_step(double dt) {
   entry.dt = dt;
   entry.converged = newton(s, it, entry);
   log_.push_back(entry);
-  if (entry.converged) commit(s, it);
+  if (entry.converged) {
+    commit(s, it);
+    converged_factor_ = strength_factor_;
+  }
   return entry.converged;
 }
 

@@ -28,7 +28,8 @@
 //      the second term is the Jaumann rotation's, which makes K unsymmetric); K du = R solved by
 //      UMFPACK (SuiteSparse, through Eigen), with a backtracking line search on |R|; converged when
 //      |R| <= tolerance x the internal force's norm over all components (the reactions' included)
-//      and the last correction is below tolerance^(1/2) of the increment; once |R| is within its
+//      and the last correction is below tolerance^(1/2) of the increment (or below tolerance x h
+//      per unknown, for a step that asks for no motion); once |R| is within its
 //      tolerance, the correction it would still ask for, K_prev^-1 R by the last factorisation (the
 //      tangent of the iterate before), stands for the last correction: a linear step ends after
 //      one;
@@ -83,12 +84,13 @@ class ImplicitSolver {
   /// manufactured solution.
   explicit ImplicitSolver(const Case& c);
 
-  /// Takes load steps until `end_time` (s of pseudo-time) is reached.
+  /// Takes load steps until `end_time` (s of pseudo-time) is reached or collapsed().
   void run_to(double end_time);
   /// One converged load step towards `end_time` (its size cut back or grown as the header
   /// says). Throws ImplicitDivergence when max_cuts halvings in a row did not converge, naming
   /// the step, what it asked for (gravity's and each load's factor, each constraint's
-  /// displacement) and the last attempt's residuals.
+  /// displacement, the strength reduction factor) and the last attempt's residuals; with
+  /// strength_reduction, after its start_time, returns collapsed() instead.
   void advance(double end_time);
 
   double time() const { return time_; }
@@ -99,6 +101,14 @@ class ImplicitSolver {
   /// Per constraint, at the last converged step: the force on the body (kN/m), the
   /// root-mean-square gap (m) and the part's length (m).
   const std::vector<ConstraintReport>& constraint_reports() const { return constraint_reports_; }
+  /// The strength reduction factor of the last converged step (1 without strength_reduction).
+  double strength_factor() const { return converged_factor_; }
+  /// With strength_reduction: a step after its start_time could not be completed after
+  /// max_cuts halvings, so no equilibrium was found at the factor of the last attempt
+  /// (failed_factor()): the run's answer. The particles stay those of the last converged step,
+  /// and advance() takes no more steps.
+  bool collapsed() const { return failed_factor_ > 0.0; }
+  double failed_factor() const { return failed_factor_; }
 
  private:
   struct Prepared;
@@ -113,6 +123,8 @@ class ImplicitSolver {
   void hold_and_tie(Prepared& s);
   /// 3. Gravity and the loads on the boundary detected now, at the step's end.
   void apply_external_force(Prepared& s);
+  /// The materials with their strength divided by the strength reduction factor at time t.
+  void reduce_strength(double t);
   /// The message of a step that did not converge after `cut` halvings, the last of size dt.
   std::string divergence_message(double dt, int cut) const;
   /// Constraint k's prescribed displacement at time_ + dt (u_bar: a displacement's value times
@@ -158,7 +170,13 @@ class ImplicitSolver {
   const Case& case_;
   ImplicitSpec settings_;
   Particles particles_;
+  /// Per material: the case's model with its strength divided by strength_factor_ and that
+  /// model's constants.
+  std::vector<Material> models_;
   std::vector<MaterialConstants> constants_;
+  double strength_factor_ = 1.0;        ///< of models_
+  double converged_factor_ = 1.0;       ///< of the last converged step
+  double failed_factor_ = 0.0;          ///< collapsed(): the factor of the last attempt
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
   /// Per particle, the strain increment of the last converged step if the point yielded in it
   /// (zero otherwise): a zero increment's tangent is probed along it (evaluate_particle).

@@ -969,7 +969,7 @@ void parse_implicit(const JsonView& root, Case& c) {
   const auto b = root.find("implicit");
   if (!b) return;
   if (c.solver.type != SolverType::kImplicit) b->fail("is read only with solver.type \"implicit\"");
-  b->expect_object({"load_steps", "tolerance", "max_iterations", "max_cuts"});
+  b->expect_object({"load_steps", "tolerance", "max_iterations", "max_cuts", "strength_reduction"});
   const auto integer = [&](const char* key, int& value, int least) {
     if (!b->has(key)) return;
     const double v = b->at(key).as_number();
@@ -984,6 +984,24 @@ void parse_implicit(const JsonView& root, Case& c) {
   if (b->has("tolerance")) {
     b->at("tolerance")
         .require(c.implicit.tolerance > 0.0 && c.implicit.tolerance < 1.0, "must be in (0, 1)");
+  }
+  if (const auto r = b->find("strength_reduction")) {
+    r->expect_object({"start_time", "final_factor"});
+    StrengthReduction reduction;
+    reduction.start_time = r->at("start_time").as_number();
+    r->at("start_time")
+        .require(reduction.start_time >= 0.0 && reduction.start_time < c.time.end_time,
+                 "must be in [0, time.end_time)");
+    reduction.final_factor = r->at("final_factor").as_number();
+    r->at("final_factor")
+        .require(reduction.final_factor > 1.0 && std::isfinite(reduction.final_factor),
+                 "must be a number > 1");
+    c.implicit.strength_reduction = reduction;
+    // The run seeks a collapse by plastic flow, which is isochoric for Tresca and for
+    // Mohr-Coulomb without dilation: it locks without the mean dilatation whatever nu is (a
+    // pressed block on uGIMP stands well past its factor of safety), so B-bar is the default.
+    const auto s = root.find("solver");
+    if (!(s && s->has("anti_locking"))) c.solver.mean_dilatation = true;
   }
 }
 
@@ -1079,8 +1097,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file) {
   parse_loads(root, c);
   parse_constraints(root, c);
   parse_solver(root, c);
-  parse_implicit(root, c);
   parse_time(root, c);
+  parse_implicit(root, c);
   parse_output(root, c);
   parse_detection(root, c);
   if (const auto m = root.find("manufactured_solution")) parse_manufactured(*m, root, c);

@@ -2,6 +2,7 @@
 // Units: kN, m, s, t, kPa; angles converted to degrees-in-struct as documented per field.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -167,11 +168,27 @@ inline constexpr double kDefaultOuterNodeFraction = 0.05;
 enum class SolverType { kExplicit, kImplicit };
 
 /// The "implicit" block (solver.type "implicit"): the load steps and the Newton iteration.
+/// The shear strength reduction method ("implicit"."strength_reduction"): the strength of every
+/// material divided by a factor F(t) (reduced_strength, mpm/core/materials.hpp) that is 1 up to
+/// start_time and rises linearly to final_factor at time.end_time. A load step after start_time
+/// that cannot be completed ends the run as its answer: the factor of safety lies between the
+/// last converged F and the F of the last attempt (run.json summary.strength_reduction).
+struct StrengthReduction {
+  double start_time = 0.0;    ///< s (pseudo-time), in [0, time.end_time)
+  double final_factor = 2.0;  ///< F at time.end_time, > 1
+  /// F at time t of a run that ends at end_time.
+  double factor(double t, double end_time) const {
+    if (t <= start_time) return 1.0;
+    return 1.0 + (final_factor - 1.0) * std::min(1.0, (t - start_time) / (end_time - start_time));
+  }
+};
+
 struct ImplicitSpec {
   int load_steps = 20;      ///< the first step's size is time.end_time / load_steps
   double tolerance = 1e-9;  ///< on the relative out-of-balance force
   int max_iterations = 25;  ///< Newton iterations per attempt of a step
   int max_cuts = 8;         ///< halvings of a step in a row before the run stops
+  std::optional<StrengthReduction> strength_reduction;
 };
 
 struct SolverSpec {
@@ -290,7 +307,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// normal (null or {direction, max_angle}), quantity (displacement, velocity), normal_only,
 /// value (a number with normal_only, else [x, y]), time_function, method, penalty}], solver
 /// {type, scheme, shape_function, damping, damping_form, pic_fraction, anti_locking}, implicit
-/// (null, or with solver.type "implicit" {load_steps, tolerance, max_iterations, max_cuts}), time
+/// (null, or with solver.type "implicit" {load_steps, tolerance, max_iterations, max_cuts,
+/// strength_reduction (null or {start_time, final_factor})}), time
 /// {end_time, cfl, dt (null: from cfl), max_steps}, output {interval, timeseries_interval,
 /// nodal_loads, compression, vtk}, detection (null or {every_steps, method}), manufactured_solution
 /// (bool).

@@ -191,7 +191,12 @@ json resolved_case(const Case& c) {
     out["implicit"] = {{"load_steps", c.implicit.load_steps},
                        {"tolerance", c.implicit.tolerance},
                        {"max_iterations", c.implicit.max_iterations},
-                       {"max_cuts", c.implicit.max_cuts}};
+                       {"max_cuts", c.implicit.max_cuts},
+                       {"strength_reduction", nullptr}};
+    if (const auto& r = c.implicit.strength_reduction) {
+      out["implicit"]["strength_reduction"] = {{"start_time", r->start_time},
+                                               {"final_factor", r->final_factor}};
+    }
   }
   out["time"] = {{"end_time", c.time.end_time},
                  {"cfl", c.time.cfl},

@@ -710,6 +710,46 @@ TEST(Materials, MohrCoulombTangentIsTheDerivativeOfTheReturn) {
   }
 }
 
+TEST(Materials, ReducedStrengthDividesTheShearStrengthOnEveryPlane) {
+  // Strength reduction by F: the Coulomb line tau = c + sigma' tan(phi) (compression positive
+  // sigma') becomes tau = c / F + sigma' tan(phi) / F. A Mohr circle of centre -p and radius r
+  // touches it where r = c' cos(phi') + p sin(phi') with tan(phi') = tan(phi) / F, c' = c / F.
+  const double factor = 1.7, phi = 30.0 * std::numbers::pi / 180.0;
+  const MohrCoulomb mc{soil_elastic(), thesis_cohesion(), 30.0, 10.0, 6.0};
+  const Material reduced_material = reduced_strength(Material(mc), factor);
+  const auto& reduced = std::get<MohrCoulomb>(reduced_material);
+  const double phi_r = std::atan(std::tan(phi) / factor);
+  EXPECT_NEAR(std::tan(reduced.friction_angle_deg * std::numbers::pi / 180.0),
+              std::tan(phi) / factor, 1e-14);
+  EXPECT_NEAR(std::tan(reduced.dilation_angle_deg * std::numbers::pi / 180.0),
+              std::tan(10.0 * std::numbers::pi / 180.0) / factor, 1e-14);
+  EXPECT_DOUBLE_EQ(reduced.tension_cutoff, 6.0 / factor);
+  EXPECT_EQ(reduced.elastic.youngs_modulus, mc.elastic.youngs_modulus);
+  EXPECT_EQ(reduced.elastic.poisson_ratio, mc.elastic.poisson_ratio);
+  ASSERT_EQ(reduced.cohesion.y.size(), mc.cohesion.y.size());
+  for (std::size_t k = 0; k < mc.cohesion.y.size(); ++k) {
+    EXPECT_EQ(reduced.cohesion.x[k], mc.cohesion.x[k]);
+    EXPECT_DOUBLE_EQ(reduced.cohesion.y[k], mc.cohesion.y[k] / factor);
+  }
+  const PointState intact;
+  const double c = mc.cohesion.value(0.0) / factor;
+  for (double p : {5.0, 50.0, 200.0}) {
+    // In-plane circle (sxx, syy), szz = -p in between.
+    const double r = c * std::cos(phi_r) + p * std::sin(phi_r);
+    const Stress on(-p + r, -p - r, 0.0, -p);
+    EXPECT_NEAR(reduced.yield_function(on, intact), 0.0, 1e-12 * (p + c));
+    EXPECT_LT(mc.yield_function(on, intact), 0.0);  // the full strength holds it
+  }
+  // Tresca: the cohesion law over F; the elastic material as it is.
+  const Tresca tresca{soil_elastic(), thesis_cohesion()};
+  const Material reduced_tresca_material = reduced_strength(Material(tresca), factor);
+  const auto& reduced_tresca = std::get<Tresca>(reduced_tresca_material);
+  EXPECT_NEAR(reduced_tresca.yield_function(Stress(c, -c, 0.0, 0.0), intact), 0.0, 1e-12);
+  const Material elastic = LinearElastic{soil_elastic()};
+  EXPECT_EQ(std::get<LinearElastic>(reduced_strength(elastic, factor)).elastic.youngs_modulus,
+            soil_elastic().youngs_modulus);
+}
+
 TEST(Materials, TangentOfTheMaterialVariantIsTheModels) {
   const Material material = MohrCoulomb{soil_elastic(), thesis_cohesion(), 30.0, 10.0, 3.0};
   const Strain d(-2e-3, 1e-3, 2e-2, 0.0);
