@@ -136,6 +136,7 @@ def main(argv=None):
         run_driven,
         run_explicit,
         run_static,
+        run_strength_reduction,
         write_boundary_csv,
         write_curve_csv,
         write_series_csv,
@@ -151,7 +152,15 @@ def main(argv=None):
         updated_lagrangian=args.updated_lagrangian,
         kappa_measure=args.kappa_measure,
     )
+    driven = any(bc.velocity is not None for bc in case.boundary_conditions)
+    # The case's strength reduction (implicit.strength_reduction): the static run does it too.
+    reduction = (case.raw.get("implicit") or {}).get("strength_reduction")
     try:  # before anything is written
+        if reduction and (args.mode == "explicit" or args.collapse or driven):
+            raise ValueError(
+                f"{case.file}: /implicit/strength_reduction: the strength reduction runs in "
+                "the static mode, without --collapse and without moving supports"
+            )
         if args.mode == "explicit" or args.collapse:
             refuse_moving_supports(
                 case, "explicit" if args.mode == "explicit" else "load control"
@@ -159,7 +168,6 @@ def main(argv=None):
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    driven = any(bc.velocity is not None for bc in case.boundary_conditions)
     degree = args.degree or (2 if args.mode == "static" else 1)
     model = Model(case, degree=degree, **options)
     for spec in args.probe:
@@ -192,6 +200,10 @@ def main(argv=None):
         try:
             if driven:
                 result = run_driven(case, end_time=args.end_time, **common)
+            elif reduction:
+                result = run_strength_reduction(
+                    case, reduction["final_factor"], load_steps=args.steps, **common
+                )
             else:
                 result = run_static(
                     case,
@@ -215,6 +227,21 @@ def main(argv=None):
             displacement_control=True,
             end_time=float(model.time),
             converged_to_end=result.converged_to_end,
+            newton_iterations=result.newton_iterations,
+            runtime_s=result.runtime,
+        )
+    elif args.mode == "static" and reduction:
+        write_table_csv(
+            ["strength_factor"]
+            + [f"{name}_{axis}" for name in model.probes for axis in ("ux", "uy")],
+            result.curve,
+            os.path.join(args.out, "strength_reduction.csv"),
+        )
+        summary.update(
+            strength_reduction=dict(
+                last_converged_factor=result.last_converged_factor,
+                failed_factor=result.failed_factor,
+            ),
             newton_iterations=result.newton_iterations,
             runtime_s=result.runtime,
         )

@@ -170,6 +170,90 @@ def run_static(
 
 
 @dataclass
+class StrengthReductionResult:
+    """Results of run_strength_reduction: the factor of safety lies between the last converged
+    strength factor and the failed one (None when max_factor was reached)."""
+
+    last_converged_factor: float
+    failed_factor: float | None
+    # (factor, then per probe of model.probes its ux, uy in m) after each converged factor
+    curve: list = field(default_factory=list)
+    newton_iterations: int = 0
+    runtime: float = 0.0
+
+
+def run_strength_reduction(
+    case,
+    max_factor,
+    steps=20,
+    min_step=1e-3,
+    load_steps=10,
+    rtol=1e-8,
+    max_iterations=25,
+    model=None,
+    on_step=None,
+    **static_options,
+):
+    """The shear strength reduction method (Griffiths & Lane 1999) from equilibrium: the case's
+    initial stress and loads as run_static brings them to full load, then the strength of every
+    material divided by a factor F (Material.reduced) rising from 1 towards max_factor in
+    increments of (max_factor - 1) / steps, each a Newton solve from the last equilibrium; an
+    increment that fails is halved, and once it is below min_step the last converged F is a
+    lower bound of the factor of safety. The MPM does the same over its pseudo-time
+    (implicit.strength_reduction)."""
+    start = wallclock.perf_counter()
+    case, model = _case_and_model(case, model, {})
+    static = run_static(
+        case,
+        steps=load_steps,
+        min_step=min_step,
+        rtol=rtol,
+        max_iterations=max_iterations,
+        model=model,
+        **static_options,
+    )
+    if not static.converged_to_full_load:
+        raise NoConvergence(
+            "strength reduction: the loads could not be applied in full"
+        )
+    result = StrengthReductionResult(
+        1.0, None, newton_iterations=static.newton_iterations
+    )
+
+    def record(factor):
+        row = [factor]
+        for name in model.probes:
+            row.extend(float(v) for v in model.probe_displacement(name))
+        result.curve.append(tuple(row))
+        if on_step:
+            on_step(model, factor)
+
+    record(1.0)
+    factor, step = 1.0, (max_factor - 1.0) / max(steps, 1)
+    while factor < max_factor - 1e-12:
+        trial = min(factor + step, max_factor)
+        model.set_strength_factor(trial)
+        try:
+            result.newton_iterations += model.solve_step(
+                1.0, model.load_factor, rtol, max_iterations
+            )
+        except NoConvergence:
+            result.failed_factor = trial
+            step *= 0.5
+            if step < min_step:
+                break
+            continue
+        factor = trial
+        if result.failed_factor is not None and result.failed_factor <= factor:
+            result.failed_factor = None
+        record(factor)
+    model.set_strength_factor(factor)
+    result.last_converged_factor = factor
+    result.runtime = wallclock.perf_counter() - start
+    return result
+
+
+@dataclass
 class DrivenResult:
     """Results of run_driven: one row per converged increment, (time s, then per moving support
     k of model.moving_supports its displacement ux, uy (m) and reaction fx, fy (kN/m)).

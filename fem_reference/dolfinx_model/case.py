@@ -98,6 +98,26 @@ class Material:
             cohesion=Cohesion([x * scale for x in self.cohesion.x], self.cohesion.y),
         )
 
+    def reduced(self, factor: float) -> "Material":
+        """This material with its strength divided by `factor`, as the C++ reduced_strength
+        (mpm/core/materials.hpp): every cohesion of the law, tan(phi), tan(psi) and the tension
+        cut-off over factor; the elastic parameters kept."""
+        if self.model == "linear_elastic":
+            return self
+
+        def angle(deg):
+            return math.degrees(math.atan(math.tan(math.radians(deg)) / factor))
+
+        return dataclasses.replace(
+            self,
+            cohesion=Cohesion(self.cohesion.x, [y / factor for y in self.cohesion.y]),
+            friction_angle=angle(self.friction_angle),
+            dilation_angle=angle(self.dilation_angle),
+            tension_cutoff=(
+                None if self.tension_cutoff is None else self.tension_cutoff / factor
+            ),
+        )
+
     @property
     def shear_modulus(self):
         return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))

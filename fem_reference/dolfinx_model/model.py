@@ -81,13 +81,10 @@ class Model:
         body_of_cell[self.cell_tags.indices] = self.cell_tags.values - 1
         # A softening length scales the cohesion laws by itself / the element size (the
         # target size of the mesh, as the MPM's cell size for its grid).
-        size = element_size or case.cell_size
-        self.models = [
-            ElasticPlasticModel(
-                case.materials[b.material].regularised(size), kappa_measure
-            )
-            for b in case.bodies
-        ]
+        self._material_size = element_size or case.cell_size
+        self._kappa_measure = kappa_measure
+        self.strength_factor = 1.0
+        self.set_strength_factor(1.0)
         self.point_body = np.repeat(body_of_cell, self.nq)
         self.groups = [
             np.nonzero(self.point_body == k)[0] for k in range(len(self.models))
@@ -136,6 +133,20 @@ class Model:
         self._setup_forms()
         self._setup_tracking()
         self._setup_loads()
+
+    def set_strength_factor(self, factor: float):
+        """Every body's material with its strength divided by `factor` (Material.reduced);
+        the stresses and the plastic strains are kept."""
+        self.strength_factor = factor
+        self.models = [
+            ElasticPlasticModel(
+                self.case.materials[b.material]
+                .reduced(factor)
+                .regularised(self._material_size),
+                self._kappa_measure,
+            )
+            for b in self.case.bodies
+        ]
 
     # ------------------------------------------------------------------ setup
     def _setup_boundary(self):

@@ -160,6 +160,62 @@ def test_bearing_block_tresca_collapse_load():
     assert last_stiffness < 0.05 * initial_stiffness
 
 
+def test_strength_reduction_of_a_pressed_block():
+    """A weightless Tresca block (c = 20 kPa) 1 m high, by symmetry 2 m wide, on a smooth
+    base, free on its right, under q = 30 kPa: uniform stress, so its strength reduction fails
+    at F = 2 c / q = 4/3; increments of 0.03 halved until below min_step = 1e-3 bracket it
+    within 2 min_step (the last increment tried before the stop), and the bracket holds 4/3 to
+    1e-9. The same case as the MPM's (test_implicit_solver.cpp)."""
+    from fem_reference.dolfinx_model import case_from_dict
+    from fem_reference.dolfinx_model.analysis import run_strength_reduction
+
+    raw = {
+        "grid": {"origin": [0, 0], "cell_size": 0.25, "n_cells": [8, 6]},
+        "materials": [
+            {
+                "name": "clay",
+                "model": "tresca",
+                "youngs_modulus": 1e4,
+                "poisson_ratio": 0.3,
+                "unit_weight": 18.0,
+                "cohesion": 20.0,
+            }
+        ],
+        "bodies": [
+            {"name": "block", "material": "clay", "rectangle": [[0, 0], [1, 1]]}
+        ],
+        "gravity": {"g": 0.0},
+        "boundary_conditions": [
+            {"where": "bottom", "fix": "y"},
+            {"where": "left", "fix": "x"},
+        ],
+        "loads": [
+            {
+                "type": "vertical_pressure",
+                "pressure": 30.0,
+                "x_range": [0, 1],
+                "apply_on": "detected_boundary",
+            }
+        ],
+        "solver": {"type": "implicit"},
+        "implicit": {
+            "load_steps": 40,
+            "strength_reduction": {"start_time": 1.0, "final_factor": 1.6},
+        },
+        "time": {"end_time": 2.0},
+    }
+    case = case_from_dict(raw, "block")
+    result = run_strength_reduction(case, 1.6, steps=20, load_steps=2)
+    print(
+        f"\nblock: factor of safety in [{result.last_converged_factor:.5f}, "
+        f"{result.failed_factor:.5f}], closed form {4 / 3:.5f}"
+    )
+    assert result.failed_factor is not None
+    assert result.failed_factor - result.last_converged_factor < 2e-3
+    assert result.last_converged_factor <= 4 / 3 + 1e-9
+    assert result.failed_factor >= 4 / 3 - 1e-9
+
+
 # ------------------------------------------------------------------------- 4. slope
 def test_slope_elastic_crest_displacement_mesh_converged():
     """Geometry of cases/thesis55_slope_dynamic_zero_start.json (toe x = 10.125, crest x = 14.125, 4 m high, 6 m base,
