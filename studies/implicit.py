@@ -28,13 +28,17 @@ The runs:
   16; the reaction's windows and the least-squares line over 0.03-0.12 b at s = 0 against
   (2 + pi) c.
 
+* The thesis slope's factor of safety by strength reduction, beside dolfinx's and Bishop's
+  simplified method (studies.slope_safety, full variant).
+
 Tables ``column`` (shape function, h, settlement and stress errors, load steps, iterations),
 ``column_orders`` (the settlement error's order over h per shape function), ``bearing`` (h,
 solver, settlement, against dolfinx, load steps, iterations, wall time), ``newton`` (every
 load step's relative residuals, the bearing case at h = 0.5 m) and ``footing`` (method, cells,
 window means, line at 0, load steps, iterations). Figures ``column_errors.png``
 (settlement error against h), ``newton.png`` (relative residual against the iteration, one
-line per load step) and ``footing.png`` (the footing's reaction against its settlement). Metrics ``implicit.column.<shape>.h<k>.settlement_error`` and
+line per load step) and ``footing.png`` (the footing's reaction against its settlement);
+the slope's table, figure and metrics: studies.slope_safety. Metrics ``implicit.column.<shape>.h<k>.settlement_error`` and
 ``.stress_error`` (k = 1 / h), ``implicit.column.explicit_agreement`` (|implicit / explicit - 1|),
 ``implicit.bearing.h<k>.vs_dolfinx`` (|MPM / dolfinx - 1| at the surface),
 ``implicit.bearing.h<k>.mean_iterations``, ``implicit.bearing.h<k>.load_steps`` and
@@ -67,6 +71,7 @@ from studies.common.tables import save_figure, write_table
 from studies.benchmarks.common import FOOTING
 from studies.benchmarks.footing import footing_case as benchmark_footing
 from studies.benchmarks.footing import footing_curve, footing_plateau_line
+from studies.slope_safety import SLOPE_CELLS, slope_cases, slope_section
 from studies.stability import column_surcharge_case
 
 SHAPES = ("linear", "gimp", "quadratic_bspline", "cubic_bspline")
@@ -319,6 +324,8 @@ def run(context) -> StudyOutcome:
         cases += [bearing_case(h, True), bearing_case(h, False)]
     footing_runs = () if context.quick else FOOTING_RUNS
     cases += [footing_case(method, cells) for method, cells in footing_runs]
+    slope_runs = [] if context.quick else slope_cases()
+    cases += slope_runs
     outs = parallel_map(
         _run_mpm,
         cases,
@@ -460,8 +467,12 @@ def run(context) -> StudyOutcome:
             "one line per load step (dotted: the tolerance)",
         )
     )
+    n_slope = len(slope_runs)
     if footing_runs:
-        _footing(context, outcome, outs[len(outs) - len(footing_runs) :])
+        first = len(outs) - n_slope - len(footing_runs)
+        _footing(context, outcome, outs[first : len(outs) - n_slope])
+    if slope_runs:
+        slope_section(context, outcome, outs[len(outs) - n_slope :])
     outcome.expected = (
         [
             f"implicit.column.{s}.h{round(1 / h)}.{what}"
@@ -481,5 +492,11 @@ def run(context) -> StudyOutcome:
             for method, cells in FOOTING_RUNS
             for what in ("line_at_0_error", "mean_iterations")
         ]
+        + [
+            f"implicit.slope.h{round(1 / h)}.{what}"
+            for h in SLOPE_CELLS
+            for what in ("vs_dolfinx", "vs_bishop")
+        ]
+        + ["implicit.slope.bishop_factor"]
     )
     return outcome
