@@ -161,9 +161,14 @@ void ImplicitSolver::advance(double end_time) {
       if (iterations <= kFastIterations) step_size_ = std::min(first_step_, step_size_ * kGrowth);
       return;
     }
-    if (cut == settings_.max_cuts) {
-      const auto& reduction = settings_.strength_reduction;
-      if (reduction && time_ + dt > reduction->start_time) {
+    // In a strength reduction the step's size is the answer's resolution: no step after its
+    // start is cut below the first step / 2^max_cuts, however many steps converged since the
+    // last cut (else the run creeps towards the collapse in ever smaller steps).
+    const auto& reduction = settings_.strength_reduction;
+    const bool reducing = reduction && time_ + dt > reduction->start_time;
+    const double smallest = std::ldexp(first_step_, -settings_.max_cuts);
+    if (cut == settings_.max_cuts || (reducing && 0.5 * dt < smallest * (1.0 - 1e-9))) {
+      if (reducing) {
         failed_factor_ = strength_factor_;
         return;
       }

@@ -103,8 +103,9 @@ class ImplicitSolver {
   const std::vector<ConstraintReport>& constraint_reports() const { return constraint_reports_; }
   /// The strength reduction factor of the last converged step (1 without strength_reduction).
   double strength_factor() const { return converged_factor_; }
-  /// With strength_reduction: a step after its start_time could not be completed after
-  /// max_cuts halvings, so no equilibrium was found at the factor of the last attempt
+  /// With strength_reduction: a step after its start_time could not be completed (after
+  /// max_cuts halvings in a row, or with no halving left above the first step / 2^max_cuts),
+  /// so no equilibrium was found at the factor of the last attempt
   /// (failed_factor()): the run's answer. The particles stay those of the last converged step,
   /// and advance() takes no more steps.
   bool collapsed() const { return failed_factor_ > 0.0; }

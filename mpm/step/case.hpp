@@ -171,8 +171,9 @@ enum class SolverType { kExplicit, kImplicit };
 /// The shear strength reduction method ("implicit"."strength_reduction"): the strength of every
 /// material divided by a factor F(t) (reduced_strength, mpm/core/materials.hpp) that is 1 up to
 /// start_time and rises linearly to final_factor at time.end_time. A load step after start_time
-/// that cannot be completed ends the run as its answer: the factor of safety lies between the
-/// last converged F and the F of the last attempt (run.json summary.strength_reduction).
+/// that cannot be completed (max_cuts halvings in a row, or none left above the first step /
+/// 2^max_cuts) ends the run as its answer: the factor of safety lies between the last
+/// converged F and the F of the last attempt (run.json summary.strength_reduction).
 struct StrengthReduction {
   double start_time = 0.0;    ///< s (pseudo-time), in [0, time.end_time)
   double final_factor = 2.0;  ///< F at time.end_time, > 1
