@@ -105,11 +105,13 @@ struct ImplicitSolver::Prepared {
   std::vector<implicit_detail::ConstraintPoint> points;  // of every constraint
   std::vector<Vec2> constraint_target;                   // u_bar(t_n+1) per constraint, m
   std::vector<char> fitted;                              // per particle: in a point's fit
-  // The tangent's sparsity over the unknowns; per particle its unknowns (ascending) and where
-  // each pair of them (row-major) sits among the matrix's stored values.
+  // The tangent's sparsity over the unknowns; per particle its unknowns (ascending); per
+  // distinct set of unknowns (the particles of one cell share theirs, as a rule) where each
+  // pair of them (row-major) sits among the matrix's stored values, and each particle's set.
   implicit_detail::SparseMatrix pattern;
   std::vector<std::vector<int>> unknowns;
-  std::vector<std::vector<int>> position;
+  std::vector<std::vector<int>> positions;
+  std::vector<int> position_of;
   // Per particle, the unknowns of each component of its strain nodes as (place among its
   // unknowns, weight): component 2 k + d of strain node k holds terms[start[2 k + d]] ..
   // terms[start[2 k + d + 1] - 1]; and the strain node of each of its stencil nodes.

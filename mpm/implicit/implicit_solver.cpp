@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <string>
 #include <utility>
 
@@ -485,7 +486,7 @@ void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool ta
       add_block(r, static_cast<std::size_t>(s.stencil_in_strain[p][k]), force * spin.transpose());
     }
   }
-  const std::vector<int>& where = s.position[p];
+  const std::vector<int>& where = s.positions[static_cast<std::size_t>(s.position_of[p])];
   for (std::size_t k = 0; k < m * m; ++k) values[where[k]] += local[k];
   if (!s.fitted.empty() && s.fitted[p]) {
     // d sigma_p / d (its unknowns), for Nitsche's term: D B plus the rotation's part.
@@ -655,7 +656,9 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
 void ImplicitSolver::build_pattern(Prepared& s) const {
   const std::size_t n_particles = particles_.size();
   s.unknowns.resize(n_particles);
-  s.position.resize(n_particles);
+  s.position_of.resize(n_particles);
+  // The distinct sets of unknowns, each with its index: one set's pairs enter the pattern once.
+  std::map<std::vector<int>, int> sets;
   s.terms.resize(n_particles);
   s.start.resize(n_particles);
   s.stencil_in_strain.resize(n_particles);
@@ -671,8 +674,12 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
     }
     std::sort(own.begin(), own.end());
     own.erase(std::unique(own.begin(), own.end()), own.end());
-    for (const int i : own)
-      for (const int j : own) pairs.emplace_back(i, j, 0.0);
+    const auto [set, added] = sets.emplace(own, static_cast<int>(sets.size()));
+    s.position_of[p] = set->second;
+    if (added) {
+      for (const int i : own)
+        for (const int j : own) pairs.emplace_back(i, j, 0.0);
+    }
     std::vector<std::pair<int, double>>& terms = s.terms[p];
     std::vector<int>& start = s.start[p];
     start.assign(1, 0);
@@ -699,9 +706,9 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
   s.pattern.makeCompressed();
   const int* outer = s.pattern.outerIndexPtr();
   const int* inner = s.pattern.innerIndexPtr();
-  for (std::size_t p = 0; p < n_particles; ++p) {
-    const std::vector<int>& own = s.unknowns[p];
-    std::vector<int>& where = s.position[p];
+  s.positions.resize(sets.size());
+  for (const auto& [own, index] : sets) {
+    std::vector<int>& where = s.positions[static_cast<std::size_t>(index)];
     where.resize(own.size() * own.size());
     for (std::size_t a = 0; a < own.size(); ++a) {
       for (std::size_t b = 0; b < own.size(); ++b) {
