@@ -20,8 +20,8 @@ profile and firm base.
 
 Table ``slope`` (method, h, the bracket of the factor of safety, against dolfinx and Bishop,
 load steps, iterations, wall time). Figure ``slope.png``: the MPM's plastic strain at its last
-equilibrium (h = 0.25 m) with Bishop's critical circle, and the crest's displacement against F
-by the MPM and dolfinx. Metrics ``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_bishop``
+equilibrium (h = 0.25 m) with Bishop's critical circle, the displacement increment of its last
+step (the mechanism's motion), and the crest's displacement against F by the MPM and dolfinx. Metrics ``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_bishop``
 (|F_MPM / F - 1|, each F its bracket's lower end) and ``implicit.slope.bishop_factor``; gated in
 reports/thresholds.json at 3 % (must-show 5).
 """
@@ -124,9 +124,23 @@ def crest_curve(out: Path) -> pd.DataFrame:
 def slope_figure(particles, circle, curves: dict, dolfinx_curve):
     import matplotlib.pyplot as plt
 
-    figure, (mechanism, displacement) = plt.subplots(
-        1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [1.6, 1]}
+    figure, (mechanism, motion, displacement) = plt.subplots(
+        1, 3, figsize=(16, 4), gridspec_kw={"width_ratios": [1.6, 1.6, 1]}
     )
+    # The last step's displacement increment (the points' velocity is it over the step): the
+    # mechanism's motion.
+    speed = np.hypot(particles["vx"], particles["vy"])
+    moving = motion.scatter(
+        particles["x"], particles["y"], c=speed, s=3, cmap="magma_r", vmin=0.0
+    )
+    figure.colorbar(moving, ax=motion, label="last step's |du| / dt (m/s)", shrink=0.6)
+    arrows = particles.iloc[:: max(1, len(particles) // 300)]
+    motion.quiver(
+        arrows["x"], arrows["y"], arrows["vx"], arrows["vy"], color="k", width=0.002
+    )
+    motion.set_aspect("equal")
+    motion.set_ylim(-0.5, 12.0)
+    motion.set_xlabel("x (m)")
     shown = mechanism.scatter(
         particles["x"],
         particles["y"],
@@ -250,7 +264,8 @@ def slope_section(context, outcome: StudyOutcome, outs: list) -> None:
             ),
             "slope",
             "The thesis slope at its last equilibrium of the strength reduction (MPM, "
-            f"h = {SLOPE_CELLS[-1]} m): plastic strain and Bishop's critical circle; the "
-            "crest's displacement against the strength reduction factor",
+            f"h = {SLOPE_CELLS[-1]} m): plastic strain and Bishop's critical circle, the last "
+            "step's displacement increment; the crest's displacement against the strength "
+            "reduction factor",
         )
     )
