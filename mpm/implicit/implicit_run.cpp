@@ -31,9 +31,8 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
   run["case"] = c.source;
   run["status"] = "running";
   std::unique_ptr<ParticleSeriesWriter> writer;
-  // Per constraint its force on the body (kN/m) and root-mean-square gap (m), as the explicit
-  // run's columns.
-  // With strength_reduction, the factor of each step after the attempts.
+  // With strength_reduction, the factor of each step after the attempts; per constraint its
+  // force on the body (kN/m) and root-mean-square gap (m), as the explicit run's columns.
   const bool reduction = c.implicit.strength_reduction.has_value();
   std::string table = "time,dt,iterations,residual,attempts";
   if (reduction) table += ",strength_factor";
