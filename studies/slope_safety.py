@@ -49,7 +49,7 @@ from studies.common.runner import run_dolfinx
 from studies.common.tables import save_figure, write_table
 
 SLOPE_CELLS = (0.5, 0.25)
-COHESION, WEIGHT, YOUNG = 20.0, 20.0, 1e5
+COHESION, YOUNG = 20.0, 1e5  # kPa
 CREST = (14.125, 10.0)  # m
 FINAL_FACTOR = 2.0
 DOLFINX_ARGUMENTS = [
