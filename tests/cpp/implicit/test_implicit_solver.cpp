@@ -320,6 +320,44 @@ TEST(ImplicitSolver, StrengthReductionFindsTheFactorOfSafetyOfAPressedBlock) {
   EXPECT_GT(locked.strength_factor(), 1.1 * 4.0 / 3.0);
 }
 
+TEST(ImplicitSolver, StrengthReductionDividesTanPhiOfAMohrCoulombBlock) {
+  // The pressed block in Mohr-Coulomb soil (c = 15 kPa, phi = 20 degrees, no dilation), default
+  // shape functions: sigma_xx = 0 and sigma_yy = -q, so it collapses where
+  // q (1 - sin phi') = 2 c' cos phi' with c' = c / F and tan phi' = tan phi / F (about 1.3145
+  // at q = 30 kPa), q again the mean pressure the block carries. Bracket and tolerance as for
+  // the Tresca block.
+  nlohmann::json document = reduced_block_case("quadratic_bspline", 30.0, 1.6);
+  document["materials"][0] = {{"name", "clay"},         {"model", "mohr_coulomb"},
+                              {"youngs_modulus", 1e4},  {"poisson_ratio", 0.3},
+                              {"unit_weight", 18.0},    {"cohesion", 15.0},
+                              {"friction_angle", 20.0}, {"dilation_angle", 0.0}};
+  const Case c = parse_case(document, "block.json");
+  ImplicitSolver solver(c);
+  solver.run_to(1.0);
+  double force = 0.0, area = 0.0;
+  for (std::size_t p = 0; p < solver.particles().size(); ++p) {
+    force -= solver.particles().volume[p] * solver.particles().stress[p][kYY];
+    area += solver.particles().volume[p];
+  }
+  const double q = force / area, tan_phi = std::tan(20.0 * std::numbers::pi / 180.0);
+  const auto excess = [&](double factor) {  // > 0 while the block holds q
+    const double phi = std::atan(tan_phi / factor);
+    return 2.0 * 15.0 / factor * std::cos(phi) / (1.0 - std::sin(phi)) - q;
+  };
+  double low = 1.0, high = 1.6;  // bisection: excess(low) > 0 > excess(high)
+  ASSERT_GT(excess(low), 0.0);
+  ASSERT_LT(excess(high), 0.0);
+  for (int k = 0; k < 60; ++k) (excess(0.5 * (low + high)) > 0.0 ? low : high) = 0.5 * (low + high);
+  const double safety = 0.5 * (low + high);
+  solver.run_to(2.0);
+  ASSERT_TRUE(solver.collapsed());
+  std::printf("Mohr-Coulomb: factor of safety in [%.5f, %.5f], closed form %.5f (q = %.4f kPa)\n",
+              solver.strength_factor(), solver.failed_factor(), safety, q);
+  EXPECT_LE(solver.failed_factor() - solver.strength_factor(), 0.03 / 64.0 + 1e-12);
+  EXPECT_LE(solver.strength_factor(), safety * 1.01);
+  EXPECT_GE(solver.failed_factor(), safety * 0.99);
+}
+
 TEST(ImplicitSolver, RefusesWhatItCannotHonour) {
   const auto refused = [](nlohmann::json document, const std::string& path) {
     try {
