@@ -274,6 +274,16 @@ nlohmann::json reduced_block_case(const std::string& shape, double pressure, dou
           {"time", {{"end_time", 2.0}}}};
 }
 
+// The mean pressure the block's points carry, -sum V sigma_yy / sum V (kPa).
+double carried_pressure(const ImplicitSolver& solver) {
+  double force = 0.0, area = 0.0;
+  for (std::size_t p = 0; p < solver.particles().size(); ++p) {
+    force -= solver.particles().volume[p] * solver.particles().stress[p][kYY];
+    area += solver.particles().volume[p];
+  }
+  return force / area;
+}
+
 TEST(ImplicitSolver, StrengthReductionFindsTheFactorOfSafetyOfAPressedBlock) {
   // q = 30 kPa: F = 2 c / q = 4/3, with q the pressure the block carries: its mean sigma_yy
   // under the full load (the load on the detected top leaves out a little at the top's rounded
@@ -287,16 +297,12 @@ TEST(ImplicitSolver, StrengthReductionFindsTheFactorOfSafetyOfAPressedBlock) {
     const Case c = parse_case(reduced_block_case(shape, 30.0, 1.6), "block.json");
     ImplicitSolver solver(c);
     solver.run_to(1.0);
-    double force = 0.0, area = 0.0;
-    for (std::size_t p = 0; p < solver.particles().size(); ++p) {
-      force -= solver.particles().volume[p] * solver.particles().stress[p][kYY];
-      area += solver.particles().volume[p];
-    }
-    const double safety = 2.0 * 20.0 / (force / area);
+    const double q = carried_pressure(solver);
+    const double safety = 2.0 * 20.0 / q;
     solver.run_to(2.0);
     ASSERT_TRUE(solver.collapsed());
     std::printf("%s: factor of safety in [%.5f, %.5f], closed form %.5f (q = %.4f kPa)\n", shape,
-                solver.strength_factor(), solver.failed_factor(), safety, force / area);
+                solver.strength_factor(), solver.failed_factor(), safety, q);
     EXPECT_GT(solver.failed_factor(), solver.strength_factor());
     EXPECT_LE(solver.failed_factor() - solver.strength_factor(), 0.03 / 64.0 + 1e-12);
     EXPECT_LE(solver.strength_factor(), safety * 1.01);
@@ -334,12 +340,7 @@ TEST(ImplicitSolver, StrengthReductionDividesTanPhiOfAMohrCoulombBlock) {
   const Case c = parse_case(document, "block.json");
   ImplicitSolver solver(c);
   solver.run_to(1.0);
-  double force = 0.0, area = 0.0;
-  for (std::size_t p = 0; p < solver.particles().size(); ++p) {
-    force -= solver.particles().volume[p] * solver.particles().stress[p][kYY];
-    area += solver.particles().volume[p];
-  }
-  const double q = force / area, tan_phi = std::tan(20.0 * std::numbers::pi / 180.0);
+  const double q = carried_pressure(solver), tan_phi = std::tan(20.0 * std::numbers::pi / 180.0);
   const auto excess = [&](double factor) {  // > 0 while the block holds q
     const double phi = std::atan(tan_phi / factor);
     return 2.0 * 15.0 / factor * std::cos(phi) / (1.0 - std::sin(phi)) - q;
