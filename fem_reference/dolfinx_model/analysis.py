@@ -3,6 +3,7 @@ with step cutting), collapse search, and a lumped-mass explicit dynamic mode; ou
 from __future__ import annotations
 
 import csv
+import inspect
 import os
 import time as wallclock
 from dataclasses import dataclass, field
@@ -200,9 +201,16 @@ def run_strength_reduction(
     increments of (max_factor - 1) / steps, each a Newton solve from the last equilibrium; an
     increment that fails is halved, and once it is below min_step the last converged F is a
     lower bound of the factor of safety. The MPM does the same over its pseudo-time
-    (implicit.strength_reduction)."""
+    (implicit.strength_reduction). static_options: run_static's (initial_stress_method,
+    gravity_steps) and Model's (degree, element_size, ...), which build the model unless one is
+    given."""
     start = wallclock.perf_counter()
-    case, model = _case_and_model(case, model, {})
+    model_options = {
+        key: static_options.pop(key)
+        for key in list(static_options)
+        if key in inspect.signature(Model).parameters
+    }
+    case, model = _case_and_model(case, model, model_options)
     static = run_static(
         case,
         steps=load_steps,
