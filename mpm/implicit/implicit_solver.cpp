@@ -137,6 +137,11 @@ void ImplicitSolver::run_to(double end_time) {
   while (time_ < end_time * (1.0 - 1e-12) && !collapsed()) advance(end_time);
 }
 
+double ImplicitSolver::strength_factor() const {
+  const auto& reduction = settings_.strength_reduction;
+  return reduction ? reduction->factor(time_, case_.time.end_time) : 1.0;
+}
+
 void ImplicitSolver::reduce_strength(double t) {
   const auto& reduction = settings_.strength_reduction;
   const double factor = reduction ? reduction->factor(t, case_.time.end_time) : 1.0;
@@ -750,10 +755,7 @@ bool ImplicitSolver::try_step(double dt) {
   entry.dt = dt;
   entry.converged = newton(s, it, entry);
   log_.push_back(entry);
-  if (entry.converged) {
-    commit(s, it);
-    converged_factor_ = strength_factor_;
-  }
+  if (entry.converged) commit(s, it);
   return entry.converged;
 }
 

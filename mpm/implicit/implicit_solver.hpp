@@ -29,10 +29,9 @@
 //      UMFPACK (SuiteSparse, through Eigen), with a backtracking line search on |R|; converged when
 //      |R| <= tolerance x the internal force's norm over all components (the reactions' included)
 //      and the last correction is below tolerance^(1/2) of the increment (or below tolerance x h
-//      per unknown, for a step that asks for no motion); once |R| is within its
-//      tolerance, the correction it would still ask for, K_prev^-1 R by the last factorisation (the
-//      tangent of the iterate before), stands for the last correction: a linear step ends after
-//      one;
+//      per unknown, for a step that asks for no motion); once |R| is within its tolerance, the
+//      correction it would still ask for, K_prev^-1 R by the last factorisation (the tangent of
+//      the iterate before), stands for the last correction: a linear step ends after one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
 // The case's "implicit" block (ImplicitSpec, case.hpp) sets the first step's size (end_time /
@@ -101,8 +100,9 @@ class ImplicitSolver {
   /// Per constraint, at the last converged step: the force on the body (kN/m), the
   /// root-mean-square gap (m) and the part's length (m).
   const std::vector<ConstraintReport>& constraint_reports() const { return constraint_reports_; }
-  /// The strength reduction factor of the last converged step (1 without strength_reduction).
-  double strength_factor() const { return converged_factor_; }
+  /// The strength reduction factor of the last converged step, F(time()) (1 without
+  /// strength_reduction).
+  double strength_factor() const;
   /// With strength_reduction: a step after its start_time could not be completed (after
   /// max_cuts halvings in a row, or with no halving left above the first step / 2^max_cuts),
   /// so no equilibrium was found at the factor of the last attempt
@@ -176,7 +176,6 @@ class ImplicitSolver {
   std::vector<Material> models_;
   std::vector<MaterialConstants> constants_;
   double strength_factor_ = 1.0;        ///< of models_
-  double converged_factor_ = 1.0;       ///< of the last converged step
   double failed_factor_ = 0.0;          ///< collapsed(): the factor of the last attempt
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
   /// Per particle, the strain increment of the last converged step if the point yielded in it
