@@ -40,8 +40,8 @@ load step's relative residuals, the bearing case at h = 0.5 m) and ``footing`` (
 window means, line at 0, load steps, iterations). Figures ``column_errors.png``
 (settlement error against h), ``newton.png`` (relative residual against the iteration, one
 line per load step) and ``footing.png`` (the footing's reaction against its settlement);
-the slope's table, figure and metrics: studies.slope_safety. Metrics ``implicit.column.<shape>.h<k>.settlement_error`` and
-``.stress_error`` (k = 1 / h), ``implicit.column.explicit_agreement`` (|implicit / explicit - 1|),
+the slope's table, figure and metrics: studies.slope_safety. Metrics
+``implicit.column.<shape>.h<k>.settlement_error`` and ``.stress_error`` (k = 1 / h), ``implicit.column.explicit_agreement`` (|implicit / explicit - 1|),
 ``implicit.bearing.h<k>.vs_dolfinx`` (|MPM / dolfinx - 1| at the surface),
 ``implicit.bearing.h<k>.mean_iterations``, ``implicit.bearing.h<k>.load_steps``,
 ``implicit.bearing.h<k>.speedup`` (the explicit run's wall time over the 20-step implicit
@@ -88,9 +88,15 @@ QUICK_BEARING = (0.5,)
 YOUNG, POISSON, WEIGHT, HEIGHT, SURCHARGE = 5e5, 0.25, 18.0, 4.0, 30.0
 MODULUS = YOUNG * (1 - POISSON) / ((1 + POISSON) * (1 - 2 * POISSON))
 LOAD_CENTRE = 7.5  # m, the bearing case's
-# The shipped case's load steps, and the fewer ones tried for the speed-up at equal accuracy.
+# The shipped case's load steps; its runs at each h: implicit in those, explicit to rest, then
+# implicit in fewer steps for the speed-up at equal accuracy.
 BEARING_STEPS = 20
-COARSE_STEPS = (5, 10)
+BEARING_RUNS = (
+    ("implicit", BEARING_STEPS),
+    ("explicit", None),
+    ("implicit", 5),
+    ("implicit", 10),
+)
 
 
 def column_case(shape: str, h: float, implicit: bool = True) -> dict:
@@ -342,28 +348,33 @@ def run(context) -> StudyOutcome:
         else [(s, h) for s in SHAPES for h in COLUMN_CELLS if (s, h) not in SKIPPED]
     )
     bearing_cells = QUICK_BEARING if context.quick else BEARING_CELLS
-    cases = [column_case(s, h) for s, h in column_tasks]
-    cases.append(column_case("quadratic_bspline", 0.25, implicit=False))
-    for h in bearing_cells:
-        cases += [bearing_case(h, True), bearing_case(h, False)]
-    cases += [bearing_case(h, True, n) for h in bearing_cells for n in COARSE_STEPS]
-    footing_runs = () if context.quick else FOOTING_RUNS
-    cases += [footing_case(method, cells) for method, cells in footing_runs]
-    slope_runs = [] if context.quick else slope_cases()
-    cases += slope_runs
-    outs = parallel_map(
+    # The runs by section, in one sweep.
+    groups = {
+        "column": [column_case(s, h) for s, h in column_tasks],
+        "explicit_column": [column_case("quadratic_bspline", 0.25, implicit=False)],
+        "bearing": [
+            bearing_case(h, solver == "implicit", steps)
+            for h in bearing_cells
+            for solver, steps in BEARING_RUNS
+        ],
+        "footing": [] if context.quick else [footing_case(*r) for r in FOOTING_RUNS],
+        "slope": [] if context.quick else slope_cases(),
+    }
+    swept = parallel_map(
         _run_mpm,
-        cases,
+        [case for cases in groups.values() for case in cases],
         jobs=context.options.jobs,
         scheduler=context.options.scheduler,
         description="implicit",
     )
-    outs = [Path(o) for o in outs]
-    n_column = len(column_tasks)
+    outs, first = {}, 0
+    for name, cases in groups.items():
+        outs[name] = [Path(o) for o in swept[first : first + len(cases)]]
+        first += len(cases)
 
     # The column.
     column = pd.DataFrame(
-        [column_row(s, h, out) for (s, h), out in zip(column_tasks, outs[:n_column])]
+        [column_row(s, h, out) for (s, h), out in zip(column_tasks, outs["column"])]
     )
     for r in column.itertuples():
         prefix = f"implicit.column.{r.shape_function}.h{round(1 / r.h)}"
@@ -371,7 +382,7 @@ def run(context) -> StudyOutcome:
             Metric(f"{prefix}.settlement_error", r.settlement_error, "1"),
             Metric(f"{prefix}.stress_error", r.stress_error, "1"),
         ]
-    explicit_particles = final_particles(outs[n_column])
+    explicit_particles = final_particles(outs["explicit_column"][0])
     y0 = explicit_particles["y"] - explicit_particles["uy"]
     explicit = -explicit_particles[np.isclose(y0, y0.max())]["uy"].mean()
     implicit = column[
@@ -422,17 +433,13 @@ def run(context) -> StudyOutcome:
         "final_settlement"
     ]
     rows = []
-    coarse_start = n_column + 1 + 2 * len(bearing_cells)
+    per_h = len(BEARING_RUNS)
     for k, h in enumerate(bearing_cells):
-        runs = [
-            ("implicit", outs[n_column + 1 + 2 * k]),
-            ("explicit", outs[n_column + 2 + 2 * k]),
+        runs = outs["bearing"][per_h * k : per_h * (k + 1)]
+        bearing = [
+            bearing_row(h, solver, out, dolfinx)
+            for (solver, _), out in zip(BEARING_RUNS, runs)
         ]
-        runs += [
-            ("implicit", outs[coarse_start + len(COARSE_STEPS) * k + j])
-            for j in range(len(COARSE_STEPS))
-        ]
-        bearing = [bearing_row(h, solver, out, dolfinx) for solver, out in runs]
         rows += bearing
         implicit_row, explicit_row = bearing[0], bearing[1]
         # At equal accuracy: the cheapest implicit run no further from dolfinx than the
@@ -468,9 +475,8 @@ def run(context) -> StudyOutcome:
                     note=f"{equal['load_steps']} load steps",
                 )
             )
-        implicit_out = runs[0][1]
         if k == 0:
-            newton_steps = read_run(implicit_out)["load_steps"]
+            newton_steps = read_run(runs[0])["load_steps"]
     outcome.tables.append(
         write_table(
             context.folder,
@@ -507,12 +513,10 @@ def run(context) -> StudyOutcome:
             "one line per load step (dotted: the tolerance)",
         )
     )
-    n_slope = len(slope_runs)
-    if footing_runs:
-        first = len(outs) - n_slope - len(footing_runs)
-        _footing(context, outcome, outs[first : len(outs) - n_slope])
-    if slope_runs:
-        slope_section(context, outcome, outs[len(outs) - n_slope :])
+    if outs["footing"]:
+        _footing(context, outcome, outs["footing"])
+    if outs["slope"]:
+        slope_section(context, outcome, outs["slope"])
     outcome.expected = (
         [
             f"implicit.column.{s}.h{round(1 / h)}.{what}"

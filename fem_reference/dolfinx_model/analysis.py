@@ -3,7 +3,6 @@ with step cutting), collapse search, and a lumped-mass explicit dynamic mode; ou
 from __future__ import annotations
 
 import csv
-import inspect
 import os
 import time as wallclock
 from dataclasses import dataclass, field
@@ -201,16 +200,10 @@ def run_strength_reduction(
     increments of (max_factor - 1) / steps, each a Newton solve from the last equilibrium; an
     increment that fails is halved, and once it is below min_step the last converged F is a
     lower bound of the factor of safety. The MPM does the same over its pseudo-time
-    (implicit.strength_reduction). static_options: run_static's (initial_stress_method,
-    gravity_steps) and Model's (degree, element_size, ...), which build the model unless one is
+    (implicit.strength_reduction). static_options go to run_static: its initial_stress_method
+    and gravity_steps, and the Model options with which it builds the model unless one is
     given."""
     start = wallclock.perf_counter()
-    model_options = {
-        key: static_options.pop(key)
-        for key in list(static_options)
-        if key in inspect.signature(Model).parameters
-    }
-    case, model = _case_and_model(case, model, model_options)
     static = run_static(
         case,
         steps=load_steps,
@@ -220,6 +213,7 @@ def run_strength_reduction(
         model=model,
         **static_options,
     )
+    model = static.model
     if not static.converged_to_full_load:
         raise NoConvergence(
             "strength reduction: the loads could not be applied in full"

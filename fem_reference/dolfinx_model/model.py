@@ -83,7 +83,6 @@ class Model:
         # target size of the mesh, as the MPM's cell size for its grid).
         self._material_size = element_size or case.cell_size
         self._kappa_measure = kappa_measure
-        self.strength_factor = 1.0
         self.set_strength_factor(1.0)
         self.point_body = np.repeat(body_of_cell, self.nq)
         self.groups = [

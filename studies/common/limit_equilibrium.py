@@ -110,10 +110,11 @@ def bishop_factor(
     x_a, x_b = interval
     r = circle.radius
     edges = x_a + (x_b - x_a) / n_slices * np.arange(n_slices + 1)
+    base = -math.inf if base_y is None else base_y
     flat_half = 0.0
-    if base_y is not None and circle.yc - r < base_y:
+    if circle.yc - r < base:
         # The arc leaves the base at xc -+ flat_half: slice edges there too.
-        flat_half = math.sqrt(r * r - (circle.yc - base_y) ** 2)
+        flat_half = math.sqrt(r * r - (circle.yc - base) ** 2)
         cuts = [circle.xc - flat_half, circle.xc + flat_half]
         edges = np.unique(np.concatenate([edges, [v for v in cuts if x_a < v < x_b]]))
     b = np.diff(edges)
@@ -121,7 +122,7 @@ def bishop_factor(
     dx = x - circle.xc
     flat = np.abs(dx) < flat_half
     root = np.sqrt(np.maximum(r * r - dx * dx, 0.0))
-    slip = np.where(flat, base_y if base_y is not None else 0.0, circle.yc - root)
+    slip = np.maximum(circle.yc - root, base)
     weight = soil.unit_weight * b * np.maximum(profile.height(x) - slip, 0.0)
     # Each arc slice's base length exactly, R times the angle it spans (the arc may be vertical
     # at its ends, where b / cos(alpha) at the middle would not converge).
@@ -133,10 +134,10 @@ def bishop_factor(
     # Moments about the centre. A flat slice's weight and base normal force (equal: its base
     # is horizontal and the interslice shear is neglected) cancel; its base shear acts at the
     # arm yc - base_y, an arc slice's at R.
-    driving = float(np.sum(np.where(flat, 0.0, weight * sign * dx)))
+    driving = r * float(np.sum(weight * sin_a))
     if driving <= 0.0:
         return None
-    arm = np.where(flat, circle.yc - (base_y if base_y is not None else 0.0), r)
+    arm = np.where(flat, circle.yc - base, r)
     tan_phi = math.tan(math.radians(soil.friction_angle))
     # c b = c l cos(alpha): for phi = 0, c l per slice.
     resisting = arm * (soil.cohesion * length * cos_a + weight * tan_phi)
