@@ -851,8 +851,13 @@ void parse_solver(const JsonView& root, Case& c) {
     largest_poisson_ratio =
         std::max(largest_poisson_ratio, elastic_parameters(m.model).poisson_ratio);
   }
-  const bool nearly_incompressible = largest_poisson_ratio >= kBbarPoissonRatio;
-  c.solver.mean_dilatation = nearly_incompressible;
+  // And in a strength reduction, which seeks a collapse by plastic flow, isochoric for
+  // Tresca and for Mohr-Coulomb without dilation: it locks without the mean dilatation whatever
+  // nu is (a pressed block on uGIMP stands well past its factor of safety).
+  const auto implicit = root.find("implicit");
+  const bool seeks_collapse = implicit && implicit->has("strength_reduction");
+  const bool mean_dilatation = largest_poisson_ratio >= kBbarPoissonRatio || seeks_collapse;
+  c.solver.mean_dilatation = mean_dilatation;
   std::optional<double> outer_node_fraction;
   if (const auto s = root.find("solver")) {
     s->expect_object({"type", "scheme", "shape_function", "damping", "damping_form", "pic_fraction",
@@ -884,8 +889,8 @@ void parse_solver(const JsonView& root, Case& c) {
           .require(c.solver.pic_fraction >= 0.0 && c.solver.pic_fraction <= 1.0,
                    "must be in [0, 1] (0 = FLIP, 1 = PIC)");
     }
-    c.solver.mean_dilatation = s->choice_or("anti_locking", {"none", "bbar"},
-                                            nearly_incompressible ? "bbar" : "none") == "bbar";
+    c.solver.mean_dilatation =
+        s->choice_or("anti_locking", {"none", "bbar"}, mean_dilatation ? "bbar" : "none") == "bbar";
     if (s->has("outer_node_fraction")) {
       outer_node_fraction = s->at("outer_node_fraction").as_number();
       s->at("outer_node_fraction")
@@ -997,11 +1002,6 @@ void parse_implicit(const JsonView& root, Case& c) {
         .require(reduction.final_factor > 1.0 && std::isfinite(reduction.final_factor),
                  "must be a number > 1");
     c.implicit.strength_reduction = reduction;
-    // The run seeks a collapse by plastic flow, which is isochoric for Tresca and for
-    // Mohr-Coulomb without dilation: it locks without the mean dilatation whatever nu is (a
-    // pressed block on uGIMP stands well past its factor of safety), so B-bar is the default.
-    const auto s = root.find("solver");
-    if (!(s && s->has("anti_locking"))) c.solver.mean_dilatation = true;
   }
 }
 
