@@ -35,49 +35,6 @@ std::array<Vec2, 4> point_slots() {
 
 }  // namespace
 
-std::vector<EdgeLoad> edge_loads(const Case& c) {
-  std::vector<EdgeLoad> out;
-  for (std::size_t k = 0; k < c.loads.size(); ++k) {
-    const LoadSpec& load = c.loads[k];
-    const std::string where = c.file + ": /loads/" + std::to_string(k);
-    EdgeLoad e;
-    e.case_index = k;
-    e.time_function = load.time_function;
-    if (load.apply_on == LoadTarget::kGridTopNodes) {
-      if (load.type != "vertical_pressure") {
-        throw InputError(where + "/type: \"" + load.type +
-                         "\" is not a load the UL-FEM can apply on grid_top_nodes");
-      }
-      e.normal_scale = Vec2(0.0, -load.pressure);
-      e.has_range = true;
-      e.x0 = load.x0;
-      e.x1 = load.x1;
-      e.faces = boundary::LoadedFaces::kTop;
-    } else {
-      if (!load.surface) {
-        throw InputError(where + ": a detected_boundary load without its specification");
-      }
-      const boundary::BoundaryLoadSpec& spec = *load.surface;
-      if (spec.normal_window) {
-        throw InputError(where +
-                         "/normal: the UL-FEM selects a load's faces by x_range and faces only");
-      }
-      const boundary::TractionLaw law = spec.traction_law(1.0);
-      e.normal_scale = law.normal_scale;
-      e.fixed_traction = law.fixed_traction;
-      if (spec.x_range) {
-        e.has_range = true;
-        e.x0 = spec.x_range->x();
-        e.x1 = spec.x_range->y();
-      }
-      e.faces = spec.faces;
-      e.material_interval = spec.interval == boundary::LoadInterval::kMaterial;
-    }
-    out.push_back(e);
-  }
-  return out;
-}
-
 UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
 
 namespace {
@@ -124,8 +81,7 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
   compute_geometry();
   build_particles();
   build_constraints();
-  build_boundary_edges();
-  loads_ = edge_loads(case_);
+  edge_loading_ = EdgeLoading(case_, mesh_);
   load_force_.assign(n_nodes, Vec2::Zero());
   load_work_recorder_ = LoadWorkRecorder(case_.loads.size());
   counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
@@ -186,38 +142,15 @@ void UlFemSolver::build_particles() {
 }
 
 void UlFemSolver::build_constraints() {
-  const Grid& grid = case_.grid;
-  const double tol = 1e-9 * grid.cell_size;
-  const Vec2 lo = grid.origin, hi = grid.upper_corner();
   prescribed_ = PrescribedVelocity(case_.boundary_conditions, mesh_.n_nodes());
   for (std::size_t k = 0; k < case_.boundary_conditions.size(); ++k) {
     const BoundaryCondition& bc = case_.boundary_conditions[k];
     for (std::size_t n = 0; n < mesh_.n_nodes(); ++n) {
-      const Vec2& x = node_reference_[n];
-      bool selected = false;
-      if (bc.where == "left") {
-        selected = std::abs(x.x() - lo.x()) <= tol;
-      } else if (bc.where == "right") {
-        selected = std::abs(x.x() - hi.x()) <= tol;
-      } else if (bc.where == "bottom") {
-        selected = std::abs(x.y() - lo.y()) <= tol;
-      } else if (bc.where == "top") {
-        selected = std::abs(x.y() - hi.y()) <= tol;
-      } else {
-        for (const NodeSet& set : case_.node_sets) {
-          if (set.name == bc.where) selected = set.contains(x, tol);
-        }
-      }
-      if (!selected) continue;
+      if (!mesh_node_held(case_, bc, node_reference_[n])) continue;
       nodes_.fixed[n] |= bc.fix;
       prescribed_.add(k, n);
     }
   }
-}
-
-void UlFemSolver::build_boundary_edges() {
-  for (const auto& edge : ulfem::boundary_edges(mesh_))
-    boundary_edges_.push_back({edge[0], edge[1]});
 }
 
 void UlFemSolver::compute_geometry(bool account_energy) {
@@ -409,109 +342,12 @@ void UlFemSolver::external_forces() {
   }
 }
 
-bool UlFemSolver::shadowed(double x, double y) const {
-  // Another boundary edge crossing the vertical line through x above y (x is never a node's x).
-  for (const LoadedEdge& edge : boundary_edges_) {
-    const Vec2& a = node_position_[static_cast<std::size_t>(edge.from)];
-    const Vec2& b = node_position_[static_cast<std::size_t>(edge.to)];
-    if ((x - a.x()) * (x - b.x()) >= 0.0) continue;
-    const double y_edge = a.y() + (x - a.x()) / (b.x() - a.x()) * (b.y() - a.y());
-    if (y_edge > y + 1e-9 * case_.grid.cell_size) return true;
-  }
-  return false;
-}
-
 void UlFemSolver::apply_loads() {
   EdgeLoadDiagnostics d;
-  bool any = false;
-  bool have_boundary_x = false;
-  for (const EdgeLoad& load : loads_) {
-    const double factor = load.time_function.factor(counters_.time);
-    if (factor == 0.0) continue;
-    any = true;
-    const Vec2 normal_scale = factor * load.normal_scale;
-    const Vec2 fixed_traction = factor * load.fixed_traction;
-    const bool upward_only = load.faces != boundary::LoadedFaces::kAll;
-    const bool top_only = load.faces == boundary::LoadedFaces::kTop;
-    if (top_only && !have_boundary_x) {
-      boundary_x_.clear();
-      for (const LoadedEdge& edge : boundary_edges_)
-        boundary_x_.push_back(node_position_[static_cast<std::size_t>(edge.from)].x());
-      std::sort(boundary_x_.begin(), boundary_x_.end());
-      boundary_x_.erase(std::unique(boundary_x_.begin(), boundary_x_.end()), boundary_x_.end());
-      have_boundary_x = true;
-    }
-    for (const LoadedEdge& edge : boundary_edges_) {
-      const auto from = static_cast<std::size_t>(edge.from);
-      const auto to = static_cast<std::size_t>(edge.to);
-      const Vec2& a_current = node_position_[from];
-      const Vec2 d_current = node_position_[to] - a_current;
-      const double length = d_current.norm();
-      // Upward faces: current outward normal (d_y, -d_x) / L with n_y > 0.
-      if (upward_only && !(-d_current.x() > 1e-12 * length)) continue;
-      // Loaded part s in [s0, s1]: x(s) = a.x + s d.x within [x0, x1] on the current (fixed
-      // interval) or the reference (material interval) edge.
-      double s0 = 0.0, s1 = 1.0;
-      if (load.has_range) {
-        const Vec2& a = load.material_interval ? node_reference_[from] : a_current;
-        const double dx = load.material_interval ? node_reference_[to].x() - a.x() : d_current.x();
-        if (dx != 0.0) {
-          const double t0 = (load.x0 - a.x()) / dx, t1 = (load.x1 - a.x()) / dx;
-          s0 = std::max(0.0, std::min(t0, t1));
-          s1 = std::min(1.0, std::max(t0, t1));
-        } else if (a.x() < load.x0 || a.x() > load.x1) {
-          continue;
-        }
-      }
-      if (s1 <= s0) continue;
-      // t L, constant along the straight edge.
-      const Vec2 force_per_unit =
-          normal_scale.cwiseProduct(Vec2(d_current.y(), -d_current.x())) + length * fixed_traction;
-      auto add_piece = [&](double p0, double p1) {
-        const double integral_s = 0.5 * (p1 * p1 - p0 * p0);  // int s ds
-        const double integral_1ms = (p1 - p0) - integral_s;   // int (1 - s) ds
-        load_force_[from] += integral_1ms * force_per_unit;
-        load_force_[to] += integral_s * force_per_unit;
-        load_work_recorder_.add(load.case_index, from, integral_1ms * force_per_unit);
-        load_work_recorder_.add(load.case_index, to, integral_s * force_per_unit);
-        d.target += (p1 - p0) * force_per_unit;
-      };
-      if (!top_only) {
-        add_piece(s0, s1);
-        continue;
-      }
-      // Faces "top": cut [s0, s1] at the boundary nodes' x (d_x < 0 here: x decreases with s),
-      // keep the pieces that nothing lies above; adjacent kept pieces are merged.
-      const double xa = a_current.x() + s0 * d_current.x();
-      const double xb = a_current.x() + s1 * d_current.x();
-      auto it = std::upper_bound(boundary_x_.begin(), boundary_x_.end(), xb);
-      const auto stop = std::lower_bound(boundary_x_.begin(), boundary_x_.end(), xa);
-      double piece_start = s0, run_start = -1.0, run_end = -1.0;
-      // Walk the cuts from xa (s0) down to xb (s1): the cut x values in (xb, xa), descending.
-      std::vector<double>& cuts = cut_scratch_;
-      cuts.clear();
-      for (; it < stop; ++it) cuts.push_back((*it - a_current.x()) / d_current.x());
-      std::reverse(cuts.begin(), cuts.end());
-      cuts.push_back(s1);
-      for (const double piece_end : cuts) {
-        if (piece_end <= piece_start) continue;
-        const double mid = 0.5 * (piece_start + piece_end);
-        const Vec2 x_mid = a_current + mid * d_current;
-        if (!shadowed(x_mid.x(), x_mid.y())) {
-          if (run_end == piece_start) {
-            run_end = piece_end;
-          } else {
-            if (run_end > run_start) add_piece(run_start, run_end);
-            run_start = piece_start;
-            run_end = piece_end;
-          }
-        }
-        piece_start = piece_end;
-      }
-      if (run_end > run_start) add_piece(run_start, run_end);
-    }
+  if (!edge_loading_.apply(counters_.time, node_position_, node_reference_, load_force_, d,
+                           &load_work_recorder_)) {
+    return;
   }
-  if (!any) return;
   const std::size_t n_nodes = load_force_.size();
   for (std::size_t n = 0; n < n_nodes; ++n) {
     const Vec2& f = load_force_[n];

@@ -21,45 +21,15 @@
 // sits at natural coordinates ((-,-), (+,-), (-,+), (+,+))[k] (row by row, like the MPM's
 // fill_bodies), so on a grid-aligned mesh the points and their ids are the MPM's "gauss" ones.
 //
-// Constraints: "left" / "right" / "bottom" / "top" act on the mesh nodes whose reference
-// position lies on the grid edge line x = x0, x = x0 + nx h, y = y0, y = y0 + ny h (within
-// 1e-9 h): the grid nodes the MPM constrains there are exactly these nodes where the body
-// touches the grid edge, and a body that does not touch a grid edge gets no constraint from it,
-// as in the MPM. A node set constrains the mesh nodes in its closed box (reference position).
-//
-// Loads: every load of the case acts on the exact boundary edges of the current mesh (the FE
-// boundary is exact, so there is nothing to detect), with the traction law of the MPM's
-// surface loads (mpm/boundary/surface_load.hpp): t(n) = normal_scale (.) n + fixed_traction,
-//   vertical_pressure  normal_scale = (0, -q): t = (0, -q n_y), vertical; resultant
-//                      q x (loaded length in x) on upward faces;
-//   follower_pressure  normal_scale = (-p, -p): t = -p n (p > 0 pushes on the material);
-//   traction           fixed_traction = the given vector, per current length.
-// apply_on "grid_top_nodes" (vertical_pressure only) is treated as the detected-boundary
-// vertical pressure over its x_range with faces "top". For "detected_boundary" loads the
-// entry's x_range (optional except for vertical_pressure), faces and interval are honoured:
-//   faces "all"      every boundary edge;
-//         "upward"   edges whose current outward normal has n_y > 0;
-//         "top"      upward edges, only the parts with no boundary above them (each loaded part
-//                    is cut at the x of every boundary node; a piece is shadowed when the
-//                    vertical through its middle crosses another boundary edge higher up);
-//   interval "fixed"     x_range is in space (on the current x);
-//            "material"  x_range on the reference x of the load phase (the positions after the
-//                        initial stress), so the interval moves with the material.
-// Its curve and quadrature keys (curve,
-// integration, gauss_points, split_at_cell_edges, scale_eq_6_15, redistribute_lost_load) only
-// concern the MPM's Bezier boundary and grid quadrature and do not apply: the edges are straight
-// and the integrals below are exact. Per edge A -> B (material on the left, d = B - A, outward
-// n = (d_y, -d_x) / L), t L = normal_scale (.) (d_y, -d_x) + fixed_traction L is constant along
-// the edge, so with the loaded part s in [s0, s1] (from the x-range) the consistent nodal forces
-// are exact:  f_A = t L int (1 - s) ds,  f_B = t L int s ds.  On a flat top this is the MPM's
-// grid_top_nodes hat integral. Nothing is lost (every boundary node has mass): the diagnostics
-// report target = applied (exact resultant), lost = off-grid = 0.
+// Constraints and loads act on the mesh's nodes and exact boundary edges
+// (fem_reference/ulfem/edge_loads.hpp).
 #pragma once
 
 #include <array>
 #include <string>
 #include <vector>
 
+#include "fem_reference/ulfem/edge_loads.hpp"
 #include "fem_reference/ulfem/quad_mesh.hpp"
 #include "mpm/step/initial_stress.hpp"
 #include "mpm/step/prescribed_velocity.hpp"
@@ -67,40 +37,6 @@
 #include "mpm/step/step_view.hpp"
 
 namespace pfm::ulfem {
-
-/// A boundary edge that can carry a load: nodes in element order (material on the left).
-struct LoadedEdge {
-  int from = 0;
-  int to = 0;
-};
-
-/// One case load as applied on the mesh edges (see the header comment).
-struct EdgeLoad {
-  std::size_t case_index = 0;
-  Vec2 normal_scale = Vec2::Zero();    ///< kPa at full load
-  Vec2 fixed_traction = Vec2::Zero();  ///< kPa at full load
-  bool has_range = false;
-  double x0 = 0.0, x1 = 0.0;  ///< m
-  boundary::LoadedFaces faces = boundary::LoadedFaces::kTop;
-  bool material_interval = false;  ///< x-range on the reference (load-phase start) x
-  TimeFunction time_function;
-};
-
-/// Summed over the loads at the last step that applied them (kN/m), as the MPM's
-/// SurfaceLoadDiagnostics (mpm/solver/boundary_coupling.hpp).
-struct EdgeLoadDiagnostics {
-  Vec2 target = Vec2::Zero();    ///< exact resultant of the loaded edge parts
-  Vec2 applied = Vec2::Zero();   ///< sum of the nodal forces (= target to round-off)
-  Vec2 lost = Vec2::Zero();      ///< always 0: every mesh node has mass
-  double lost_moment = 0.0;      ///< always 0
-  Vec2 off_grid = Vec2::Zero();  ///< always 0
-  int loaded_nodes = 0;          ///< nodes receiving a non-zero load force
-  int lost_nodes = 0;            ///< always 0
-};
-
-/// The case's loads as edge loads; InputError (naming /loads/k) for a load the UL-FEM cannot
-/// apply.
-std::vector<EdgeLoad> edge_loads(const Case& c);
 
 class UlFemSolver {
  public:
@@ -149,8 +85,8 @@ class UlFemSolver {
       "update_nodes", "nodes_to_particles", "remap",
       "stress"};
   /// Every boundary edge of the mesh (the candidates for loads), in boundary_edges() order.
-  const std::vector<LoadedEdge>& boundary_edges() const { return boundary_edges_; }
-  const std::vector<EdgeLoad>& loads() const { return loads_; }
+  const std::vector<LoadedEdge>& boundary_edges() const { return edge_loading_.edges(); }
+  const std::vector<EdgeLoad>& loads() const { return edge_loading_.loads(); }
   /// Load forces of the last step that applied loads (zero before the first, and during the
   /// gravity loading of the initial stress, which applies none).
   const EdgeLoadDiagnostics& load_diagnostics() const { return load_diagnostics_; }
@@ -163,9 +99,7 @@ class UlFemSolver {
  private:
   void build_particles();
   void build_constraints();
-  void build_boundary_edges();
   void apply_loads();
-  bool shadowed(double x, double y) const;
   /// Gradients, det J, volumes and the smallest element length on the current mesh; with
   /// account_energy the volume change goes into the energy ledger.
   void compute_geometry(bool account_energy = false);
@@ -192,12 +126,9 @@ class UlFemSolver {
   std::array<Eigen::Matrix<double, 4, 2>, 4> shape_natural_gradient_;
   std::vector<Eigen::Matrix<double, 4, 2>> gradient_;  ///< per point: row I = grad N_I, 1/m
   std::vector<double> det_jacobian_;                   ///< per point, m^2
-  std::vector<LoadedEdge> boundary_edges_;
-  std::vector<EdgeLoad> loads_;
+  EdgeLoading edge_loading_;
   EdgeLoadDiagnostics load_diagnostics_;
-  std::vector<Vec2> load_force_;    ///< per node, scratch of apply_loads
-  std::vector<double> boundary_x_;  ///< sorted x of the boundary nodes, scratch (faces "top")
-  std::vector<double> cut_scratch_;
+  std::vector<Vec2> load_force_;  ///< per node, scratch of apply_loads
 
   SolverCounters counters_;  ///< time, step, dt, damping, load switches, works
   double base_dt_ = 0.0;
