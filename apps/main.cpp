@@ -1,7 +1,8 @@
 // pfm-mpm: the command-line tool.
 //
 //   pfm-mpm run CASE.json --out DIR [--overwrite] [--solver mpm|ulfem] [--threads N] [--quiet]
-//               (a case with solver.type "implicit" runs the implicit quasi-static MPM)
+//               (a case with solver.type "implicit" runs the implicit quasi-static MPM, or
+//               with --solver ulfem the implicit UL-FEM)
 //               [--checkpoint-steps N] [--checkpoint-seconds T]
 //   pfm-mpm run --restart DIR [--threads N]      continue a killed run from its checkpoint
 //   pfm-mpm validate CASE.json
@@ -30,18 +31,13 @@
 
 namespace {
 
-// `pfm-mpm run` of a new case: the implicit MPM for solver.type "implicit", else the solver
-// --solver names (the explicit MPM or the UL-FEM).
+// `pfm-mpm run` of a new case by the solver --solver names, the MPM or the UL-FEM, each explicit
+// or, for solver.type "implicit", implicit.
 int run_new_case(const pfm::Case& c, const std::string& solver_name,
                  const pfm::RunOptions& options) {
-  if (c.solver.type == pfm::SolverType::kImplicit) {
-    if (solver_name != "mpm") {
-      throw pfm::InputError(c.file + ": /solver/type: \"implicit\" is the implicit MPM; the " +
-                            "UL-FEM (--solver ulfem) runs explicit cases");
-    }
-    return pfm::run_implicit_case(c, options);
-  }
-  return solver_name == "ulfem" ? pfm::run_ulfem_case(c, options) : pfm::run_case(c, options);
+  if (solver_name == "ulfem") return pfm::run_ulfem_case(c, options);
+  if (c.solver.type == pfm::SolverType::kImplicit) return pfm::run_implicit_case(c, options);
+  return pfm::run_case(c, options);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
+#include "mpm/core/shape_functions.hpp"
 #include "mpm/step/body_fill.hpp"
 #include "mpm/step/gmsh_api.hpp"
 #include "mpm/step/gmsh_surface.hpp"
@@ -505,6 +506,55 @@ std::vector<std::vector<int>> boundary_loops(const QuadMesh& mesh,
   std::stable_sort(loops.begin(), loops.end(),
                    [&](const auto& a, const auto& b) { return lower(a.front(), b.front()); });
   return loops;
+}
+
+const std::array<GaussSlot, 4>& gauss_slots() {
+  static const std::array<GaussSlot, 4> slots = [] {
+    // q4_gauss_points_2x2 lists the points counter-clockwise: slots 2 and 3 swap.
+    const std::array<Vec2, 4> ccw = q4_gauss_points_2x2();
+    const std::array<Vec2, 4> natural = {ccw[0], ccw[1], ccw[3], ccw[2]};
+    std::array<GaussSlot, 4> out;
+    for (std::size_t k = 0; k < 4; ++k) {
+      out[k].value = q4_values(natural[k].x(), natural[k].y());
+      out[k].natural_gradient = q4_natural_gradients(natural[k].x(), natural[k].y());
+    }
+    return out;
+  }();
+  return slots;
+}
+
+Eigen::Matrix<double, 4, 2> element_positions(const QuadMesh& mesh,
+                                              const std::vector<Vec2>& position, std::size_t e) {
+  Eigen::Matrix<double, 4, 2> x;
+  for (std::size_t a = 0; a < 4; ++a) {
+    x.row(static_cast<Eigen::Index>(a)) =
+        position[static_cast<std::size_t>(mesh.element_nodes[e][a])].transpose();
+  }
+  return x;
+}
+
+Particles material_points(const Case& c, const QuadMesh& mesh, const std::vector<Vec2>& position) {
+  const double g = c.gravity.g > 0.0 ? c.gravity.g : 9.81;
+  const std::array<GaussSlot, 4>& slots = gauss_slots();
+  Particles points;
+  points.reserve(4 * mesh.n_elements());
+  for (std::size_t e = 0; e < mesh.n_elements(); ++e) {
+    const int body = mesh.element_body[e];
+    const int material = c.bodies[static_cast<std::size_t>(body)].material;
+    const double density = c.materials[static_cast<std::size_t>(material)].unit_weight / g;
+    const Eigen::Matrix<double, 4, 2> x = element_positions(mesh, position, e);
+    const Vec2 lo = x.colwise().minCoeff().transpose(), hi = x.colwise().maxCoeff().transpose();
+    for (std::size_t k = 0; k < 4; ++k) {
+      Vec2 at = Vec2::Zero();
+      for (std::size_t a = 0; a < 4; ++a) {
+        at += slots[k].value[static_cast<Eigen::Index>(a)] *
+              position[static_cast<std::size_t>(mesh.element_nodes[e][a])];
+      }
+      const double volume = (x.transpose() * slots[k].natural_gradient).determinant();
+      points.add(at, volume, density, 0.25 * (hi - lo), material, body);
+    }
+  }
+  return points;
 }
 
 }  // namespace pfm::ulfem

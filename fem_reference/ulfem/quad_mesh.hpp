@@ -22,12 +22,14 @@
 //    subdivision of a 2h mesh).
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <string>
 #include <vector>
 
 #include "mpm/core/types.hpp"
 #include "mpm/step/case.hpp"
+#include "mpm/step/particles.hpp"
 
 namespace pfm::ulfem {
 
@@ -68,5 +70,24 @@ std::vector<std::array<int, 2>> boundary_edges(const QuadMesh& mesh);
 /// Returned as node indices.
 std::vector<std::vector<int>> boundary_loops(const QuadMesh& mesh,
                                              const std::vector<Vec2>& positions);
+
+/// Material point k of every element, at natural (-,-), (+,-), (-,+), (+,+) (the 2 x 2 Gauss
+/// points row by row, as the MPM's fill_bodies places "gauss" points): the Q4 functions' values
+/// and natural gradients there.
+struct GaussSlot {
+  Eigen::Vector4d value;
+  Eigen::Matrix<double, 4, 2> natural_gradient;
+};
+const std::array<GaussSlot, 4>& gauss_slots();
+
+/// Element e's node positions, one row per node in element order.
+Eigen::Matrix<double, 4, 2> element_positions(const QuadMesh& mesh,
+                                              const std::vector<Vec2>& position, std::size_t e);
+
+/// The material points of the mesh with its nodes at `position`: point 4 e + k at slot k of
+/// element e, volume det J (the Gauss weight is 1), mass density x volume (density = unit
+/// weight / g, g = 9.81 m/s^2 when the case has no gravity), half lengths a quarter of the
+/// element's box, the element's body and its material.
+Particles material_points(const Case& c, const QuadMesh& mesh, const std::vector<Vec2>& position);
 
 }  // namespace pfm::ulfem

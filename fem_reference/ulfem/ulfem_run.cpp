@@ -7,6 +7,7 @@
 #include <memory>
 #include <sstream>
 
+#include "fem_reference/ulfem/ulfem_implicit.hpp"
 #include "fem_reference/ulfem/ulfem_solver.hpp"
 #include "mpm/core/provenance.hpp"
 #include "mpm/step/hdf5_untimed.hpp"
@@ -115,6 +116,7 @@ void MeshSeriesWriter::write_xdmf() const {
 }
 
 int run_ulfem_case(const Case& c, const RunOptions& options) {
+  if (c.solver.type == SolverType::kImplicit) return run_ulfem_implicit_case(c, options);
   ThreadGovernor governor(options.threads);
   const int threads = governor.threads();
   UlFemSolver solver(c);  // may throw InputError: nothing created yet

@@ -29,8 +29,9 @@
 
 namespace pfm::ulfem {
 
-/// Run a validated case with the UL-FEM. Returns kExitOk, or kExitSimulationError after
-/// writing run.json with status "failed" (outputs so far kept). InputError propagates before
+/// Run a validated case with the UL-FEM (a case with solver.type "implicit" with the implicit
+/// UL-FEM, run_ulfem_implicit_case in ulfem_implicit.hpp). Returns kExitOk, or kExitSimulationError
+/// after writing run.json with status "failed" (outputs so far kept). InputError propagates before
 /// anything is created.
 int run_ulfem_case(const Case& c, const RunOptions& options);
 

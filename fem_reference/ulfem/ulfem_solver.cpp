@@ -26,13 +26,6 @@ std::string fmt(double v) {
   return buffer;
 }
 
-// Natural coordinates of point slot k: (-,-), (+,-), (-,+), (+,+), the row-by-row order of the
-// MPM's fill_bodies (q4_gauss_points_2x2 lists them counter-clockwise; slots 2 and 3 swap).
-std::array<Vec2, 4> point_slots() {
-  const std::array<Vec2, 4> ccw = q4_gauss_points_2x2();
-  return {ccw[0], ccw[1], ccw[3], ccw[2]};
-}
-
 }  // namespace
 
 UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
@@ -71,15 +64,14 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
   nodes_.fixed.assign(n_nodes, kFixNone);
   nodes_.reaction.assign(n_nodes, Vec2::Zero());
   remapped_velocity_.assign(n_nodes, Vec2::Zero());
-  const std::array<Vec2, 4> slots = point_slots();
   for (std::size_t k = 0; k < 4; ++k) {
-    shape_value_[k] = q4_values(slots[k].x(), slots[k].y());
-    shape_natural_gradient_[k] = q4_natural_gradients(slots[k].x(), slots[k].y());
+    shape_value_[k] = gauss_slots()[k].value;
+    shape_natural_gradient_[k] = gauss_slots()[k].natural_gradient;
   }
   gradient_.resize(4 * mesh_.n_elements());
   det_jacobian_.resize(4 * mesh_.n_elements());
   compute_geometry();
-  build_particles();
+  particles_ = material_points(case_, mesh_, node_position_);
   build_constraints();
   edge_loading_ = EdgeLoading(case_, mesh_);
   load_force_.assign(n_nodes, Vec2::Zero());
@@ -113,32 +105,6 @@ void UlFemSolver::set_dt(double dt) {
                           std::to_string(critical_dt_) + "]");
   }
   base_dt_ = counters_.dt = dt;
-}
-
-void UlFemSolver::build_particles() {
-  const double g = case_.gravity.g > 0.0 ? case_.gravity.g : 9.81;
-  const std::size_t n_elements = mesh_.n_elements();
-  particles_.reserve(4 * n_elements);
-  for (std::size_t e = 0; e < n_elements; ++e) {
-    const int body = mesh_.element_body[e];
-    const int material = case_.bodies[static_cast<std::size_t>(body)].material;
-    const double density = case_.materials[static_cast<std::size_t>(material)].unit_weight / g;
-    Vec2 lo = node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][0])], hi = lo;
-    for (int n : mesh_.element_nodes[e]) {
-      lo = lo.cwiseMin(node_position_[static_cast<std::size_t>(n)]);
-      hi = hi.cwiseMax(node_position_[static_cast<std::size_t>(n)]);
-    }
-    for (std::size_t k = 0; k < 4; ++k) {
-      const std::size_t p = 4 * e + k;
-      Vec2 x = Vec2::Zero();
-      for (std::size_t a = 0; a < 4; ++a) {
-        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
-             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
-      }
-      // Volume = det J x Gauss weight (1 for the 2 x 2 rule on [-1, 1]^2).
-      particles_.add(x, det_jacobian_[p], density, 0.25 * (hi - lo), material, body);
-    }
-  }
 }
 
 void UlFemSolver::build_constraints() {

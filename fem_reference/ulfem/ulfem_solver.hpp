@@ -97,7 +97,6 @@ class UlFemSolver {
   void set_external_force_hook(ExternalForceHook hook) { hook_ = std::move(hook); }
 
  private:
-  void build_particles();
   void build_constraints();
   void apply_loads();
   /// Gradients, det J, volumes and the smallest element length on the current mesh; with

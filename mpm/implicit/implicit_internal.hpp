@@ -33,12 +33,7 @@ struct Affine {
   }
 };
 
-// A grid node a particle's functions reach, with the function's value and gradient there.
-struct NodeWeight {
-  int node = 0;
-  double value = 0.0;
-  Vec2 gradient = Vec2::Zero();
-};
+using NodeWeight = pfm::NodeWeight;
 
 // The nodes of a stencil that lie on the grid (a B-spline stencil at the grid's edge starts
 // one node outside it, with zero weight there).

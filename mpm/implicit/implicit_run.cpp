@@ -22,12 +22,16 @@ nlohmann::json step_log(const LoadStepLog& e) {
 }  // namespace
 
 int run_implicit_case(const Case& c, const RunOptions& options) {
+  return run_implicit_case(c, options, ImplicitMeshRun{});
+}
+
+int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun on_mesh) {
   ThreadGovernor governor(options.threads);
-  ImplicitSolver solver(c);  // may throw InputError: nothing created yet
+  ImplicitSolver solver(c, std::move(on_mesh.mesh));  // may throw InputError: nothing created yet
   OutputFolder folder(options.out_dir, output_folder_mode(options));
   nlohmann::json run;
   run["provenance"] = provenance({{"case_file", c.file}}, options.command_line, governor.threads());
-  run["provenance"]["solver"] = "implicit";
+  run["provenance"]["solver"] = on_mesh.solver;
   run["case"] = c.source;
   run["status"] = "running";
   std::unique_ptr<ParticleSeriesWriter> writer;
@@ -46,12 +50,17 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
   int status = kExitOk;
   std::string message;
   long steps = 0;
+  nlohmann::json outputs = nlohmann::json::array();  // the mesh's files per output
+  const auto write_output = [&] {
+    writer->write(solver.time(), steps, solver.particles());
+    if (on_mesh.output) outputs.push_back(on_mesh.output(folder, solver, steps));
+  };
   try {
     const std::string text = run.dump(2) + "\n";
     write_file_atomically(folder.file("run.json"), text);
     folder.reserve(2 * text.size() + 65536);
     writer = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
-    writer->write(0.0, 0, solver.particles());
+    write_output();
     RunProgress progress(options.progress);
     double next_output = c.output.interval;
     double written_at = 0.0;
@@ -61,7 +70,7 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
         const std::size_t before = solver.log().size();
         solver.advance(end);
         if (solver.collapsed()) {  // the strength reduction's answer: the last step stands
-          if (solver.time() > written_at) writer->write(solver.time(), steps, solver.particles());
+          if (solver.time() > written_at) write_output();
           write_file_atomically(folder.file("timeseries.csv"), table);
           break;
         }
@@ -78,7 +87,7 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
         table += '\n';
         const bool last = solver.time() >= end - eps;
         if (solver.time() >= next_output - eps || last) {
-          writer->write(solver.time(), steps, solver.particles());
+          write_output();
           written_at = solver.time();
           write_file_atomically(folder.file("timeseries.csv"), table);
           while (next_output <= solver.time() + eps) next_output += c.output.interval;
@@ -91,8 +100,10 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
       status = note_simulation_stop(e, options.out_dir, message);
     }
     writer.reset();  // closes particles.h5 before run.json is final
+    if (on_mesh.close) on_mesh.close();
   } catch (const IoError& e) {
     writer.reset();
+    if (on_mesh.close) on_mesh.close();
     return fail_on_write_fault(folder, run, e);
   }
   const double wall =
@@ -107,7 +118,7 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
   if (!message.empty()) run["error"] = message;
   run["provenance"]["finished_utc"] = utc_now();
   const double n_particles = static_cast<double>(solver.particles().size());
-  run["summary"] = {{"solver", "implicit"},
+  run["summary"] = {{"solver", on_mesh.solver},
                     {"n_particles", solver.particles().size()},
                     {"n_steps", steps},
                     {"n_attempts", solver.log().size()},
@@ -123,6 +134,10 @@ int run_implicit_case(const Case& c, const RunOptions& options) {
         {"collapsed", solver.collapsed()},
         {"last_converged_factor", solver.strength_factor()},
         {"failed_factor", solver.collapsed() ? nlohmann::json(solver.failed_factor()) : nullptr}};
+  }
+  if (on_mesh.summarise) {
+    on_mesh.summarise(run["summary"]);
+    run["outputs"] = outputs;
   }
   run["load_steps"] = attempts;
   return finish_run(folder, run, table, options, status);

@@ -1,6 +1,13 @@
 // `pfm-mpm run` of a case with solver.type "implicit" (implicit_solver.hpp).
 #pragma once
 
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "mpm/core/output_folder.hpp"
+#include "mpm/implicit/implicit_solver.hpp"
 #include "mpm/step/case.hpp"
 #include "mpm/step/run_support.hpp"
 
@@ -22,5 +29,23 @@ namespace pfm {
 /// size and its residuals) or a particle leaves the grid, kExitIoError on a write fault.
 /// Throws InputError (nothing created) for a case the solver refuses.
 int run_implicit_case(const Case& c, const RunOptions& options);
+
+/// What a run on a mesh adds (the implicit UL-FEM, fem_reference/ulfem/ulfem_implicit.hpp).
+struct ImplicitMeshRun {
+  std::unique_ptr<ImplicitMesh> mesh;
+  /// run.json's provenance.solver and summary.solver.
+  std::string solver = "implicit";
+  /// At t = 0 and at each output, after the points: the mesh's own files; returns run.json's
+  /// "outputs" entry for them.
+  std::function<nlohmann::json(OutputFolder& folder, const ImplicitSolver& solver, long step)>
+      output;
+  /// Closes its files, before run.json is final.
+  std::function<void()> close;
+  /// Its lines in run.json's summary.
+  std::function<void(nlohmann::json& summary)> summarise;
+};
+
+/// run_implicit_case on the mesh's nodes, with its outputs and its summary.
+int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun on_mesh);
 
 }  // namespace pfm

@@ -67,7 +67,8 @@ std::string format_number(double v) {
 
 }  // namespace
 
-ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) {
+ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh)
+    : case_(c), mesh_(std::move(mesh)), settings_(c.implicit) {
   for (const char* key : {"scheme", "damping", "damping_form", "pic_fraction"}) {
     if (c.source.contains("solver") && c.source["solver"].contains(key)) {
       refuse(c, std::string("/solver/") + key,
@@ -81,8 +82,9 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
              "implicit.load_steps");
     }
   }
-  if (std::any_of(c.loads.begin(), c.loads.end(),
-                  [](const LoadSpec& l) { return l.apply_on == LoadTarget::kGridTopNodes; })) {
+  if (!mesh_ && std::any_of(c.loads.begin(), c.loads.end(), [](const LoadSpec& l) {
+        return l.apply_on == LoadTarget::kGridTopNodes;
+      })) {
     refuse(c, "/loads",
            "the implicit solver takes loads on the detected boundary only "
            "(apply_on \"detected_boundary\"), not on the grid-top nodes yet");
@@ -93,7 +95,12 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
            "applies gravity in its first load step) or \"k0\"");
   }
   if (c.manufactured) refuse(c, "/manufactured_solution", "not taken by the implicit solver");
-  particles_ = fill_bodies(c);
+  if (mesh_ && !c.constraints.empty()) {
+    refuse(c, "/constraints",
+           "a mesh prescribes motion on its nodes (a node set in boundary_conditions with "
+           "\"velocity\"), not on a detected boundary");
+  }
+  particles_ = mesh_ ? mesh_->material_points() : fill_bodies(c);
   if (particles_.size() == 0) refuse(c, "/bodies", "the bodies hold no material point");
   if (c.initial_stress.method == InitialStressMethod::kK0) apply_k0_stress(c, particles_);
   for (const MaterialRecord& m : c.materials) {
@@ -103,13 +110,19 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
   }
 
   const Grid& grid = c.grid;
-  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  n_nodes_ = mesh_ ? mesh_->n_nodes() : static_cast<std::size_t>(grid.n_nodes());
+  const std::size_t n_nodes = n_nodes_;
   fixed_.assign(n_nodes, kFixNone);
   prescribed_ = PrescribedVelocity(c.boundary_conditions, n_nodes);
   std::vector<unsigned> at_zero(n_nodes, kFixNone);
   for (std::size_t k = 0; k < c.boundary_conditions.size(); ++k) {
     const BoundaryCondition& bc = c.boundary_conditions[k];
-    for (int j = 0; j < grid.n_nodes_y(); ++j) {
+    for (std::size_t n = 0; mesh_ && n < n_nodes; ++n) {
+      if (!mesh_->holds(bc, n)) continue;
+      fixed_[n] |= bc.fix;
+      prescribed_.add(k, n);
+    }
+    for (int j = 0; !mesh_ && j < grid.n_nodes_y(); ++j) {
       for (int i = 0; i < grid.n_nodes_x(); ++i) {
         if (!grid_node_held(c, bc, i, j)) continue;
         const auto n = static_cast<std::size_t>(grid.node_index(i, j));
@@ -119,8 +132,8 @@ ImplicitSolver::ImplicitSolver(const Case& c) : case_(c), settings_(c.implicit) 
       }
     }
   }
-  mirror_ = WallMirror(grid, c.solver.shape_function, at_zero);
-  if (c.solver.outer_node_fraction > 0.0) {
+  if (!mesh_) mirror_ = WallMirror(grid, c.solver.shape_function, at_zero);
+  if (!mesh_ && c.solver.outer_node_fraction > 0.0) {
     extension_ = BasisExtension(grid, c.solver.shape_function, c.solver.outer_node_fraction);
   }
   initial_spacing_ = initial_particle_spacing(c);
@@ -228,17 +241,19 @@ void ImplicitSolver::locate(Prepared& s) const {
   const Case& c = case_;
   const Grid& grid = c.grid;
   const std::size_t n_particles = particles_.size();
-  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
   s.nodes.resize(n_particles);
-  s.material.assign(n_nodes, 0.0);
+  s.material.assign(n_nodes_, 0.0);
   for (std::size_t p = 0; p < n_particles; ++p) {
     const Vec2& x = particles_.position[p];
-    if (!grid.contains(x)) {
+    if (mesh_) {
+      s.nodes[p] = mesh_->functions(p);
+    } else if (!grid.contains(x)) {
       throw SimulationError("particle " + std::to_string(p) +
                             " left the grid at t = " + std::to_string(time_) + " s");
+    } else {
+      s.nodes[p] =
+          grid_nodes(grid, stencil(c.solver.shape_function, grid, x, particles_.half_length[p]));
     }
-    s.nodes[p] =
-        grid_nodes(grid, stencil(c.solver.shape_function, grid, x, particles_.half_length[p]));
     for (const NodeWeight& w : s.nodes[p])
       s.material[static_cast<std::size_t>(w.node)] += w.value * particles_.volume[p];
   }
@@ -256,14 +271,16 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
   const Case& c = case_;
   const Grid& grid = c.grid;
   const std::size_t n_particles = particles_.size();
-  const auto n_nodes = static_cast<std::size_t>(grid.n_nodes());
+  const std::size_t n_nodes = n_nodes_;
   s.external.assign(n_nodes, Vec2::Zero());
   const double g = c.gravity.g * factor_of_gravity(c.gravity, s.t_end);
   for (std::size_t p = 0; p < n_particles; ++p) {
     for (const NodeWeight& w : s.nodes[p])
       s.external[static_cast<std::size_t>(w.node)].y() -= w.value * particles_.mass[p] * g;
   }
-  if (!c.loads.empty()) {
+  if (mesh_) {
+    mesh_->add_loads(s.t_end, s.external);
+  } else if (!c.loads.empty()) {
     const DetectedBoundary& boundary = detected(s);
     boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
     std::vector<Vec2> load(n_nodes, Vec2::Zero());
@@ -301,7 +318,7 @@ const DetectedBoundary& ImplicitSolver::detected(Prepared& s) {
 }
 
 void ImplicitSolver::number_unknowns(Prepared& s) {
-  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  const std::size_t n_nodes = n_nodes_;
   s.map.assign(2 * n_nodes, Affine{});
   for (std::size_t n = 0; n < n_nodes; ++n) {
     if (s.material[n] <= 0.0 || (s.tied && extension_.tie_of(static_cast<int>(n)) >= 0)) continue;
@@ -370,14 +387,17 @@ void ImplicitSolver::build_strain_operators(Prepared& s) const {
   }
   if (bbar) {
     // The cell's volume-weighted mean of each node's dilatation gradient b_I = grad N_I, and
-    // B-bar_I = B_I + 1/2 m (b-bar_I - b_I)^T with m = (1, 1, 0, 0).
+    // B-bar_I = B_I + 1/2 m (b-bar_I - b_I)^T with m = (1, 1, 0, 0); on a mesh, the element's.
+    const auto n_cells = mesh_ ? mesh_->n_elements() : static_cast<std::size_t>(grid.n_cells());
     std::vector<int> cell_of(n_particles);
-    std::vector<double> cell_volume(static_cast<std::size_t>(grid.n_cells()), 0.0);
-    std::vector<std::vector<std::pair<int, Vec2>>> mean(static_cast<std::size_t>(grid.n_cells()));
+    std::vector<double> cell_volume(n_cells, 0.0);
+    std::vector<std::vector<std::pair<int, Vec2>>> mean(n_cells);
     for (std::size_t p = 0; p < n_particles; ++p) {
       const Vec2& x = particles_.position[p];
-      const int cell = grid.cell_index(std::clamp(grid.cell_i(x.x()), 0, grid.n_cells_x - 1),
-                                       std::clamp(grid.cell_j(x.y()), 0, grid.n_cells_y - 1));
+      const int cell = mesh_
+                           ? static_cast<int>(mesh_->element_of(p))
+                           : grid.cell_index(std::clamp(grid.cell_i(x.x()), 0, grid.n_cells_x - 1),
+                                             std::clamp(grid.cell_j(x.y()), 0, grid.n_cells_y - 1));
       cell_of[p] = cell;
       cell_volume[static_cast<std::size_t>(cell)] += particles_.volume[p];
       auto& list = mean[static_cast<std::size_t>(cell)];
@@ -519,7 +539,7 @@ void ImplicitSolver::evaluate_particle(const Prepared& s, std::size_t p, bool ta
 Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangent,
                                 Iterate& it) const {
   const std::size_t n_particles = particles_.size();
-  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  const std::size_t n_nodes = n_nodes_;
   for (std::size_t n = 0; n < n_nodes; ++n) {
     for (int d = 0; d < 2; ++d) {
       const Affine& a = s.map[2 * n + static_cast<std::size_t>(d)];
@@ -648,11 +668,14 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
         update_deformation_gradient(it.gradient[p], 1.0, particles_.deformation_gradient[p]);
     particles_.volume[p] =
         particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
-    if (!(particles_.volume[p] > 0.0)) {
+    if (!mesh_ && !(particles_.volume[p] > 0.0)) {
       throw SimulationError("particle " + std::to_string(p) +
                             " inverted (det F <= 0) at t = " + std::to_string(s.t_end) + " s");
     }
   }
+  // On a mesh the nodes move too, and the points' positions and volumes are the moved mesh's
+  // (the same positions to round-off; its det J, which also judges an inverted element).
+  if (mesh_) mesh_->move(it.increment, particles_);
   constraint_target_ = s.constraint_target;
   constraint_reports_ = it.reports;
   time_ = s.t_end;
@@ -729,7 +752,7 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
 
 bool ImplicitSolver::try_step(double dt) {
   const std::size_t n_particles = particles_.size();
-  const auto n_nodes = static_cast<std::size_t>(case_.grid.n_nodes());
+  const std::size_t n_nodes = n_nodes_;
   Prepared s;
   s.dt = dt;
   s.t_end = time_ + dt;

@@ -34,6 +34,12 @@
 //      the iterate before), stands for the last correction: a linear step ends after one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
+// On a mesh (ImplicitMesh: the UL-FEM's Q4 mesh, fem_reference/ulfem/ulfem_implicit.hpp) the
+// step is the same with the grid replaced by the mesh, which moves with the material and is
+// never reset: the functions of step 1 are the mesh's at the points' fixed natural coordinates
+// on its current geometry, B-bar's mean is over an element, the supports and the loads are the
+// mesh's (its nodes and its exact boundary edges, nothing detected, no ties, no mirrors), and
+// step 4 moves the mesh's nodes by their increments, the points with them.
 // The case's "implicit" block (ImplicitSpec, case.hpp) sets the first step's size (end_time /
 // load_steps), the tolerance and the iterations. A step that does not converge in
 // max_iterations is cut in half (at most max_cuts times in a row); a step that converges in at
@@ -42,6 +48,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -74,14 +81,47 @@ class ImplicitDivergence : public SimulationError {
   using SimulationError::SimulationError;
 };
 
+/// A node a material point's functions reach, with the function's value and gradient at the
+/// point.
+struct NodeWeight {
+  int node = 0;
+  double value = 0.0;
+  Vec2 gradient = Vec2::Zero();
+};
+
+/// The nodes of an implicit step when they are not the MPM's grid: a mesh that moves with the
+/// material (see the header comment). The solver assembles, iterates and updates the points;
+/// the mesh gives its points, its functions, its supports, its loads and its motion.
+class ImplicitMesh {
+ public:
+  virtual ~ImplicitMesh() = default;
+  /// The material points at the start: positions, volumes, masses, materials and bodies.
+  virtual Particles material_points() const = 0;
+  virtual std::size_t n_nodes() const = 0;
+  virtual std::size_t n_elements() const = 0;
+  /// Whether boundary condition `bc` holds node n.
+  virtual bool holds(const BoundaryCondition& bc, std::size_t n) const = 0;
+  /// Point p's nodes, with their functions' values and gradients on the current mesh.
+  virtual std::vector<NodeWeight> functions(std::size_t p) const = 0;
+  /// The element holding point p (B-bar's mean dilatation is an element's).
+  virtual std::size_t element_of(std::size_t p) const = 0;
+  /// The loads' nodal forces at time t on the current mesh, added to `force` (one per node).
+  virtual void add_loads(double t, std::vector<Vec2>& force) = 0;
+  /// The nodes moved by `increment` (one per node); the points' positions and volumes (det J) on
+  /// the moved mesh into `points`. SimulationError when an element inverts.
+  virtual void move(const std::vector<Vec2>& increment, Particles& points) = 0;
+};
+
 class ImplicitSolver {
  public:
   /// Builds the particles of the case's bodies (and K0 stresses when asked); refuses
   /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
   /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
   /// not do yet: loads on the grid-top nodes, the gravity-loading initial stress, a
-  /// manufactured solution.
-  explicit ImplicitSolver(const Case& c);
+  /// manufactured solution. With a mesh the step's nodes are the mesh's (see the header
+  /// comment), and it refuses constraints on a detected boundary (a mesh prescribes motion on
+  /// its nodes).
+  explicit ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh = nullptr);
 
   /// Takes load steps until `end_time` (s of pseudo-time) is reached or collapsed().
   void run_to(double end_time);
@@ -95,6 +135,8 @@ class ImplicitSolver {
   double time() const { return time_; }
   const Particles& particles() const { return particles_; }
   const Grid& grid() const { return case_.grid; }
+  /// The mesh the solver was given (null on the MPM's grid).
+  const ImplicitMesh* mesh() const { return mesh_.get(); }
   /// Every attempt of every load step, in order.
   const std::vector<LoadStepLog>& log() const { return log_; }
   /// Per constraint, at the last converged step: the force on the body (kN/m), the
@@ -169,6 +211,8 @@ class ImplicitSolver {
   void commit(const Prepared& s, const Iterate& it);
 
   const Case& case_;
+  std::unique_ptr<ImplicitMesh> mesh_;  ///< null: the MPM's grid
+  std::size_t n_nodes_ = 0;             ///< the grid's or the mesh's
   ImplicitSpec settings_;
   Particles particles_;
   /// Per material: the case's model with its strength divided by strength_factor_ and that

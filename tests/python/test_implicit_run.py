@@ -157,9 +157,33 @@ def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
         "/implicit/load_steps": lambda c: c["implicit"].update({"load_steps": 0}),
     }
     expect_refused(cases, column, tmp_path, run_case)
-    # The UL-FEM is explicit.
-    done = run_case(column(), tmp_path / "ulfem", "--solver", "ulfem")
-    assert done.returncode == 2 and "/solver/type" in done.stderr
+
+
+def test_the_ulfem_runs_the_implicit_case_on_its_mesh(tmp_path, run_case):
+    """`--solver ulfem` takes the same load steps on the UL-FEM's mesh: the top nodes settle as
+    the closed form says (bilinear elements are exact at the nodes of the column), and it takes
+    the grid-top load the implicit MPM refuses, with the same answer."""
+    settlements = []
+    for apply_on in ("detected_boundary", "grid_top_nodes"):
+        case = column()
+        case["loads"][0]["apply_on"] = apply_on
+        folder = tmp_path / apply_on
+        done = run_case(case, folder, "--solver", "ulfem")
+        assert done.returncode == 0, done.stderr
+        run = json.loads((folder / "out" / "run.json").read_text())
+        assert run["summary"]["solver"] == "ulfem_implicit"
+        assert run["summary"]["n_steps"] == 4 and run["summary"]["n_iterations"] == 4
+        assert [o["boundary"] for o in run["outputs"]] == [
+            "boundary_00000000.csv",
+            "boundary_00000002.csv",
+            "boundary_00000004.csv",
+        ]
+        with open(folder / "out" / "boundary_00000004.csv") as f:
+            top = max(float(r["y"]) for r in csv.DictReader(f))
+        settlements.append(HEIGHT - top)
+    exact = (SURCHARGE * HEIGHT + WEIGHT * HEIGHT**2 / 2) / MODULUS
+    assert settlements[0] == pytest.approx(exact, rel=1e-3)
+    assert settlements[1] == pytest.approx(settlements[0], rel=1e-12)
 
 
 def test_what_the_implicit_boundary_method_cannot_honour_is_refused(tmp_path, run_case):

@@ -1,0 +1,118 @@
+#include "fem_reference/ulfem/ulfem_implicit.hpp"
+
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "fem_reference/ulfem/ulfem_run.hpp"
+#include "mpm/implicit/implicit_run.hpp"
+
+namespace pfm::ulfem {
+
+ImplicitQuadMesh::ImplicitQuadMesh(const Case& c, QuadMesh mesh)
+    : case_(c),
+      mesh_(std::move(mesh)),
+      position_(mesh_.node_position),
+      last_increment_(mesh_.n_nodes(), Vec2::Zero()),
+      loading_(c, mesh_),
+      load_force_(mesh_.n_nodes(), Vec2::Zero()) {}
+
+Particles ImplicitQuadMesh::material_points() const {
+  return ulfem::material_points(case_, mesh_, position_);
+}
+
+bool ImplicitQuadMesh::holds(const BoundaryCondition& bc, std::size_t n) const {
+  return mesh_node_held(case_, bc, mesh_.node_position[n]);
+}
+
+std::vector<NodeWeight> ImplicitQuadMesh::functions(std::size_t p) const {
+  const std::size_t e = p / 4;
+  const GaussSlot& slot = gauss_slots()[p % 4];
+  const Eigen::Matrix<double, 4, 2> x = element_positions(mesh_, position_, e);
+  // grad N_a = J^-T dN_a/dxi, J = d x / d xi (move() keeps det J > 0).
+  const Eigen::Matrix<double, 4, 2> gradient =
+      slot.natural_gradient * (x.transpose() * slot.natural_gradient).inverse();
+  std::vector<NodeWeight> nodes(4);
+  for (std::size_t a = 0; a < 4; ++a) {
+    const auto row = static_cast<Eigen::Index>(a);
+    nodes[a] = {mesh_.element_nodes[e][a], slot.value[row], gradient.row(row).transpose()};
+  }
+  return nodes;
+}
+
+void ImplicitQuadMesh::add_loads(double t, std::vector<Vec2>& force) {
+  // The material interval is measured on the initial mesh: the implicit solver's initial
+  // stress (zero or K0) does not move it.
+  EdgeLoadDiagnostics d;
+  if (!loading_.apply(t, position_, mesh_.node_position, load_force_, d, nullptr)) return;
+  for (std::size_t n = 0; n < load_force_.size(); ++n) {
+    const Vec2& f = load_force_[n];
+    if (f.x() == 0.0 && f.y() == 0.0) continue;
+    force[n] += f;
+    d.applied += f;
+    ++d.loaded_nodes;
+    load_force_[n] = Vec2::Zero();
+  }
+  diagnostics_ = d;
+}
+
+void ImplicitQuadMesh::move(const std::vector<Vec2>& increment, Particles& points) {
+  for (std::size_t n = 0; n < position_.size(); ++n) position_[n] += increment[n];
+  last_increment_ = increment;
+  const std::array<GaussSlot, 4>& slots = gauss_slots();
+  for (std::size_t e = 0; e < mesh_.n_elements(); ++e) {
+    const Eigen::Matrix<double, 4, 2> x = element_positions(mesh_, position_, e);
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t p = 4 * e + k;
+      points.position[p] = x.transpose() * slots[k].value;
+      points.volume[p] = (x.transpose() * slots[k].natural_gradient).determinant();
+      if (points.volume[p] > 0.0) continue;
+      std::ostringstream what;
+      what << "element inverted: element " << e << " (nodes";
+      for (const int n : mesh_.element_nodes[e]) what << ' ' << n;
+      const Vec2 centre = 0.25 * x.colwise().sum().transpose();
+      what << ") centred at (" << centre.x() << ", " << centre.y()
+           << "), det J = " << points.volume[p] << " m^2 <= 0 at its Gauss point " << k;
+      throw SimulationError(what.str());
+    }
+  }
+}
+
+std::vector<Vec2> ImplicitQuadMesh::node_displacement() const {
+  std::vector<Vec2> u(position_.size());
+  for (std::size_t n = 0; n < u.size(); ++n) u[n] = position_[n] - mesh_.node_position[n];
+  return u;
+}
+
+int run_ulfem_implicit_case(const Case& c, const RunOptions& options) {
+  auto owned = std::make_unique<ImplicitQuadMesh>(c, mesh_case(c));
+  ImplicitQuadMesh* mesh = owned.get();  // the solver owns it for the run
+  std::unique_ptr<MeshSeriesWriter> writer;
+  ImplicitMeshRun on_mesh;
+  on_mesh.mesh = std::move(owned);
+  on_mesh.solver = "ulfem_implicit";
+  on_mesh.output = [&](OutputFolder& folder, const ImplicitSolver& solver, long step) {
+    if (!writer)
+      writer = std::make_unique<MeshSeriesWriter>(folder, mesh->mesh(), c.output.compress);
+    const double dt = solver.log().empty() ? 0.0 : solver.log().back().dt;
+    std::vector<Vec2> velocity(mesh->n_nodes(), Vec2::Zero());
+    for (std::size_t n = 0; dt > 0.0 && n < velocity.size(); ++n)
+      velocity[n] = mesh->last_increment()[n] / dt;
+    writer->write(solver.time(), step, mesh->node_position(), mesh->node_displacement(), velocity,
+                  solver.particles());
+    char name[48];
+    std::snprintf(name, sizeof name, "boundary_%08ld.csv", step);
+    write_file_atomically(folder.file(name), boundary_csv(mesh->mesh(), mesh->node_position()));
+    return nlohmann::json{{"step", step}, {"time", solver.time()}, {"boundary", name}};
+  };
+  on_mesh.close = [&] { writer.reset(); };
+  on_mesh.summarise = [&](nlohmann::json& summary) {
+    summary["mesh"] = {{"generator", mesh->mesh().generator},
+                       {"n_elements", mesh->mesh().n_elements()},
+                       {"n_nodes", mesh->mesh().n_nodes()}};
+  };
+  return run_implicit_case(c, options, std::move(on_mesh));
+}
+
+}  // namespace pfm::ulfem
