@@ -14,16 +14,19 @@ of which each non-converging one is halved up to 8 times (the bracket of the fac
 0.05 / 256 wide).
 
 Runs: the MPM with the default quadratic B-splines at h = 0.5 m (the thesis's grid) and
-0.25 m; dolfinx with P2 triangles of 0.25 m (4 gravity increments, 20 strength increments halved
+0.25 m; the implicit UL-FEM (the same load steps on fem_reference/ulfem's gmsh mesh of the
+body, Q4 elements of h, B-bar, the mesh moving with the material) at the same h; dolfinx with P2 triangles of 0.25 m (4 gravity increments, 20 strength increments halved
 below 1e-3); Bishop's critical circle (composite along the base where it cuts it) on the same
 profile and firm base.
 
 Table ``slope`` (method, h, the bracket of the factor of safety, against dolfinx and Bishop,
 load steps, iterations, wall time). Figure ``slope.png``: the MPM's plastic strain at its last
 equilibrium (h = 0.25 m) with Bishop's critical circle, the displacement increment of its last
-step (the mechanism's motion), and the crest's displacement against F by the MPM and dolfinx. Metrics ``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_bishop``
-(|F_MPM / F - 1|, each F its bracket's lower end) and ``implicit.slope.bishop_factor``; gated in
-reports/thresholds.json at 3 % (must-show 5).
+step (the mechanism's motion), and the crest's displacement against F by the MPM, the UL-FEM
+and dolfinx. Metrics ``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_bishop`` (|F_MPM / F - 1|,
+each F its bracket's lower end), gated in reports/thresholds.json at 3 % (must-show 5); the
+UL-FEM's ``implicit.slope.ulfem.h<k>.vs_dolfinx`` and ``.vs_bishop``, the MPM against it
+``implicit.slope.h<k>.vs_ulfem`` and ``implicit.slope.bishop_factor``, reported.
 """
 
 from __future__ import annotations
@@ -183,9 +186,9 @@ def slope_cases() -> list:
     return [slope_case(h) for h in SLOPE_CELLS]
 
 
-def slope_section(context, outcome: StudyOutcome, outs: list) -> None:
-    """The table, figure and metrics of the MPM runs `outs` (slope_cases' order), dolfinx's run
-    and Bishop's circle."""
+def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) -> None:
+    """The table, figure and metrics of the MPM runs `outs` and the UL-FEM runs `ulfem_outs`
+    (each in slope_cases' order), dolfinx's run and Bishop's circle."""
     case = slope_case(SLOPE_CELLS[0])
     reference = Path(run_dolfinx(case, DOLFINX_ARGUMENTS).out)
     summary = json.loads((reference / "summary.json").read_text())
@@ -209,13 +212,17 @@ def slope_section(context, outcome: StudyOutcome, outs: list) -> None:
         },
     ]
     curves = {}
-    for h, out in zip(SLOPE_CELLS, outs):
+    runs = [("MPM implicit", "MPM", h, out) for h, out in zip(SLOPE_CELLS, outs)]
+    runs += [
+        ("UL-FEM implicit", "UL-FEM", h, out) for h, out in zip(SLOPE_CELLS, ulfem_outs)
+    ]
+    for method, label, h, out in runs:
         run_json = read_run(out)
         reduction = run_json["summary"]["strength_reduction"]
         steps = run_json["load_steps"]
         rows.append(
             {
-                "method": "MPM implicit",
+                "method": method,
                 "h": h,
                 "last_converged_factor": reduction["last_converged_factor"],
                 "failed_factor": reduction["failed_factor"],
@@ -225,20 +232,32 @@ def slope_section(context, outcome: StudyOutcome, outs: list) -> None:
                 "wall_time_s": run_json["summary"]["wall_time_s"],
             }
         )
-        curves[f"MPM h = {h} m"] = crest_curve(Path(out))
+        curves[f"{label} h = {h} m"] = crest_curve(Path(out))
     table = pd.DataFrame(rows)
     table["vs_dolfinx"] = (
         table["last_converged_factor"] / dolfinx["last_converged_factor"] - 1.0
     )
     table["vs_bishop"] = table["last_converged_factor"] / circle.factor - 1.0
     # A run that reached its final factor (no failed factor) did not find the factor: no metric.
-    for row in table[table["method"] == "MPM implicit"].itertuples():
+    found = {}
+    for row in table[table["method"].str.endswith("implicit")].itertuples():
         if not math.isnan(row.failed_factor):
-            prefix = f"implicit.slope.h{round(1 / row.h)}"
+            solver = "ulfem." if row.method.startswith("UL-FEM") else ""
+            prefix = f"implicit.slope.{solver}h{round(1 / row.h)}"
+            found[(solver, row.h)] = row.last_converged_factor
             outcome.metrics += [
                 Metric(f"{prefix}.vs_dolfinx", abs(row.vs_dolfinx), "1"),
                 Metric(f"{prefix}.vs_bishop", abs(row.vs_bishop), "1"),
             ]
+    for h in SLOPE_CELLS:
+        if ("", h) in found and ("ulfem.", h) in found:
+            outcome.metrics.append(
+                Metric(
+                    f"implicit.slope.h{round(1 / h)}.vs_ulfem",
+                    abs(found[("", h)] / found[("ulfem.", h)] - 1.0),
+                    "1",
+                )
+            )
     outcome.metrics.append(Metric("implicit.slope.bishop_factor", circle.factor, "1"))
     outcome.tables.append(
         write_table(
@@ -246,7 +265,8 @@ def slope_section(context, outcome: StudyOutcome, outs: list) -> None:
             table,
             "slope",
             "The thesis slope's factor of safety (Tresca c = 20 kPa): the bracket "
-            "[last converged, failed] of each strength reduction, Bishop's critical circle "
+            "[last converged, failed] of each strength reduction (the implicit MPM and the "
+            "implicit UL-FEM on its gmsh mesh, dolfinx), Bishop's critical circle "
             f"(centre ({circle.circle.xc:.3f}, {circle.circle.yc:.3f}) m, radius "
             f"{circle.circle.radius:.3f} m), each against dolfinx and Bishop",
         )
