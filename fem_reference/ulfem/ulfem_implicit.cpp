@@ -14,6 +14,7 @@ ImplicitQuadMesh::ImplicitQuadMesh(const Case& c, QuadMesh mesh)
     : case_(c),
       mesh_(std::move(mesh)),
       position_(mesh_.node_position),
+      reference_(mesh_.node_position),
       last_increment_(mesh_.n_nodes(), Vec2::Zero()),
       loading_(c, mesh_),
       load_force_(mesh_.n_nodes(), Vec2::Zero()) {}
@@ -42,10 +43,8 @@ std::vector<NodeWeight> ImplicitQuadMesh::functions(std::size_t p) const {
 }
 
 void ImplicitQuadMesh::add_loads(double t, std::vector<Vec2>& force) {
-  // The material interval is measured on the initial mesh: the implicit solver's initial
-  // stress (zero or K0) does not move it.
   EdgeLoadDiagnostics d;
-  if (!loading_.apply(t, position_, mesh_.node_position, load_force_, d, nullptr)) return;
+  if (!loading_.apply(t, position_, reference_, load_force_, d, nullptr)) return;
   for (std::size_t n = 0; n < load_force_.size(); ++n) {
     const Vec2& f = load_force_[n];
     if (f.x() == 0.0 && f.y() == 0.0) continue;
@@ -81,7 +80,7 @@ void ImplicitQuadMesh::move(const std::vector<Vec2>& increment, Particles& point
 
 std::vector<Vec2> ImplicitQuadMesh::node_displacement() const {
   std::vector<Vec2> u(position_.size());
-  for (std::size_t n = 0; n < u.size(); ++n) u[n] = position_[n] - mesh_.node_position[n];
+  for (std::size_t n = 0; n < u.size(); ++n) u[n] = position_[n] - reference_[n];
   return u;
 }
 

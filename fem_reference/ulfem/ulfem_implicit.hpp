@@ -11,7 +11,9 @@
 //   B-bar          the mean dilatation over an element's four points;
 //   its supports   the nodes mesh_node_held selects, as the explicit UL-FEM's;
 //   its loads      the case's loads on the exact boundary edges of the mesh at the step's start
-//                  (EdgeLoading, dead within the step), at the load factor of the step's end;
+//                  (EdgeLoading, dead within the step), at the load factor of the step's end,
+//                  a material interval measured on the reference mesh (the initial one, or
+//                  the one the gravity-loading initial stress reached);
 //   its motion     the nodes by their converged increments; the points' positions interpolated
 //                  and their volumes det J on the moved mesh (an element whose det J reaches 0
 //                  at a point stops the run, SimulationError naming it).
@@ -41,11 +43,13 @@ class ImplicitQuadMesh final : public ImplicitMesh {
   std::size_t element_of(std::size_t p) const override { return p / 4; }
   void add_loads(double t, std::vector<Vec2>& force) override;
   void move(const std::vector<Vec2>& increment, Particles& points) override;
+  void reset_reference() override { reference_ = position_; }
 
   const QuadMesh& mesh() const { return mesh_; }
   /// Current node positions, m.
   const std::vector<Vec2>& node_position() const { return position_; }
-  /// Node displacements from the initial mesh, m.
+  /// Node displacements from the reference (the initial mesh, or the one the gravity-loading
+  /// initial stress reached), m.
   std::vector<Vec2> node_displacement() const;
   /// The nodes' increments of the last converged step, m.
   const std::vector<Vec2>& last_increment() const { return last_increment_; }
@@ -56,6 +60,7 @@ class ImplicitQuadMesh final : public ImplicitMesh {
   const Case& case_;
   QuadMesh mesh_;
   std::vector<Vec2> position_;
+  std::vector<Vec2> reference_;
   std::vector<Vec2> last_increment_;
   EdgeLoading loading_;
   EdgeLoadDiagnostics diagnostics_;

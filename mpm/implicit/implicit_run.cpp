@@ -1,5 +1,6 @@
 #include "mpm/implicit/implicit_run.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -60,12 +61,13 @@ int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun 
     write_file_atomically(folder.file("run.json"), text);
     folder.reserve(2 * text.size() + 65536);
     writer = std::make_unique<ParticleSeriesWriter>(folder, c.output.compress);
-    write_output();
     RunProgress progress(options.progress);
     double next_output = c.output.interval;
     double written_at = 0.0;
     const double eps = 1e-9 * end;
     try {
+      solver.initialise_stress();  // the gravity loading's load steps, before t = 0
+      write_output();
       while (solver.time() < end - eps) {
         const std::size_t before = solver.log().size();
         solver.advance(end);
@@ -140,6 +142,14 @@ int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun 
     run["outputs"] = outputs;
   }
   run["load_steps"] = attempts;
+  if (c.initial_stress.method == InitialStressMethod::kGravity) {
+    nlohmann::json settling = nlohmann::json::array();
+    for (const LoadStepLog& e : solver.initial_stress_log()) settling.push_back(step_log(e));
+    run["initial_stress_load_steps"] = settling;
+    run["summary"]["n_initial_stress_steps"] =
+        std::count_if(settling.begin(), settling.end(),
+                      [](const nlohmann::json& e) { return e["converged"].get<bool>(); });
+  }
   return finish_run(folder, run, table, options, status);
 }
 

@@ -18,7 +18,9 @@ namespace pfm {
 ///                    error), the summary (n_particles, n_steps = converged load steps,
 ///                    n_attempts, n_iterations, final_time_s, wall_time_s,
 ///                    particle_steps_per_s) and load_steps: every attempt of every step with
-///                    its time, dt, whether it converged and its relative residuals;
+///                    its time, dt, whether it converged and its relative residuals; with
+///                    initial_stress "gravity" also initial_stress_load_steps, those of the
+///                    settling under gravity before t = 0 (summary n_initial_stress_steps);
 ///   timeseries.csv   one row per converged load step: time, dt, iterations, residual (the
 ///                    last relative residual), attempts (1 + the step's cut-backs);
 ///   particles.h5/.xdmf at t = 0 and at every output.interval (and the last step), the

@@ -42,11 +42,6 @@ Eigen::Matrix<double, 4, 2> strain_operator(const Vec2& g) {
   return b;
 }
 
-double factor_of_gravity(const GravitySpec& g, double t) {
-  if (g.ramp_time <= 0.0) return 1.0;
-  return std::min(1.0, t / g.ramp_time);
-}
-
 // Below this many particles a load step's evaluations run on one thread.
 constexpr std::size_t kMinParallelParticles = 2000;
 
@@ -82,18 +77,6 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
              "implicit.load_steps");
     }
   }
-  if (!mesh_ && std::any_of(c.loads.begin(), c.loads.end(), [](const LoadSpec& l) {
-        return l.apply_on == LoadTarget::kGridTopNodes;
-      })) {
-    refuse(c, "/loads",
-           "the implicit solver takes loads on the detected boundary only "
-           "(apply_on \"detected_boundary\"), not on the grid-top nodes yet");
-  }
-  if (c.initial_stress.method == InitialStressMethod::kGravity) {
-    refuse(c, "/initial_stress/method",
-           "\"gravity\" loading is a dynamic relaxation; the implicit solver takes \"zero\" (and "
-           "applies gravity in its first load step) or \"k0\"");
-  }
   if (c.manufactured) refuse(c, "/manufactured_solution", "not taken by the implicit solver");
   if (mesh_ && !c.constraints.empty()) {
     refuse(c, "/constraints",
@@ -101,6 +84,7 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
            "\"velocity\"), not on a detected boundary");
   }
   particles_ = mesh_ ? mesh_->material_points() : fill_bodies(c);
+  if (!mesh_) top_loads_ = GridTopLoads(c, particles_);
   if (particles_.size() == 0) refuse(c, "/bodies", "the bodies hold no material point");
   if (c.initial_stress.method == InitialStressMethod::kK0) apply_k0_stress(c, particles_);
   for (const MaterialRecord& m : c.materials) {
@@ -146,6 +130,50 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
   }
 }
 
+double ImplicitSolver::gravity_factor(double t) const {
+  // A K0 stress or the gravity loading's is the weight's at full gravity: its ramp is over.
+  if (case_.initial_stress.method != InitialStressMethod::kZero) return 1.0;
+  const double ramp = case_.gravity.ramp_time;
+  return ramp <= 0.0 ? 1.0 : std::min(1.0, t / ramp);
+}
+
+void ImplicitSolver::initialise_stress() {
+  if (initialised_) return;
+  initialised_ = true;
+  if (case_.initial_stress.method == InitialStressMethod::kGravity) settle_under_gravity();
+}
+
+void ImplicitSolver::settle_under_gravity() {
+  // The case with its gravity alone, ramped over a pseudo-second: no loads, no constraints, no
+  // strength reduction, the moving supports held where they are.
+  Case settling_case = case_;
+  settling_case.loads.clear();
+  settling_case.constraints.clear();
+  settling_case.initial_stress = InitialStressSpec{};
+  settling_case.implicit.strength_reduction.reset();
+  settling_case.gravity.ramp_time = 1.0;
+  settling_case.time.end_time = 1.0;
+  for (BoundaryCondition& bc : settling_case.boundary_conditions) {
+    bc.velocity.setZero();
+    bc.moving = false;
+  }
+  ImplicitSolver settling(settling_case, std::move(mesh_));
+  try {
+    settling.run_to(1.0);
+  } catch (const ImplicitDivergence& e) {
+    throw ImplicitDivergence(std::string("gravity loading (initial_stress \"gravity\"): ") +
+                             e.what());
+  }
+  mesh_ = std::move(settling.mesh_);
+  initial_log_ = settling.log_;
+  particles_ = settling.particles_;
+  for (std::size_t p = 0; p < particles_.size(); ++p) {
+    particles_.velocity[p].setZero();
+    particles_.reference_position[p] = particles_.position[p];
+  }
+  if (mesh_) mesh_->reset_reference();
+}
+
 void ImplicitSolver::run_to(double end_time) {
   while (time_ < end_time * (1.0 - 1e-12) && !collapsed()) advance(end_time);
 }
@@ -167,6 +195,7 @@ void ImplicitSolver::reduce_strength(double t) {
 }
 
 void ImplicitSolver::advance(double end_time) {
+  initialise_stress();
   if (collapsed()) return;
   if (first_step_ == 0.0) {
     first_step_ = end_time / settings_.load_steps;
@@ -209,7 +238,7 @@ std::string ImplicitSolver::divergence_message(double dt, int cut) const {
   const long number =
       1 + std::count_if(log_.begin(), log_.end(), [](const LoadStepLog& e) { return e.converged; });
   const double t_end = time_ + dt;
-  std::string asked = "gravity factor " + format_number(factor_of_gravity(case_.gravity, t_end));
+  std::string asked = "gravity factor " + format_number(gravity_factor(t_end));
   if (settings_.strength_reduction)
     asked += ", strength reduction factor " + format_number(strength_factor_);
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
@@ -273,37 +302,50 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
   const std::size_t n_particles = particles_.size();
   const std::size_t n_nodes = n_nodes_;
   s.external.assign(n_nodes, Vec2::Zero());
-  const double g = c.gravity.g * factor_of_gravity(c.gravity, s.t_end);
+  const double g = c.gravity.g * gravity_factor(s.t_end);
   for (std::size_t p = 0; p < n_particles; ++p) {
     for (const NodeWeight& w : s.nodes[p])
       s.external[static_cast<std::size_t>(w.node)].y() -= w.value * particles_.mass[p] * g;
   }
+  if (c.loads.empty()) return;  // also while settling under gravity (settle_under_gravity)
   if (mesh_) {
     mesh_->add_loads(s.t_end, s.external);
-  } else if (!c.loads.empty()) {
-    const DetectedBoundary& boundary = detected(s);
+    return;
+  }
+  const double h = grid.cell_size;
+  const double light = boundary::BoundaryLoadSpec{}.min_node_mass_fraction * h * h;  // m^2
+  std::vector<Vec2> load(n_nodes, Vec2::Zero());
+  for (std::size_t k = 0; k < c.loads.size(); ++k) {
+    const LoadSpec& l = c.loads[k];
+    const double factor = l.time_function.factor(s.t_end);
+    if (l.apply_on == LoadTarget::kGridTopNodes) {
+      // The explicit step's grid-top load (mpm/step/grid_top_loads.hpp): a node with little
+      // material under it, sum N V <= 0.01 h^2, passes its share down (B-splines without ties).
+      top_loads_.apply(
+          k, l.pressure * factor, particles_, s.tied,
+          [&](std::size_t node) { return s.material[node] <= light; },
+          [&](std::size_t node, const Vec2& force) { load[node] += force; });
+      continue;
+    }
+    boundary::BoundaryLoadSpec spec = *l.surface;
+    spec.min_node_mass = spec.min_node_mass_fraction * h * h;
+    std::span<const double> carriers = s.material;
+    if (s.tied) {
+      spec.redistribute_lost_load = false;  // the ties carry every node's load
+      carriers = {};
+    }
+    const auto curves = boundary::make_composite_beziers(detected(s).contours, spec.curve);
     boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
-    std::vector<Vec2> load(n_nodes, Vec2::Zero());
-    for (const LoadSpec& l : c.loads) {
-      boundary::BoundaryLoadSpec spec = *l.surface;
-      spec.min_node_mass = spec.min_node_mass_fraction * grid.cell_size * grid.cell_size;
-      std::span<const double> carriers = s.material;
-      if (s.tied) {
-        spec.redistribute_lost_load = false;  // the ties carry every node's load
-        carriers = {};
-      }
-      const auto curves = boundary::make_composite_beziers(boundary.contours, spec.curve);
-      integrator.integrate(curves, spec, l.time_function.factor(s.t_end), carriers, load);
-    }
-    std::vector<int> loaded_without_mass;
-    for (std::size_t n = 0; n < n_nodes; ++n) {
-      if (load[n].isZero()) continue;
-      s.external[n] += load[n];
-      if (s.material[n] <= 0.0) loaded_without_mass.push_back(static_cast<int>(n));
-    }
-    if (s.tied && !loaded_without_mass.empty()) {
-      extension_.tie_massless(loaded_without_mass, fixed_, prescribed_.start(), prescribed_.end());
-    }
+    integrator.integrate(curves, spec, factor, carriers, load);
+  }
+  std::vector<int> loaded_without_mass;
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    if (load[n].isZero()) continue;
+    s.external[n] += load[n];
+    if (s.material[n] <= 0.0) loaded_without_mass.push_back(static_cast<int>(n));
+  }
+  if (s.tied && !loaded_without_mass.empty()) {
+    extension_.tie_massless(loaded_without_mass, fixed_, prescribed_.start(), prescribed_.end());
   }
 }
 

@@ -8,11 +8,11 @@
 //   1. at the particles' positions of t_n: the shape functions (the case's kind), the material
 //      under each node (sum_p N_I V_p, which also a weightless material has), the ties of the
 //      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
-//      supports, and the external force at t_n+1: gravity sum_p N_I m_p g and the loads on the
-//      boundary detected at t_n (dead within the step); the constraints on that boundary (penalty,
-//      Nitsche's method or the Implicit Boundary Method, implicit_constraints.cpp), their forces
-//      and stiffness in the
-//      residual and the tangent;
+//      supports, and the external force at t_n+1: gravity sum_p N_I m_p g, the loads on the
+//      boundary detected at t_n and those on the grid-top nodes (mpm/step/grid_top_loads.hpp,
+//      the explicit step's), dead within the step; the constraints on the detected boundary
+//      (penalty, Nitsche's method or the Implicit Boundary Method, implicit_constraints.cpp),
+//      their forces and stiffness in the residual and the tangent;
 //   2. the unknowns: the displacement increment of every node component that is neither fixed
 //      nor tied; a fixed component takes its prescribed increment (the integral of its
 //      velocity over the step), a tied node the extrapolation of its array, a node behind a wall
@@ -59,6 +59,7 @@
 #include "mpm/detect/detector.hpp"
 #include "mpm/step/case.hpp"
 #include "mpm/step/energy_ledger.hpp"
+#include "mpm/step/grid_top_loads.hpp"
 #include "mpm/step/particles.hpp"
 #include "mpm/step/prescribed_velocity.hpp"
 #include "mpm/step/step_view.hpp"
@@ -105,11 +106,15 @@ class ImplicitMesh {
   virtual std::vector<NodeWeight> functions(std::size_t p) const = 0;
   /// The element holding point p (B-bar's mean dilatation is an element's).
   virtual std::size_t element_of(std::size_t p) const = 0;
-  /// The loads' nodal forces at time t on the current mesh, added to `force` (one per node).
+  /// The case's loads' nodal forces at time t on the current mesh, added to `force` (one per
+  /// node); not called while the body settles under gravity.
   virtual void add_loads(double t, std::vector<Vec2>& force) = 0;
   /// The nodes moved by `increment` (one per node); the points' positions and volumes (det J) on
   /// the moved mesh into `points`. SimulationError when an element inverts.
   virtual void move(const std::vector<Vec2>& increment, Particles& points) = 0;
+  /// The current geometry becomes the reference the displacements are measured from (after the
+  /// gravity-loading initial stress).
+  virtual void reset_reference() = 0;
 };
 
 class ImplicitSolver {
@@ -117,12 +122,20 @@ class ImplicitSolver {
   /// Builds the particles of the case's bodies (and K0 stresses when asked); refuses
   /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
   /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
-  /// not do yet: loads on the grid-top nodes, the gravity-loading initial stress, a
-  /// manufactured solution. With a mesh the step's nodes are the mesh's (see the header
+  /// not do yet: a manufactured solution (the "gravity" initial stress: initialise_stress()).
+  /// With a mesh the step's nodes are the mesh's (see the header
   /// comment), and it refuses constraints on a detected boundary (a mesh prescribes motion on
   /// its nodes).
   explicit ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh = nullptr);
 
+  /// The initial stress procedure's part that takes load steps: with initial_stress "gravity"
+  /// the body settled under its weight alone (gravity ramped over a pseudo-second, no loads,
+  /// constraints or strength reduction, moving supports held), then at rest with its
+  /// displacements measured from there, time 0 (the explicit procedure's outcome, reached
+  /// statically). Once; the first advance() calls it if the caller has not. Throws
+  /// ImplicitDivergence (its message starting "gravity loading") when a step of it does not
+  /// converge.
+  void initialise_stress();
   /// Takes load steps until `end_time` (s of pseudo-time) is reached or collapsed().
   void run_to(double end_time);
   /// One converged load step towards `end_time` (its size cut back or grown as the header
@@ -142,6 +155,9 @@ class ImplicitSolver {
   /// Per constraint, at the last converged step: the force on the body (kN/m), the
   /// root-mean-square gap (m) and the part's length (m).
   const std::vector<ConstraintReport>& constraint_reports() const { return constraint_reports_; }
+  /// With initial_stress "gravity": every attempt of the load steps that settled the body under
+  /// its weight before time 0 (empty otherwise).
+  const std::vector<LoadStepLog>& initial_stress_log() const { return initial_log_; }
   /// The strength reduction factor of the last converged step, F(time()) (1 without
   /// strength_reduction).
   double strength_factor() const;
@@ -164,8 +180,14 @@ class ImplicitSolver {
   void locate(Prepared& s) const;
   /// 2. The supports' increments over the step and the ties of the nodes with little material.
   void hold_and_tie(Prepared& s);
-  /// 3. Gravity and the loads on the boundary detected now, at the step's end.
+  /// 3. Gravity and the loads (on the boundary detected now and on the grid-top nodes), at the
+  /// step's end.
   void apply_external_force(Prepared& s);
+  /// Gravity's factor at time t: its ramp's (gravity.ramp_time), or 1 after a K0 or a
+  /// gravity-loading initial stress (the weight's stress is in place), as the explicit step.
+  double gravity_factor(double t) const;
+  /// initialise_stress's settling under gravity.
+  void settle_under_gravity();
   /// The materials with their strength divided by the strength reduction factor at time t.
   void reduce_strength(double t);
   /// The message of a step that did not converge after `cut` halvings, the last of size dt.
@@ -229,13 +251,16 @@ class ImplicitSolver {
   PrescribedVelocity prescribed_;  ///< the moving supports' velocities over a step
   BasisExtension extension_;
   WallMirror mirror_;
+  GridTopLoads top_loads_;  ///< the case's grid_top_nodes loads (on the grid)
   DetectorState detector_state_;
   double initial_spacing_ = 0.0;
   double time_ = 0.0;
   double step_size_ = 0.0;
   double first_step_ = 0.0;
   std::vector<LoadStepLog> log_;
-  std::vector<Vec2> constraint_target_;  ///< u_bar per constraint at time_, m
+  std::vector<LoadStepLog> initial_log_;  ///< settle_under_gravity's
+  bool initialised_ = false;              ///< initialise_stress() done
+  std::vector<Vec2> constraint_target_;   ///< u_bar per constraint at time_, m
   std::vector<ConstraintReport> constraint_reports_;
 };
 

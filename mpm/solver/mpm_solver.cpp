@@ -35,14 +35,6 @@ std::string describe_particle(const Particles& particles, std::size_t p) {
   return s.str();
 }
 
-// The node row of cell column c's top edge: the top of its highest occupied cell (-1: none).
-int top_edge_row(const Grid& grid, const std::vector<char>& occupied, int c) {
-  for (int j = grid.n_cells_y - 1; j >= 0; --j) {
-    if (occupied[static_cast<std::size_t>(grid.cell_index(c, j))]) return j + 1;
-  }
-  return -1;
-}
-
 }  // namespace
 
 MpmSolver::MpmSolver(const Case& c) : case_(c) {
@@ -93,7 +85,7 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
     extension_ = BasisExtension(case_.grid, case_.solver.shape_function, fraction);
     extension_density_ = largest_density(particles_);
   }
-  build_top_node_loads();
+  top_loads_ = GridTopLoads(case_, particles_);
   point_energy_blocks_.assign((particles_.size() + kSumBlock - 1) / kSumBlock, {});
   kinetic_blocks_.assign(point_energy_blocks_.size(), 0.0);
   for (const MaterialRecord& m : case_.materials) {
@@ -157,158 +149,6 @@ void MpmSolver::build_constraints() {
     at_zero[node] = grid_.fixed[node] & ~moving[node];
   }
   mirror_ = WallMirror(grid, case_.solver.shape_function, at_zero);
-}
-
-void MpmSolver::build_top_node_loads() {
-  const Grid& grid = case_.grid;
-  std::vector<char> occupied(static_cast<std::size_t>(grid.n_cells()), 0);
-  for (const Vec2& x : particles_.position) {
-    occupied[static_cast<std::size_t>(grid.cell_index(grid.cell_i(x.x()), grid.cell_j(x.y())))] = 1;
-  }
-  // Top node of each node column: the highest node that is a top corner of an occupied cell.
-  std::vector<int> top(static_cast<std::size_t>(grid.n_nodes_x()), -1);
-  for (int i = 0; i < grid.n_nodes_x(); ++i) {
-    for (int j = grid.n_cells_y - 1; j >= 0 && top[static_cast<std::size_t>(i)] < 0; --j) {
-      for (const int ci : {i - 1, i}) {
-        if (ci >= 0 && ci < grid.n_cells_x &&
-            occupied[static_cast<std::size_t>(grid.cell_index(ci, j))]) {
-          top[static_cast<std::size_t>(i)] = j + 1;
-        }
-      }
-    }
-  }
-  const double h = grid.cell_size;
-  // Too light to carry a load: as for the loads on a detected boundary (surface_load.hpp), a
-  // node of mass <= 0.01 of a full cell's.
-  light_node_mass_ =
-      boundary::BoundaryLoadSpec{}.min_node_mass_fraction * largest_density(particles_) * h * h;
-  const int degree = shape_degree(case_.solver.shape_function);
-  top_columns_.resize(case_.loads.size());
-  for (std::size_t k = 0; k < case_.loads.size(); ++k) {
-    const LoadSpec& load = case_.loads[k];
-    TopNodeLoad entry;
-    if (load.apply_on == LoadTarget::kGridTopNodes && degree > 1) {
-      top_columns_[k] = bspline_top_columns(load, occupied);
-      entry = bspline_top_load(top_columns_[k]);
-    } else if (load.apply_on == LoadTarget::kGridTopNodes) {
-      for (int i = 0; i < grid.n_nodes_x(); ++i) {
-        if (top[static_cast<std::size_t>(i)] < 0) continue;
-        // Integral of the node's hat function over [x0, x1] (consistent nodal force).
-        const double xn = grid.origin.x() + i * h;
-        double integral = 0.0;
-        const double pieces[2][2] = {{xn - h, xn}, {xn, xn + h}};
-        for (const auto& piece : pieces) {
-          const double a = std::max(piece[0], load.x0), b = std::min(piece[1], load.x1);
-          if (b <= a) continue;
-          // hat(x) = 1 - |x - xn| / h, integrated exactly (linear on each piece).
-          const double ha = 1.0 - std::abs(a - xn) / h, hb = 1.0 - std::abs(b - xn) / h;
-          integral += 0.5 * (ha + hb) * (b - a);
-        }
-        if (integral > 0.0) {
-          entry.node.push_back(grid.node_index(i, top[static_cast<std::size_t>(i)]));
-          entry.vertical_force_per_kpa.push_back(integral);
-        }
-      }
-    }
-    top_loads_.push_back(std::move(entry));
-  }
-}
-
-template <class Add>
-void MpmSolver::for_each_top_force(const TopColumn& column, double y, Add&& add) const {
-  const Grid& grid = case_.grid;
-  const double u = (y - grid.origin.y()) / grid.cell_size;
-  if (!(u >= 0.0 && u <= grid.n_cells_y)) return;  // the body has left the grid there
-  const int degree = shape_degree(case_.solver.shape_function);
-  double value[4], derivative[4];
-  const int base = bspline_1d(degree, grid.n_cells_y, u, value, derivative);
-  for (const auto& [i, integral] : column.x_integral) {
-    for (int b = 0; b <= degree; ++b) {
-      if (value[b] != 0.0)
-        add(static_cast<std::size_t>(grid.node_index(i, base + b)), integral * value[b]);
-    }
-  }
-}
-
-MpmSolver::TopNodeLoad MpmSolver::bspline_top_load(const std::vector<TopColumn>& columns) const {
-  // f_I = int N_I t dx along the top of each cell column (TopColumn) at its initial height,
-  // t = (0, -1) per kPa, summed per node over the columns, in node order.
-  std::vector<double> down(static_cast<std::size_t>(case_.grid.n_nodes()), 0.0);
-  for (const TopColumn& column : columns) {
-    for_each_top_force(column, column.y0, [&](std::size_t node, double f) { down[node] += f; });
-  }
-  TopNodeLoad entry;
-  for (std::size_t node = 0; node < down.size(); ++node) {
-    if (down[node] == 0.0) continue;
-    entry.node.push_back(static_cast<int>(node));
-    entry.vertical_force_per_kpa.push_back(down[node]);
-  }
-  return entry;
-}
-
-std::vector<MpmSolver::TopColumn> MpmSolver::bspline_top_columns(
-    const LoadSpec& load, const std::vector<char>& occupied) const {
-  const Grid& grid = case_.grid;
-  const double h = grid.cell_size;
-  const int degree = shape_degree(case_.solver.shape_function);
-  // 4-point Gauss-Legendre on [-1, 1]: exact on the pieces (degree <= 3) between half cells.
-  const double xg[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
-                        0.8611363115940526};
-  const double wg[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
-                        0.3478548451374538};
-  std::vector<TopColumn> columns;
-  for (int c = 0; c < grid.n_cells_x; ++c) {
-    const int top_row = top_edge_row(grid, occupied, c);
-    const double left = grid.origin.x() + c * h;
-    const double a = std::max(left, load.x0), b = std::min(left + h, load.x1);
-    if (top_row < 0 || b <= a) continue;
-    TopColumn column;
-    column.y0 = grid.origin.y() + top_row * h;
-    for (std::size_t p = 0; p < particles_.size(); ++p) {
-      const Vec2& x = particles_.position[p];
-      if (grid.cell_i(x.x()) == c && grid.cell_j(x.y()) == top_row - 1 &&
-          x.y() + particles_.half_length[p].y() >= column.y0 - 1e-9 * h) {
-        column.particles.push_back(static_cast<int>(p));
-      }
-    }
-    // int N_i dx over [a, b], the piece split at the cell's midline.
-    std::vector<double> integral(static_cast<std::size_t>(grid.n_nodes_x()), 0.0);
-    const double mid = left + 0.5 * h;
-    for (const auto& [lo, hi] : {std::pair(a, std::min(b, mid)), std::pair(std::max(a, mid), b)}) {
-      if (hi <= lo) continue;
-      for (int g = 0; g < 4; ++g) {
-        const double x = 0.5 * (lo + hi) + 0.5 * (hi - lo) * xg[g];
-        double value[4], derivative[4];
-        const int base =
-            bspline_1d(degree, grid.n_cells_x, (x - grid.origin.x()) / h, value, derivative);
-        for (int i = 0; i <= degree; ++i) {
-          integral[static_cast<std::size_t>(base + i)] += 0.5 * (hi - lo) * wg[g] * value[i];
-        }
-      }
-    }
-    for (int i = 0; i < grid.n_nodes_x(); ++i) {
-      if (integral[static_cast<std::size_t>(i)] != 0.0)
-        column.x_integral.emplace_back(i, integral[static_cast<std::size_t>(i)]);
-    }
-    columns.push_back(std::move(column));
-  }
-  return columns;
-}
-
-void MpmSolver::add_bspline_top_load(std::size_t k, double q) {
-  for (const TopColumn& column : top_columns_[k]) {
-    double dy = 0.0;
-    for (const int p : column.particles) {
-      const auto i = static_cast<std::size_t>(p);
-      dy += particles_.position[i].y() - particles_.reference_position[i].y();
-    }
-    if (!column.particles.empty()) dy /= static_cast<double>(column.particles.size());
-    for_each_top_force(column, column.y0 + dy, [&](std::size_t node, double f) {
-      const Vec2 force(0.0, -q * f);
-      grid_.external_force[node] += force;
-      load_work_recorder_.add(k, node, force);
-    });
-  }
 }
 
 double MpmSolver::gravity_factor(double t) const {
@@ -645,27 +485,17 @@ void MpmSolver::external_forces() {
   // The body force is in place (particles_to_grid); the surface loads are added to it.
   load_work_recorder_.clear();
   if (!counters_.loads_active) return;
-  const bool bspline = shape_degree(case_.solver.shape_function) > 1;
-  const auto row = static_cast<std::size_t>(case_.grid.n_nodes_x());
   for (std::size_t k = 0; k < case_.loads.size(); ++k) {
     const LoadSpec& load = case_.loads[k];
     if (load.apply_on != LoadTarget::kGridTopNodes) continue;
     const double q = load.pressure * load.time_function.factor(counters_.time);
-    if (bspline && extension_.enabled()) {
-      add_bspline_top_load(k, q);
-      continue;
-    }
-    const TopNodeLoad& top = top_loads_[k];
-    for (std::size_t i = 0; i < top.node.size(); ++i) {
-      auto node = static_cast<std::size_t>(top.node[i]);
-      if (bspline && !extension_.enabled()) {
-        // A node too light to carry its share passes it down its node column.
-        while (grid_.mass[node] <= light_node_mass_ && node >= row) node -= row;
-      }
-      const Vec2 force(0.0, -q * top.vertical_force_per_kpa[i]);
-      grid_.external_force[node] += force;
-      load_work_recorder_.add(k, node, force);
-    }
+    top_loads_.apply(
+        k, q, particles_, extension_.enabled(),
+        [&](std::size_t node) { return grid_.mass[node] <= top_loads_.light_node_mass(); },
+        [&](std::size_t node, const Vec2& force) {
+          grid_.external_force[node] += force;
+          load_work_recorder_.add(k, node, force);
+        });
   }
   if (hook_) hook_(step_view(), grid_, grid_.external_force);
   mirror_.gather_added(std::span<Vec2>(grid_.external_force));

@@ -47,6 +47,7 @@
 #include "mpm/step/case.hpp"
 #include "mpm/step/energy_ledger.hpp"
 #include "mpm/step/grid_stages.hpp"
+#include "mpm/step/grid_top_loads.hpp"
 #include "mpm/step/initial_stress.hpp"
 #include "mpm/step/particles.hpp"
 #include "mpm/step/prescribed_velocity.hpp"
@@ -114,30 +115,10 @@ class MpmSolver {
   /// Restores counters() of a checkpoint (after the particles have been restored).
   void restore(const SolverCounters& n) { counters_ = n; }
 
-  /// Consistent nodal forces per unit pressure of a grid_top_nodes load on the initial top
-  /// surface, the top edge of each cell column's highest occupied cell (exposed for tests).
-  /// Linear and uGIMP: the top nodes' hat integrals over x_range (a top node that the body
-  /// leaves carries its force on nothing, as in the thesis). B-splines: the integrals of N_I
-  /// along the initial top, on the node rows next to it too. With ties (the default) the step
-  /// applies them on the top edge as it has moved (TopColumn); without, in each step a node too
-  /// light to carry its share (mass <= 0.01 of a full cell's, the detected boundary's rule)
-  /// passes it down its node column, which keeps the resultant and the moment (the rows above
-  /// the top hold little mass at the start and none once the body settles).
-  struct TopNodeLoad {
-    std::vector<int> node;
-    std::vector<double> vertical_force_per_kpa;  ///< kN per kPa (downwards positive)
-  };
-  /// A grid_top_nodes load with B-splines, per loaded cell column: the height of the column's
-  /// top edge at the start, the particles whose squares reach it (the top layer), and
-  /// int N_i dx over the load's part of the edge for each node column i it reaches (m). In a
-  /// step the edge is at the start height plus the top layer's mean vertical displacement, and
-  /// node (i, j) takes -q int N_i dx N_j(y) (the traction integral on that horizontal edge).
-  struct TopColumn {
-    double y0 = 0.0;
-    std::vector<int> particles;
-    std::vector<std::pair<int, double>> x_integral;
-  };
-  const std::vector<TopNodeLoad>& top_node_loads() const { return top_loads_; }
+  /// The grid_top_nodes loads' nodal forces per unit pressure on the initial top surface
+  /// (mpm/step/grid_top_loads.hpp, exposed for tests).
+  using TopNodeLoad = GridTopLoads::TopNodeLoad;
+  const std::vector<TopNodeLoad>& top_node_loads() const { return top_loads_.top_node_loads(); }
 
  private:
   template <int W>
@@ -165,20 +146,6 @@ class MpmSolver {
   /// Zeroes cell_volume_ and cell_trace_ over the cell rows of a band.
   void clear_band_cells(int band);
   void build_constraints();
-  void build_top_node_loads();
-  /// A grid_top_nodes load's forces with B-splines on its columns' initial top edges
-  /// (build_top_node_loads).
-  TopNodeLoad bspline_top_load(const std::vector<TopColumn>& columns) const;
-  /// Calls add(node, f) with f = int N_i dx N_j(y) (m, the force per kPa, downwards) for the
-  /// nodes (i, j) that a column's top edge at height y reaches.
-  template <class Add>
-  void for_each_top_force(const TopColumn& column, double y, Add&& add) const;
-  /// The top columns of a grid_top_nodes load with B-splines (TopColumn).
-  std::vector<TopColumn> bspline_top_columns(const LoadSpec& load,
-                                             const std::vector<char>& occupied) const;
-  /// Adds a grid_top_nodes load's forces at pressure q with B-splines, on the edges as they
-  /// have moved (TopColumn), to the grid and the load-work recorder (load k).
-  void add_bspline_top_load(std::size_t k, double q);
   double gravity_factor(double t) const;
   double particle_kinetic_energy() const;
 
@@ -191,9 +158,7 @@ class MpmSolver {
   StageTimes times_;
   ExternalForceHook hook_;
   GridVelocityHook velocity_hook_;
-  std::vector<TopNodeLoad> top_loads_;
-  std::vector<std::vector<TopColumn>> top_columns_;  ///< per load (B-splines; empty otherwise)
-  double light_node_mass_ = 0.0;  ///< t: a node this light carries no grid_top_nodes load
+  GridTopLoads top_loads_;
   LoadWorkRecorder load_work_recorder_;
   std::vector<double> step_work_;     ///< the work of each load and constraint in this step
   PrescribedVelocity prescribed_;     ///< moving supports (boundary_conditions[].velocity)

@@ -67,6 +67,42 @@ def test_a_completed_run_writes_its_steps_and_the_particles(tmp_path, run_case):
     assert abs(settlement / exact - 1.0) < 1e-3
 
 
+def test_gravity_loading_settles_the_column_before_time_zero(tmp_path, run_case):
+    """initial_stress "gravity": load steps under the weight alone before t = 0, written to
+    run.json; the displacements are measured from there, so the top row settles by the
+    surcharge's q Y / M alone. A settling that cannot converge stops the run (exit 3), named.
+    """
+    case = column()
+    case["initial_stress"] = {"method": "gravity"}
+    done = run_case(case, tmp_path / "settled")
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "settled" / "out"
+    run = json.loads((out / "run.json").read_text())
+    settling = run["initial_stress_load_steps"]
+    assert settling and all(s["converged"] for s in settling)
+    assert run["summary"]["n_initial_stress_steps"] == len(settling)
+    assert [s["time"] for s in run["load_steps"]] == [0.25, 0.5, 0.75, 1.0]
+    with open(out / "final_particles.csv") as f:
+        particles = list(csv.DictReader(f))
+    top = max(float(p["y"]) - float(p["uy"]) for p in particles)
+    row = [p for p in particles if float(p["y"]) - float(p["uy"]) > top - 0.01]
+    assert len(row) == 8
+    settlement = -sum(float(p["uy"]) for p in row) / len(row)
+    assert settlement == pytest.approx(SURCHARGE * top / MODULUS, rel=1e-3)
+
+    weak = column()
+    weak["initial_stress"] = {"method": "gravity"}
+    weak["materials"][0].update({"model": "tresca", "cohesion": 1.0})
+    weak["boundary_conditions"] = [{"where": "bottom", "fix": "xy"}]
+    weak["implicit"].update({"max_cuts": 1, "max_iterations": 8})
+    done = run_case(weak, tmp_path / "weak")
+    assert done.returncode == 3, done.stderr
+    run = json.loads((tmp_path / "weak" / "out" / "run.json").read_text())
+    assert run["status"] == "failed"
+    assert run["error"].startswith("gravity loading")
+    assert run["load_steps"] == []
+
+
 def pushed_column(method):
     """The column without weight or surcharge, its detected top pushed down 4 mm (a ramp) by
     `method`."""
@@ -152,7 +188,6 @@ def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
     cases = {
         "/solver/damping": lambda c: c["solver"].update({"damping": 0.1}),
         "/time/cfl": lambda c: c["time"].update({"cfl": 0.5}),
-        "/loads": lambda c: c["loads"][0].update({"apply_on": "grid_top_nodes"}),
         "/implicit": lambda c: c["solver"].update({"type": "explicit"}),
         "/implicit/load_steps": lambda c: c["implicit"].update({"load_steps": 0}),
     }
@@ -162,7 +197,7 @@ def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
 def test_the_ulfem_runs_the_implicit_case_on_its_mesh(tmp_path, run_case):
     """`--solver ulfem` takes the same load steps on the UL-FEM's mesh: the top nodes settle as
     the closed form says (bilinear elements are exact at the nodes of the column), and it takes
-    the grid-top load the implicit MPM refuses, with the same answer."""
+    the grid-top load too, with the same answer."""
     settlements = []
     for apply_on in ("detected_boundary", "grid_top_nodes"):
         case = column()

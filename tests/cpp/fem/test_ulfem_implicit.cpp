@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 
 #include "fem_reference/ulfem/ulfem_implicit.hpp"
 #include "fem_reference/ulfem/ulfem_run.hpp"
@@ -28,6 +29,29 @@ nlohmann::json implicit_block(double width, double height, double h, int steps) 
   j["gravity"]["ramp_time"] = 1.0;
   j["time"] = {{"end_time", 1.0}};
   return j;
+}
+
+// A vertical pressure q on the top over x in [0, 1] m, ramped over the first second.
+nlohmann::json pressure_on_top(double q) {
+  return {{{"type", "vertical_pressure"},
+           {"pressure", q},
+           {"x_range", {0.0, 1.0}},
+           {"apply_on", "detected_boundary"},
+           {"time_function", {{"type", "ramp"}, {"ramp_time", 1.0}}}}};
+}
+
+// Element e's volume-weighted mean sigma_yy (kPa) and its centre's height on the initial
+// mesh (m).
+std::pair<double, double> element_mean_syy(const ImplicitQuadMesh& mesh, const Particles& p,
+                                           std::size_t e) {
+  double syy = 0.0, volume = 0.0, y = 0.0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    syy += p.volume[4 * e + k] * p.stress[4 * e + k][kYY];
+    volume += p.volume[4 * e + k];
+    const auto node = static_cast<std::size_t>(mesh.mesh().element_nodes[e][k]);
+    y += 0.25 * mesh.mesh().node_position[node].y();
+  }
+  return {syy / volume, y};
 }
 
 // A solver on the case's mesh (the case must outlive it).
@@ -79,11 +103,7 @@ TEST(ImplicitUlFem, SurchargedColumnMatchesTheClosedFormAtItsNodes) {
   nlohmann::json j = implicit_block(1.0, height, 0.25, 5);
   j["materials"][0]["youngs_modulus"] = 5e5;
   j["materials"][0]["poisson_ratio"] = 0.25;
-  j["loads"] = {{{"type", "vertical_pressure"},
-                 {"pressure", q},
-                 {"x_range", {0.0, 1.0}},
-                 {"apply_on", "detected_boundary"},
-                 {"time_function", {{"type", "ramp"}, {"ramp_time", 1.0}}}}};
+  j["loads"] = pressure_on_top(q);
   const Case c = parse_case(j, "column.json");
   ImplicitSolver solver = solver_on_mesh(c);
   solver.run_to(1.0);
@@ -96,15 +116,37 @@ TEST(ImplicitUlFem, SurchargedColumnMatchesTheClosedFormAtItsNodes) {
     const double exact = (q * y + 20.0 * (height * y - 0.5 * y * y)) / m;
     EXPECT_NEAR(-u[n].y() / exact, 1.0, 1e-3) << "node " << n << " at y = " << y;
   }
-  const Particles& p = solver.particles();
   for (std::size_t e = 0; e < mesh.n_elements(); ++e) {
-    double syy = 0.0, volume = 0.0, y = 0.0;
-    for (std::size_t k = 4 * e; k < 4 * e + 4; ++k) {
-      syy += p.volume[k] * p.stress[k][kYY];
-      volume += p.volume[k];
-      y += 0.25 * p.reference_position[k].y();
-    }
-    EXPECT_NEAR(syy / volume / (-q - 20.0 * (height - y)), 1.0, 1e-3) << "element " << e;
+    const auto [syy, y] = element_mean_syy(mesh, solver.particles(), e);
+    EXPECT_NEAR(syy / (-q - 20.0 * (height - y)), 1.0, 1e-3) << "element " << e;
+  }
+}
+
+TEST(ImplicitUlFem, GravityLoadingSettlesThenTheMeshIsTheReference) {
+  // initial_stress "gravity" on the stiff column: settled under its weight before t = 0, every
+  // element's mean syy the weight above its centre (1e-3), the nodes' displacements measured
+  // from the settled mesh; then the surcharge alone moves the top nodes by q H / M.
+  const double height = 4.0, q = 30.0;
+  nlohmann::json j = implicit_block(1.0, height, 0.25, 5);
+  j["materials"][0]["youngs_modulus"] = 5e5;
+  j["materials"][0]["poisson_ratio"] = 0.25;
+  j["initial_stress"] = {{"method", "gravity"}};
+  j["loads"] = pressure_on_top(q);
+  const Case c = parse_case(j, "column.json");
+  ImplicitSolver solver = solver_on_mesh(c);
+  solver.initialise_stress();
+  const ImplicitQuadMesh& mesh = mesh_of(solver);
+  for (const Vec2& u : mesh.node_displacement()) EXPECT_EQ(u, Vec2::Zero());
+  for (std::size_t e = 0; e < mesh.n_elements(); ++e) {
+    const auto [syy, y] = element_mean_syy(mesh, solver.particles(), e);
+    EXPECT_NEAR(syy / (-20.0 * (height - y)), 1.0, 1e-3) << "element " << e;
+  }
+  solver.run_to(1.0);
+  const double m = 5e5 * 0.75 / (1.25 * 0.5);
+  const std::vector<Vec2> u = mesh.node_displacement();
+  for (std::size_t n = 0; n < u.size(); ++n) {
+    if (mesh.mesh().node_position[n].y() < height - 1e-9) continue;
+    EXPECT_NEAR(-u[n].y() / (q * height / m), 1.0, 1e-3) << "node " << n;
   }
 }
 
@@ -174,11 +216,7 @@ TEST(ImplicitUlFem, StrengthReductionFindsTheFactorOfSafetyOfAPressedBlock) {
   j["boundary_conditions"] = {{{"where", "bottom"}, {"fix", "y"}},
                               {{"where", "left"}, {"fix", "x"}}};
   j["grid"]["n_cells"] = {16, 12};
-  j["loads"] = {{{"type", "vertical_pressure"},
-                 {"pressure", 30.0},
-                 {"x_range", {0.0, 1.0}},
-                 {"apply_on", "detected_boundary"},
-                 {"time_function", {{"type", "ramp"}, {"ramp_time", 1.0}}}}};
+  j["loads"] = pressure_on_top(30.0);
   j["implicit"] = {{"load_steps", 40},
                    {"max_cuts", 6},
                    {"strength_reduction", {{"start_time", 1.0}, {"final_factor", 1.6}}}};
