@@ -10,6 +10,7 @@
 #include "mpm/core/provenance.hpp"
 #include "mpm/implicit/implicit_solver.hpp"
 #include "mpm/step/output.hpp"
+#include "mpm/step/prescribed_velocity.hpp"
 #include "mpm/step/step_view.hpp"
 
 namespace pfm {
@@ -45,6 +46,8 @@ int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun 
     const std::string name = "constraint_" + std::to_string(k);
     table += ',' + name + "_fx," + name + "_fy," + name + "_gap";
   }
+  for (const std::string& k : reaction_names(c.boundary_conditions))
+    table += ",reaction_" + k + "_fx,reaction_" + k + "_fy";
   table += '\n';
   const auto wall_start = std::chrono::steady_clock::now();
   const double end = c.time.end_time;
@@ -86,6 +89,8 @@ int run_implicit_case(const Case& c, const RunOptions& options, ImplicitMeshRun 
           table += ',' + format_exact(r.force.x()) + ',' + format_exact(r.force.y()) + ',' +
                    format_exact(r.rms_gap);
         }
+        for (const Vec2& r : solver.support_reactions())
+          table += ',' + format_exact(r.x()) + ',' + format_exact(r.y());
         table += '\n';
         const bool last = solver.time() >= end - eps;
         if (solver.time() >= next_output - eps || last) {

@@ -22,7 +22,10 @@ namespace pfm {
 ///                    initial_stress "gravity" also initial_stress_load_steps, those of the
 ///                    settling under gravity before t = 0 (summary n_initial_stress_steps);
 ///   timeseries.csv   one row per converged load step: time, dt, iterations, residual (the
-///                    last relative residual), attempts (1 + the step's cut-backs);
+///                    last relative residual), attempts (1 + the step's cut-backs); with a
+///                    strength reduction its factor, per constraint constraint_<k>_fx, _fy,
+///                    _gap, per moving support reaction_<k>_fx, _fy (kN/m, the force on the
+///                    body, k its index in boundary_conditions);
 ///   particles.h5/.xdmf at t = 0 and at every output.interval (and the last step), the
 ///                    particle fields of the explicit run (output.hpp);
 ///   final_particles.csv.

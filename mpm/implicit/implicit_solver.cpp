@@ -718,6 +718,13 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   // On a mesh the nodes move too, and the points' positions and volumes are the moved mesh's
   // (the same positions to round-off; its det J, which also judges an inverted element).
   if (mesh_) mesh_->move(it.increment, particles_);
+  // The supports' reactions: at a held node the force the support adds to balance it,
+  // internal - external (on the step's start geometry, where the iteration balanced it).
+  std::vector<Vec2> node_reaction(n_nodes_, Vec2::Zero());
+  for (std::size_t n = 0; n < n_nodes_; ++n) {
+    if (fixed_[n] != kFixNone) node_reaction[n] = it.internal[n] - s.external[n];
+  }
+  support_reactions_ = prescribed_.reactions(node_reaction);
   constraint_target_ = s.constraint_target;
   constraint_reports_ = it.reports;
   time_ = s.t_end;

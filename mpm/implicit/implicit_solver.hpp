@@ -158,6 +158,10 @@ class ImplicitSolver {
   /// With initial_stress "gravity": every attempt of the load steps that settled the body under
   /// its weight before time 0 (empty otherwise).
   const std::vector<LoadStepLog>& initial_stress_log() const { return initial_log_; }
+  /// Per moving support (boundary_conditions[].velocity, in the case's order), at the last
+  /// converged step: the force it exerts on the body on the components it fixes, summed over
+  /// its nodes (kN/m), as the explicit run's reaction_<k>_fx, _fy.
+  const std::vector<Vec2>& support_reactions() const { return support_reactions_; }
   /// The strength reduction factor of the last converged step, F(time()) (1 without
   /// strength_reduction).
   double strength_factor() const;
@@ -262,6 +266,7 @@ class ImplicitSolver {
   bool initialised_ = false;              ///< initialise_stress() done
   std::vector<Vec2> constraint_target_;   ///< u_bar per constraint at time_, m
   std::vector<ConstraintReport> constraint_reports_;
+  std::vector<Vec2> support_reactions_;  ///< per moving support, kN/m
 };
 
 }  // namespace pfm

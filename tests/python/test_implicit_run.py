@@ -138,6 +138,48 @@ def test_a_constraint_writes_its_force_and_gap_per_load_step(tmp_path, run_case)
         assert 0.0 <= float(row["constraint_0_gap"]) < 1e-4 * push
 
 
+def test_a_moving_support_writes_its_reaction_per_load_step(tmp_path, run_case):
+    """The weightless column pushed down by its top as a moving support (the grid's top edge,
+    the column's top), 1 mm per step. On the UL-FEM the top nodes are the body's top: the force
+    on the body is -M ln(H / (H - push)) x 1 m at every step (1e-3), as by Nitsche's method. On
+    the MPM the held nodes stay on the grid's edge while the body's top moves below it: the
+    first step is the small-strain -M push / H exactly, the later ones are the grid's.
+    """
+    case = pushed_column("nitsche")
+    case.pop("constraints")
+    case["grid"]["n_cells"][1] = round(HEIGHT / case["grid"]["cell_size"])
+    case["boundary_conditions"].append(
+        {
+            "where": "top",
+            "fix": "y",
+            "velocity": [0.0, -0.004],
+            "time_function": {"type": "constant"},
+        }
+    )
+    k = len(case["boundary_conditions"]) - 1
+    rows = {}
+    for solver in ("mpm", "ulfem"):
+        done = run_case(case, tmp_path / solver, "--solver", solver)
+        assert done.returncode == 0, done.stderr
+        with open(tmp_path / solver / "out" / "timeseries.csv") as f:
+            rows[solver] = list(csv.DictReader(f))
+        assert len(rows[solver]) == 4
+        assert all(float(r[f"reaction_{k}_fx"]) == 0.0 for r in rows[solver])
+    strain = 0.0
+    for n, row in enumerate(rows["ulfem"]):
+        # Each step's strain is its push over the height it starts from, so the reaction is
+        # M sum 1 mm / (H - n mm) to round-off, which is M ln(H / (H - push)) to 1e-3.
+        strain += 0.001 / (HEIGHT - 0.001 * n)
+        push = 0.004 * float(row["time"])
+        reaction = float(row[f"reaction_{k}_fy"])
+        assert reaction == pytest.approx(-MODULUS * strain, rel=1e-9)
+        assert reaction == pytest.approx(
+            -MODULUS * math.log(HEIGHT / (HEIGHT - push)), rel=1e-3
+        )
+    first = float(rows["mpm"][0][f"reaction_{k}_fy"])
+    assert first == pytest.approx(-MODULUS * 0.001 / HEIGHT, rel=1e-12)
+
+
 def test_a_step_that_cannot_converge_stops_the_run_with_the_outputs_kept(
     tmp_path, run_case
 ):
