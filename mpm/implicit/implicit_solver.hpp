@@ -34,6 +34,9 @@
 //      the iterate before), stands for the last correction: a linear step ends after one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
+// Within a step the geometry is the step's start (B, V and the loads' boundary), so an elastic
+// step is linear in its increment and a large-deformation answer converges in the step size at
+// first order: such a run needs the steps its strains ask for.
 // On a mesh (ImplicitMesh: the UL-FEM's Q4 mesh, fem_reference/ulfem/ulfem_implicit.hpp) the
 // step is the same with the grid replaced by the mesh, which moves with the material and is
 // never reset: the functions of step 1 are the mesh's at the points' fixed natural coordinates
@@ -123,9 +126,8 @@ class ImplicitSolver {
   /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
   /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
   /// not do yet: a manufactured solution (the "gravity" initial stress: initialise_stress()).
-  /// With a mesh the step's nodes are the mesh's (see the header
-  /// comment), and it refuses constraints on a detected boundary (a mesh prescribes motion on
-  /// its nodes).
+  /// With a mesh the step's nodes are the mesh's (see the header comment), and it refuses
+  /// constraints on a detected boundary (a mesh prescribes motion on its nodes).
   explicit ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh = nullptr);
 
   /// The initial stress procedure's part that takes load steps: with initial_stress "gravity"
