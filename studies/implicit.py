@@ -369,36 +369,31 @@ def run(context) -> StudyOutcome:
         else [(s, h) for s in SHAPES for h in COLUMN_CELLS if (s, h) not in SKIPPED]
     )
     bearing_cells = QUICK_BEARING if context.quick else BEARING_CELLS
-    # The runs by section, in one sweep.
+
+    # The runs by section, in one sweep, each a (case, solver) pair.
+    def mpm(cases) -> list:
+        return [(case, "mpm") for case in cases]
+
     groups = {
-        "column": [column_case(s, h) for s, h in column_tasks],
-        "explicit_column": [column_case("quadratic_bspline", 0.25, implicit=False)],
+        "column": mpm(column_case(s, h) for s, h in column_tasks),
+        "explicit_column": mpm(
+            [column_case("quadratic_bspline", 0.25, implicit=False)]
+        ),
         "bearing": [
-            bearing_case(h, solver != "explicit", steps)
+            (
+                bearing_case(h, solver != "explicit", steps),
+                "ulfem" if solver == "ulfem_implicit" else "mpm",
+            )
             for h in bearing_cells
             for solver, steps in BEARING_RUNS
         ],
-        "footing": [] if context.quick else [footing_case(*r) for r in FOOTING_RUNS],
-        "slope": [] if context.quick else slope_cases(),
-        "slope_ulfem": [] if context.quick else slope_cases(),
+        "footing": [] if context.quick else mpm(footing_case(*r) for r in FOOTING_RUNS),
+        "slope": [] if context.quick else mpm(slope_cases()),
+        "slope_ulfem": [] if context.quick else [(c, "ulfem") for c in slope_cases()],
     }
-    # Each run's solver: the MPM but for the UL-FEM's.
-    solvers = {
-        "bearing": [
-            "ulfem" if solver == "ulfem_implicit" else "mpm"
-            for _ in bearing_cells
-            for solver, _ in BEARING_RUNS
-        ],
-        "slope_ulfem": ["ulfem"] * len(groups["slope_ulfem"]),
-    }
-    tasks = [
-        (case, solvers[name][k] if name in solvers else "mpm")
-        for name, cases in groups.items()
-        for k, case in enumerate(cases)
-    ]
     swept = parallel_map(
         _run,
-        tasks,
+        [task for tasks in groups.values() for task in tasks],
         jobs=context.options.jobs,
         scheduler=context.options.scheduler,
         description="implicit",

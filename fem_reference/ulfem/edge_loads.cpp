@@ -83,9 +83,27 @@ bool EdgeLoading::shadowed(const std::vector<Vec2>& position, double x, double y
   return false;
 }
 
-bool EdgeLoading::apply(double t, const std::vector<Vec2>& position,
-                        const std::vector<Vec2>& reference, std::vector<Vec2>& force,
-                        EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder) {
+bool EdgeLoading::add(double t, const std::vector<Vec2>& position,
+                      const std::vector<Vec2>& reference, std::vector<Vec2>& force,
+                      EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder) {
+  forces_.resize(force.size(), Vec2::Zero());
+  EdgeLoadDiagnostics summed;
+  if (!integrate(t, position, reference, forces_, summed, recorder)) return false;
+  for (std::size_t n = 0; n < forces_.size(); ++n) {
+    const Vec2& f = forces_[n];
+    if (f.x() == 0.0 && f.y() == 0.0) continue;
+    force[n] += f;
+    summed.applied += f;
+    ++summed.loaded_nodes;
+    forces_[n] = Vec2::Zero();
+  }
+  d = summed;
+  return true;
+}
+
+bool EdgeLoading::integrate(double t, const std::vector<Vec2>& position,
+                            const std::vector<Vec2>& reference, std::vector<Vec2>& force,
+                            EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder) {
   bool any = false;
   bool have_boundary_x = false;
   for (const EdgeLoad& load : loads_) {

@@ -93,16 +93,20 @@ class EdgeLoading {
 
   /// The loads' nodal forces at time t (each load's time function) on the edges through
   /// `position`, the material intervals measured on `reference`, added to `force` (one per
-  /// node); each load's forces also into `recorder` when given, the exact resultant of the
-  /// loaded parts into d.target. False, with nothing added, when no load acts at t.
-  bool apply(double t, const std::vector<Vec2>& position, const std::vector<Vec2>& reference,
-             std::vector<Vec2>& force, EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder);
+  /// node); each load's forces also into `recorder` when given; into d the exact resultant of
+  /// the loaded parts (target), the sum of the forces (applied) and the nodes loaded. False,
+  /// with nothing added and d untouched, when no load acts at t.
+  bool add(double t, const std::vector<Vec2>& position, const std::vector<Vec2>& reference,
+           std::vector<Vec2>& force, EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder);
 
   /// Every boundary edge of the mesh (the candidates for loads), in boundary_edges() order.
   const std::vector<LoadedEdge>& edges() const { return edges_; }
   const std::vector<EdgeLoad>& loads() const { return loads_; }
 
  private:
+  /// The forces of add() into `force`, the target into d.target; false when no load acts.
+  bool integrate(double t, const std::vector<Vec2>& position, const std::vector<Vec2>& reference,
+                 std::vector<Vec2>& force, EdgeLoadDiagnostics& d, LoadWorkRecorder* recorder);
   /// Whether another boundary edge crosses the vertical through x above y.
   bool shadowed(const std::vector<Vec2>& position, double x, double y) const;
 
@@ -111,6 +115,7 @@ class EdgeLoading {
   double tolerance_ = 0.0;          ///< 1e-9 h, m
   std::vector<double> boundary_x_;  ///< sorted x of the boundary nodes, scratch (faces "top")
   std::vector<double> cuts_;        ///< scratch
+  std::vector<Vec2> forces_;        ///< per node, scratch of add(), zero between calls
 };
 
 }  // namespace pfm::ulfem

@@ -5,6 +5,7 @@
 #include <map>
 #include <numeric>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include "mpm/core/json_input.hpp"
@@ -523,6 +524,25 @@ const std::array<GaussSlot, 4>& gauss_slots() {
   return slots;
 }
 
+Vec2 point_position(const QuadMesh& mesh, const std::vector<Vec2>& position, std::size_t e,
+                    std::size_t k) {
+  const Eigen::Vector4d& value = gauss_slots()[k].value;
+  Vec2 x = Vec2::Zero();
+  for (std::size_t a = 0; a < 4; ++a) {
+    x += value[static_cast<Eigen::Index>(a)] *
+         position[static_cast<std::size_t>(mesh.element_nodes[e][a])];
+  }
+  return x;
+}
+
+std::string describe_element(const QuadMesh& mesh, std::size_t e, const Vec2& centre) {
+  std::ostringstream s;
+  s << "element " << e << " (nodes";
+  for (const int n : mesh.element_nodes[e]) s << ' ' << n;
+  s << ") centred at (" << centre.x() << ", " << centre.y() << ")";
+  return s.str();
+}
+
 Eigen::Matrix<double, 4, 2> element_positions(const QuadMesh& mesh,
                                               const std::vector<Vec2>& position, std::size_t e) {
   Eigen::Matrix<double, 4, 2> x;
@@ -545,11 +565,7 @@ Particles material_points(const Case& c, const QuadMesh& mesh, const std::vector
     const Eigen::Matrix<double, 4, 2> x = element_positions(mesh, position, e);
     const Vec2 lo = x.colwise().minCoeff().transpose(), hi = x.colwise().maxCoeff().transpose();
     for (std::size_t k = 0; k < 4; ++k) {
-      Vec2 at = Vec2::Zero();
-      for (std::size_t a = 0; a < 4; ++a) {
-        at += slots[k].value[static_cast<Eigen::Index>(a)] *
-              position[static_cast<std::size_t>(mesh.element_nodes[e][a])];
-      }
+      const Vec2 at = point_position(mesh, position, e, k);
       const double volume = (x.transpose() * slots[k].natural_gradient).determinant();
       points.add(at, volume, density, 0.25 * (hi - lo), material, body);
     }

@@ -80,6 +80,13 @@ struct GaussSlot {
 };
 const std::array<GaussSlot, 4>& gauss_slots();
 
+/// Point k of element e (slot k of gauss_slots) with the nodes at `position`: sum_a N_a x_a.
+Vec2 point_position(const QuadMesh& mesh, const std::vector<Vec2>& position, std::size_t e,
+                    std::size_t k);
+
+/// "element E (nodes a b c d) centred at (x, y)", for messages.
+std::string describe_element(const QuadMesh& mesh, std::size_t e, const Vec2& centre);
+
 /// Element e's node positions, one row per node in element order.
 Eigen::Matrix<double, 4, 2> element_positions(const QuadMesh& mesh,
                                               const std::vector<Vec2>& position, std::size_t e);

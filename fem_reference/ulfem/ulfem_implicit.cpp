@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <memory>
-#include <sstream>
 #include <string>
 
 #include "fem_reference/ulfem/ulfem_run.hpp"
@@ -16,8 +15,7 @@ ImplicitQuadMesh::ImplicitQuadMesh(const Case& c, QuadMesh mesh)
       position_(mesh_.node_position),
       reference_(mesh_.node_position),
       last_increment_(mesh_.n_nodes(), Vec2::Zero()),
-      loading_(c, mesh_),
-      load_force_(mesh_.n_nodes(), Vec2::Zero()) {}
+      loading_(c, mesh_) {}
 
 Particles ImplicitQuadMesh::material_points() const {
   return ulfem::material_points(case_, mesh_, position_);
@@ -43,17 +41,7 @@ std::vector<NodeWeight> ImplicitQuadMesh::functions(std::size_t p) const {
 }
 
 void ImplicitQuadMesh::add_loads(double t, std::vector<Vec2>& force) {
-  EdgeLoadDiagnostics d;
-  if (!loading_.apply(t, position_, reference_, load_force_, d, nullptr)) return;
-  for (std::size_t n = 0; n < load_force_.size(); ++n) {
-    const Vec2& f = load_force_[n];
-    if (f.x() == 0.0 && f.y() == 0.0) continue;
-    force[n] += f;
-    d.applied += f;
-    ++d.loaded_nodes;
-    load_force_[n] = Vec2::Zero();
-  }
-  diagnostics_ = d;
+  loading_.add(t, position_, reference_, force, diagnostics_, nullptr);
 }
 
 void ImplicitQuadMesh::move(const std::vector<Vec2>& increment, Particles& points) {
@@ -64,16 +52,13 @@ void ImplicitQuadMesh::move(const std::vector<Vec2>& increment, Particles& point
     const Eigen::Matrix<double, 4, 2> x = element_positions(mesh_, position_, e);
     for (std::size_t k = 0; k < 4; ++k) {
       const std::size_t p = 4 * e + k;
-      points.position[p] = x.transpose() * slots[k].value;
+      points.position[p] = point_position(mesh_, position_, e, k);
       points.volume[p] = (x.transpose() * slots[k].natural_gradient).determinant();
       if (points.volume[p] > 0.0) continue;
-      std::ostringstream what;
-      what << "element inverted: element " << e << " (nodes";
-      for (const int n : mesh_.element_nodes[e]) what << ' ' << n;
       const Vec2 centre = 0.25 * x.colwise().sum().transpose();
-      what << ") centred at (" << centre.x() << ", " << centre.y()
-           << "), det J = " << points.volume[p] << " m^2 <= 0 at its Gauss point " << k;
-      throw SimulationError(what.str());
+      throw SimulationError("element inverted: " + describe_element(mesh_, e, centre) +
+                            ", det J = " + std::to_string(points.volume[p]) +
+                            " m^2 <= 0 at its Gauss point " + std::to_string(k));
     }
   }
 }

@@ -64,7 +64,6 @@ class ImplicitQuadMesh final : public ImplicitMesh {
   std::vector<Vec2> last_increment_;
   EdgeLoading loading_;
   EdgeLoadDiagnostics diagnostics_;
-  std::vector<Vec2> load_force_;  ///< scratch of add_loads, zero between calls
 };
 
 /// Runs a case with solver.type "implicit" on the UL-FEM's mesh (mesh_case): the outputs of

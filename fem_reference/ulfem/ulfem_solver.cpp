@@ -74,7 +74,6 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
   particles_ = material_points(case_, mesh_, node_position_);
   build_constraints();
   edge_loading_ = EdgeLoading(case_, mesh_);
-  load_force_.assign(n_nodes, Vec2::Zero());
   load_work_recorder_ = LoadWorkRecorder(case_.loads.size());
   counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
 
@@ -159,7 +158,7 @@ void UlFemSolver::compute_geometry(bool account_energy) {
     Vec2 centre = Vec2::Zero();
     for (int n : mesh_.element_nodes[e])
       centre += 0.25 * node_position_[static_cast<std::size_t>(n)];
-    throw SimulationError("element inverted: " + describe_element(e, centre) +
+    throw SimulationError("element inverted: " + describe_element(mesh_, e, centre) +
                           ", det J = " + fmt(det_jacobian_[p]) + " m^2 <= 0 at its Gauss point " +
                           std::to_string(p % 4) + " at t = " + std::to_string(counters_.time) +
                           " s (step " + std::to_string(counters_.step) + ")");
@@ -178,14 +177,6 @@ void UlFemSolver::compute_geometry(bool account_energy) {
     particles_.volume[p] = det_jacobian_[p];
   }
   counters_.energy.volume_work += volume_work;
-}
-
-std::string UlFemSolver::describe_element(std::size_t element, const Vec2& x) const {
-  std::ostringstream s;
-  s << "element " << element << " (nodes";
-  for (int n : mesh_.element_nodes[element]) s << ' ' << n;
-  s << ") centred at (" << x.x() << ", " << x.y() << ")";
-  return s.str();
 }
 
 double UlFemSolver::gravity_factor(double t) const {
@@ -309,21 +300,8 @@ void UlFemSolver::external_forces() {
 }
 
 void UlFemSolver::apply_loads() {
-  EdgeLoadDiagnostics d;
-  if (!edge_loading_.apply(counters_.time, node_position_, node_reference_, load_force_, d,
-                           &load_work_recorder_)) {
-    return;
-  }
-  const std::size_t n_nodes = load_force_.size();
-  for (std::size_t n = 0; n < n_nodes; ++n) {
-    const Vec2& f = load_force_[n];
-    if (f.x() == 0.0 && f.y() == 0.0) continue;
-    nodes_.external_force[n] += f;
-    d.applied += f;
-    ++d.loaded_nodes;
-    load_force_[n] = Vec2::Zero();
-  }
-  load_diagnostics_ = d;
+  edge_loading_.add(counters_.time, node_position_, node_reference_, nodes_.external_force,
+                    load_diagnostics_, &load_work_recorder_);
 }
 
 void UlFemSolver::update_nodes() {
@@ -418,14 +396,8 @@ void UlFemSolver::move_mesh() {
   // Material points stay at their natural coordinates.
   const std::size_t n_elements = mesh_.n_elements();
   for (std::size_t e = 0; e < n_elements; ++e) {
-    for (std::size_t k = 0; k < 4; ++k) {
-      Vec2 x = Vec2::Zero();
-      for (std::size_t a = 0; a < 4; ++a) {
-        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
-             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
-      }
-      particles_.position[4 * e + k] = x;
-    }
+    for (std::size_t k = 0; k < 4; ++k)
+      particles_.position[4 * e + k] = point_position(mesh_, node_position_, e, k);
   }
   compute_geometry(true);  // throws SimulationError on an inverted element
 }
@@ -436,14 +408,8 @@ void UlFemSolver::displace_nodes(const std::vector<Vec2>& displacement) {
   }
   for (std::size_t n = 0; n < node_position_.size(); ++n) node_position_[n] += displacement[n];
   for (std::size_t e = 0; e < mesh_.n_elements(); ++e) {
-    for (std::size_t k = 0; k < 4; ++k) {
-      Vec2 x = Vec2::Zero();
-      for (std::size_t a = 0; a < 4; ++a) {
-        x += shape_value_[k][static_cast<Eigen::Index>(a)] *
-             node_position_[static_cast<std::size_t>(mesh_.element_nodes[e][a])];
-      }
-      particles_.position[4 * e + k] = x;
-    }
+    for (std::size_t k = 0; k < 4; ++k)
+      particles_.position[4 * e + k] = point_position(mesh_, node_position_, e, k);
   }
   compute_geometry();
 }
@@ -472,7 +438,7 @@ void UlFemSolver::check_particles() {
   if (bad >= 0) {
     const auto p = static_cast<std::size_t>(bad);
     throw SimulationError("non-finite value (NaN or inf) at material point " + std::to_string(p) +
-                          " of " + describe_element(p / 4, particles_.position[p]) +
+                          " of " + describe_element(mesh_, p / 4, particles_.position[p]) +
                           " at t = " + std::to_string(counters_.time) + " s (step " +
                           std::to_string(counters_.step) + ")");
   }

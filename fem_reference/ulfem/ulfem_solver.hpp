@@ -113,7 +113,6 @@ class UlFemSolver {
   void check_particles();
   double gravity_factor(double t) const;
   double particle_kinetic_energy() const;
-  std::string describe_element(std::size_t element, const Vec2& x) const;
 
   Case case_;
   QuadMesh mesh_;
@@ -127,7 +126,6 @@ class UlFemSolver {
   std::vector<double> det_jacobian_;                   ///< per point, m^2
   EdgeLoading edge_loading_;
   EdgeLoadDiagnostics load_diagnostics_;
-  std::vector<Vec2> load_force_;  ///< per node, scratch of apply_loads
 
   SolverCounters counters_;  ///< time, step, dt, damping, load switches, works
   double base_dt_ = 0.0;

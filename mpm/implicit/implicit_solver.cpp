@@ -315,6 +315,7 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
   const double h = grid.cell_size;
   const double light = boundary::BoundaryLoadSpec{}.min_node_mass_fraction * h * h;  // m^2
   std::vector<Vec2> load(n_nodes, Vec2::Zero());
+  boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
   for (std::size_t k = 0; k < c.loads.size(); ++k) {
     const LoadSpec& l = c.loads[k];
     const double factor = l.time_function.factor(s.t_end);
@@ -335,7 +336,6 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
       carriers = {};
     }
     const auto curves = boundary::make_composite_beziers(detected(s).contours, spec.curve);
-    boundary::BoundaryLoadIntegrator integrator(grid, shape_degree(c.solver.shape_function));
     integrator.integrate(curves, spec, factor, carriers, load);
   }
   std::vector<int> loaded_without_mass;
@@ -702,21 +702,22 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
     Vec2 du = Vec2::Zero();
     for (const NodeWeight& w : s.nodes[p])
       du += w.value * it.increment[static_cast<std::size_t>(w.node)];
-    particles_.position[p] += du;
     particles_.velocity[p] = du / s.dt;
     particles_.stress[p] = it.stress[p];
     particles_.state[p] = it.state[p];
     particles_.deformation_gradient[p] =
         update_deformation_gradient(it.gradient[p], 1.0, particles_.deformation_gradient[p]);
+    if (mesh_) continue;  // the mesh's motion sets the position and the volume (below)
+    particles_.position[p] += du;
     particles_.volume[p] =
         particles_.deformation_gradient[p].determinant() * particles_.initial_volume[p];
-    if (!mesh_ && !(particles_.volume[p] > 0.0)) {
+    if (!(particles_.volume[p] > 0.0)) {
       throw SimulationError("particle " + std::to_string(p) +
                             " inverted (det F <= 0) at t = " + std::to_string(s.t_end) + " s");
     }
   }
-  // On a mesh the nodes move too, and the points' positions and volumes are the moved mesh's
-  // (the same positions to round-off; its det J, which also judges an inverted element).
+  // On a mesh the nodes move, and the points' positions and volumes are the moved mesh's (its
+  // det J, which also judges an inverted element).
   if (mesh_) mesh_->move(it.increment, particles_);
   // The supports' reactions: at a held node the force the support adds to balance it,
   // internal - external (on the step's start geometry, where the iteration balanced it).

@@ -15,6 +15,7 @@
 #include "fem_reference/ulfem/ulfem_implicit.hpp"
 #include "fem_reference/ulfem/ulfem_run.hpp"
 #include "mpm/core/json_input.hpp"
+#include "tests/cpp/implicit/implicit_checks.hpp"
 #include "ulfem_test_util.hpp"
 
 namespace pfm::ulfem {
@@ -29,15 +30,6 @@ nlohmann::json implicit_block(double width, double height, double h, int steps) 
   j["gravity"]["ramp_time"] = 1.0;
   j["time"] = {{"end_time", 1.0}};
   return j;
-}
-
-// A vertical pressure q on the top over x in [0, 1] m, ramped over the first second.
-nlohmann::json pressure_on_top(double q) {
-  return {{{"type", "vertical_pressure"},
-           {"pressure", q},
-           {"x_range", {0.0, 1.0}},
-           {"apply_on", "detected_boundary"},
-           {"time_function", {{"type", "ramp"}, {"ramp_time", 1.0}}}}};
 }
 
 // Element e's volume-weighted mean sigma_yy (kPa) and its centre's height on the initial
@@ -224,12 +216,7 @@ TEST(ImplicitUlFem, StrengthReductionFindsTheFactorOfSafetyOfAPressedBlock) {
   const Case c = parse_case(j, "block.json");
   ImplicitSolver solver = solver_on_mesh(c);
   solver.run_to(1.0);
-  double force = 0.0, area = 0.0;
-  for (std::size_t p = 0; p < solver.particles().size(); ++p) {
-    force -= solver.particles().volume[p] * solver.particles().stress[p][kYY];
-    area += solver.particles().volume[p];
-  }
-  const double safety = 2.0 * 20.0 / (force / area);
+  const double safety = 2.0 * 20.0 / carried_pressure(solver.particles());
   solver.run_to(2.0);
   ASSERT_TRUE(solver.collapsed());
   EXPECT_LE(solver.failed_factor() - solver.strength_factor(), 2.0 * 0.03 / 64.0 + 1e-12);
