@@ -41,7 +41,8 @@ std::vector<NodeWeight> ImplicitQuadMesh::functions(std::size_t p) const {
 }
 
 void ImplicitQuadMesh::add_loads(double t, std::vector<Vec2>& force) {
-  loading_.add(t, position_, reference_, force, diagnostics_, nullptr);
+  EdgeLoadDiagnostics unused;  // the implicit run writes no load diagnostics
+  loading_.add(t, position_, reference_, force, unused, nullptr);
 }
 
 void ImplicitQuadMesh::move(const std::vector<Vec2>& increment, Particles& points) {
@@ -79,7 +80,10 @@ int run_ulfem_implicit_case(const Case& c, const RunOptions& options) {
   on_mesh.output = [&](OutputFolder& folder, const ImplicitSolver& solver, long step) {
     if (!writer)
       writer = std::make_unique<MeshSeriesWriter>(folder, mesh->mesh(), c.output.compress);
-    const double dt = solver.log().empty() ? 0.0 : solver.log().back().dt;
+    // The last converged step's size (after a collapse the log ends with failed attempts).
+    double dt = 0.0;
+    for (auto e = solver.log().rbegin(); e != solver.log().rend() && dt == 0.0; ++e)
+      if (e->converged) dt = e->dt;
     std::vector<Vec2> velocity(mesh->n_nodes(), Vec2::Zero());
     for (std::size_t n = 0; dt > 0.0 && n < velocity.size(); ++n)
       velocity[n] = mesh->last_increment()[n] / dt;

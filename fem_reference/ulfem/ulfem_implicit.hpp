@@ -53,8 +53,6 @@ class ImplicitQuadMesh final : public ImplicitMesh {
   std::vector<Vec2> node_displacement() const;
   /// The nodes' increments of the last converged step, m.
   const std::vector<Vec2>& last_increment() const { return last_increment_; }
-  /// The loads of the last step that applied any.
-  const EdgeLoadDiagnostics& load_diagnostics() const { return diagnostics_; }
 
  private:
   const Case& case_;
@@ -63,7 +61,6 @@ class ImplicitQuadMesh final : public ImplicitMesh {
   std::vector<Vec2> reference_;
   std::vector<Vec2> last_increment_;
   EdgeLoading loading_;
-  EdgeLoadDiagnostics diagnostics_;
 };
 
 /// Runs a case with solver.type "implicit" on the UL-FEM's mesh (mesh_case): the outputs of
