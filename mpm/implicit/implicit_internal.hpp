@@ -63,7 +63,8 @@ struct NodeStrain {
 // weight share (d sigma(x) / d du)^T n . g on its fit's particles' unknowns.
 struct ConstraintPoint {
   int constraint = 0;
-  double weight = 0.0;  ///< m, the rule's weight
+  Vec2 x = Vec2::Zero();  ///< m, where it lies
+  double weight = 0.0;    ///< m, the rule's weight
   Vec2 normal = Vec2::Zero();
   Mat2 projector = Mat2::Identity();  ///< P
   Mat2 spring = Mat2::Zero();         ///< S, kPa/m: beta P, or the band's P (n.C.n) P 4 / (3 delta)

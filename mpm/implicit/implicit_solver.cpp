@@ -728,6 +728,13 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   support_reactions_ = prescribed_.reactions(node_reaction);
   constraint_target_ = s.constraint_target;
   constraint_reports_ = it.reports;
+  carried_gaps_.clear();
+  for (const implicit_detail::ConstraintPoint& q : s.points) {
+    Vec2 du = Vec2::Zero();
+    for (const auto& [node, value] : q.nodes)
+      du += value * it.increment[static_cast<std::size_t>(node)];
+    carried_gaps_.push_back({q.constraint, q.x + du, q.offset + q.projector * du});
+  }
   time_ = s.t_end;
 }
 

@@ -52,6 +52,7 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -213,6 +214,9 @@ class ImplicitSolver {
   /// The elastic parameters of the Implicit Boundary Method's band at a point: those of the
   /// material of the fit's (particle, coefficient) with the largest coefficient.
   const ElasticParameters& band_material(const std::vector<std::pair<int, double>>& fit) const;
+  /// Constraint k's gap of the last converged step at x, interpolated along its points moved
+  /// with the material (implicit_constraints.cpp); none when no such point lies within a cell.
+  std::optional<Vec2> carried_gap(std::size_t k, const Vec2& x) const;
   /// 7. The tangent's sparsity, and where each particle's pairs of unknowns go in it.
   void build_pattern(Prepared& s) const;
   /// The constraint points' pairs of unknowns (rows, columns), and then their places.
@@ -268,6 +272,14 @@ class ImplicitSolver {
   bool initialised_ = false;              ///< initialise_stress() done
   std::vector<Vec2> constraint_target_;   ///< u_bar per constraint at time_, m
   std::vector<ConstraintReport> constraint_reports_;
+  /// A constraint point of the last converged step: moved with the material (by the step's
+  /// increment there), with its gap at the step's end.
+  struct CarriedGap {
+    int constraint = 0;
+    Vec2 position = Vec2::Zero();  ///< m
+    Vec2 gap = Vec2::Zero();       ///< m
+  };
+  std::vector<CarriedGap> carried_gaps_;
   std::vector<Vec2> support_reactions_;  ///< per moving support, kN/m
 };
 
