@@ -32,8 +32,8 @@ The runs:
   16; the reaction's windows and the least-squares line over 0.03-0.12 b at s = 0 against
   (2 + pi) c.
 
-* The thesis slope's factor of safety by strength reduction, beside dolfinx's and Bishop's
-  simplified method (studies.slope_safety, full variant).
+* The thesis slope's factor of safety by strength reduction, beside dolfinx's, Bishop's
+  simplified method and an upper bound by limit analysis (studies.slope_safety, full variant).
 
 Tables ``column`` (shape function, h, settlement and stress errors, load steps, iterations),
 ``column_orders`` (the settlement error's order over h per shape function), ``bearing`` (h,
@@ -585,9 +585,9 @@ def run(context) -> StudyOutcome:
             f"implicit.slope.{solver}h{round(1 / h)}.{what}"
             for h in SLOPE_CELLS
             for solver in ("", "ulfem.")
-            for what in ("vs_dolfinx", "vs_bishop")
+            for what in ("vs_dolfinx", "vs_bishop", "vs_upper_bound")
         ]
         + [f"implicit.slope.h{round(1 / h)}.vs_ulfem" for h in SLOPE_CELLS]
-        + ["implicit.slope.bishop_factor"]
+        + ["implicit.slope.bishop_factor", "implicit.slope.upper_bound_factor"]
     )
     return outcome

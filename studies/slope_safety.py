@@ -17,27 +17,38 @@ Runs: the MPM with the default quadratic B-splines at h = 0.5 m (the thesis's gr
 0.25 m; the implicit UL-FEM (the same load steps on fem_reference/ulfem's gmsh mesh of the
 body, Q4 elements of h, B-bar, the mesh moving with the material) at the same h; dolfinx with P2 triangles of 0.25 m (4 gravity increments, 20 strength increments halved
 below 1e-3); Bishop's critical circle (composite along the base where it cuts it) on the same
-profile and firm base.
+profile and firm base; and an upper bound on the factor of safety by discontinuity layout
+optimisation (studies.common.limit_analysis: the least factor of the mechanisms of rigid
+blocks between slip lines through nodes BOUND_SPACING apart, the side walls smooth).
 
-Table ``slope`` (method, h, the bracket of the factor of safety, against dolfinx and Bishop,
-load steps, iterations, wall time). Figure ``slope.png``: the MPM's plastic strain at its last
-equilibrium (h = 0.25 m) with Bishop's critical circle, the displacement increment of its last
-step (the mechanism's motion), and the crest's displacement against F by the MPM, the UL-FEM
-and dolfinx. Metrics ``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_bishop`` (|F_MPM / F - 1|,
-each F its bracket's lower end), gated in reports/thresholds.json at 3 % (must-show 5); the
-UL-FEM's ``implicit.slope.ulfem.h<k>.vs_dolfinx`` and ``.vs_bishop``, the MPM against it
-``implicit.slope.h<k>.vs_ulfem`` and ``implicit.slope.bishop_factor``, reported.
+The circle is one of those mechanisms (a rotating one), not the slope's: blocks sliding along
+the firm base between a wedge under the crest and a fan at the toe dissipate the weight's work
+at a lower factor than the critical circle, so the true factor of safety lies below the
+upper bound and further below Bishop's. The gate is therefore against the upper bound; the
+comparison with Bishop is reported.
+
+Table ``slope`` (method, h, the bracket of the factor of safety, against dolfinx, Bishop and
+the upper bound, load steps, iterations, wall time). Figure ``slope.png``: the MPM's plastic
+strain at its last equilibrium (h = 0.25 m) with Bishop's critical circle and the upper bound's
+slip lines, the displacement increment of its last step (the mechanism's motion), and the
+crest's displacement against F by the MPM, the UL-FEM and dolfinx. Metrics
+``implicit.slope.h<k>.vs_dolfinx`` and ``.vs_upper_bound`` (|F_MPM / F - 1|, each F its
+bracket's lower end), gated in reports/thresholds.json at 3 % (must-show 5); ``.vs_bishop``,
+the UL-FEM's ``implicit.slope.ulfem.h<k>.*``, the MPM against it ``implicit.slope.h<k>.vs_ulfem``,
+``implicit.slope.bishop_factor`` and ``implicit.slope.upper_bound_factor``, reported.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from studies.common.limit_analysis import upper_bound
 from studies.common.limit_equilibrium import Profile, Soil, critical_circle
 from studies.common.outcome import Metric, StudyOutcome
 from studies.common.outputs import (
@@ -52,6 +63,8 @@ from studies.common.runner import run_dolfinx
 from studies.common.tables import save_figure, write_table
 
 SLOPE_CELLS = (0.5, 0.25)
+# The upper bound's nodes: 6 across the slope's 4 m (nodes on the 45-degree face).
+BOUND_SPACING = 4.0 / 6.0  # m
 COHESION, YOUNG = 20.0, 1e5  # kPa
 CREST = (14.125, 10.0)  # m
 FINAL_FACTOR = 2.0
@@ -96,9 +109,13 @@ def slope_profile(case: dict) -> Profile:
     return Profile(tuple(x for x, _ in top), tuple(y for _, y in top))
 
 
+def slope_soil(case: dict) -> Soil:
+    return Soil(COHESION, 0.0, case["materials"][0]["unit_weight"])
+
+
 def bishop(case: dict):
     profile = slope_profile(case)
-    soil = Soil(COHESION, 0.0, case["materials"][0]["unit_weight"])
+    soil = slope_soil(case)
     x0, x1 = profile.x[0], profile.x[-1]
     top = max(profile.y)
     return critical_circle(
@@ -124,7 +141,7 @@ def crest_curve(out: Path) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def slope_figure(particles, circle, curves: dict, dolfinx_curve):
+def slope_figure(particles, circle, bound, curves: dict, dolfinx_curve):
     import matplotlib.pyplot as plt
 
     figure, (mechanism, motion, displacement) = plt.subplots(
@@ -162,6 +179,14 @@ def slope_figure(particles, circle, curves: dict, dolfinx_curve):
         linewidth=1.0,
         label="Bishop's critical circle",
     )
+    for k, (a, b) in enumerate(zip(bound.starts, bound.ends)):
+        mechanism.plot(
+            [a[0], b[0]],
+            [a[1], b[1]],
+            "w-",
+            linewidth=0.8,
+            label="upper bound's slip lines (DLO)" if k == 0 else None,
+        )
     mechanism.set_aspect("equal")
     mechanism.set_ylim(-0.5, 12.0)
     mechanism.set_xlabel("x (m)")
@@ -194,6 +219,10 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
     summary = json.loads((reference / "summary.json").read_text())
     dolfinx = summary["strength_reduction"]
     circle = bishop(case)
+    started = time.perf_counter()
+    bound = upper_bound(
+        slope_profile(case), slope_soil(case), BOUND_SPACING, base_y=0.0
+    )
     rows = [
         {
             "method": "Bishop (critical circle)",
@@ -201,6 +230,13 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
             "last_converged_factor": circle.factor,
             "failed_factor": math.nan,
             "wall_time_s": math.nan,
+        },
+        {
+            "method": "upper bound (DLO)",
+            "h": BOUND_SPACING,
+            "last_converged_factor": bound.factor,
+            "failed_factor": math.nan,
+            "wall_time_s": time.perf_counter() - started,
         },
         {
             "method": "dolfinx P2",
@@ -238,6 +274,7 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
         table["last_converged_factor"] / dolfinx["last_converged_factor"] - 1.0
     )
     table["vs_bishop"] = table["last_converged_factor"] / circle.factor - 1.0
+    table["vs_upper_bound"] = table["last_converged_factor"] / bound.factor - 1.0
     # A run that reached its final factor (no failed factor) did not find the factor: no metric.
     found = {}
     for row in table[table["method"].str.endswith("implicit")].itertuples():
@@ -248,6 +285,7 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
             outcome.metrics += [
                 Metric(f"{prefix}.vs_dolfinx", abs(row.vs_dolfinx), "1"),
                 Metric(f"{prefix}.vs_bishop", abs(row.vs_bishop), "1"),
+                Metric(f"{prefix}.vs_upper_bound", abs(row.vs_upper_bound), "1"),
             ]
     for h in SLOPE_CELLS:
         if ("", h) in found and ("ulfem.", h) in found:
@@ -258,7 +296,10 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
                     "1",
                 )
             )
-    outcome.metrics.append(Metric("implicit.slope.bishop_factor", circle.factor, "1"))
+    outcome.metrics += [
+        Metric("implicit.slope.bishop_factor", circle.factor, "1"),
+        Metric("implicit.slope.upper_bound_factor", bound.factor, "1"),
+    ]
     outcome.tables.append(
         write_table(
             context.folder,
@@ -268,7 +309,9 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
             "[last converged, failed] of each strength reduction (the implicit MPM and the "
             "implicit UL-FEM on its gmsh mesh, dolfinx), Bishop's critical circle "
             f"(centre ({circle.circle.xc:.3f}, {circle.circle.yc:.3f}) m, radius "
-            f"{circle.circle.radius:.3f} m), each against dolfinx and Bishop",
+            f"{circle.circle.radius:.3f} m) and the least upper bound of the mechanisms of "
+            f"rigid blocks between slip lines through nodes {BOUND_SPACING:.3f} m apart (DLO), "
+            "each against dolfinx, Bishop and the upper bound",
         )
     )
     dolfinx_curve = pd.read_csv(reference / "strength_reduction.csv")
@@ -276,12 +319,12 @@ def slope_section(context, outcome: StudyOutcome, outs: list, ulfem_outs: list) 
         save_figure(
             context.folder,
             slope_figure(
-                final_particles(outs[-1]), circle.circle, curves, dolfinx_curve
+                final_particles(outs[-1]), circle.circle, bound, curves, dolfinx_curve
             ),
             "slope",
             "The thesis slope at its last equilibrium of the strength reduction (MPM, "
-            f"h = {SLOPE_CELLS[-1]} m): plastic strain and Bishop's critical circle, the last "
-            "step's displacement increment; the crest's displacement against the strength "
-            "reduction factor",
+            f"h = {SLOPE_CELLS[-1]} m): plastic strain with Bishop's critical circle and the "
+            "upper bound's slip lines, the last step's displacement increment; the crest's "
+            "displacement against the strength reduction factor",
         )
     )
