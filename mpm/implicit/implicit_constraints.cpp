@@ -4,18 +4,25 @@
 //
 // At a quadrature point x of a constraint's part (BoundaryLoadIntegrator::quadrature_points, the
 // loads' rule), with n the curve's outward normal:
-//   the weighted least-squares linear fit to the particles over the part's x_range (all
-//     particles without one) with weights V_p phi((x_p - x) / h) (phi the quadratic B-spline,
-//     product in x and y: support 1.5 h): its coefficients c_p at x (where the particles within
-//     reach lie on a line, the weighted mean's); the fit is exact for an affine field;
-//   the gap at the step's end, g = P (u_n(x) + sum_I N_I(x) du_I - u_bar(t_n+1)), with N_I the
-//     loads' grid functions (bilinear for linear and uGIMP, the B-splines otherwise) over the
-//     nodes with material, normalised to sum 1, and P = n_w n_w^T for normal_only (n_w the part's
-//     normal-window direction, else the curve's normal), the identity otherwise;
+//   a particle's share in the part, a_p: 1 over the part's x_range, fading to 0 over the last
+//     half cell inside its ends (smoothstep); 1 for every particle of a part without one (the
+//     explicit step's, mpm/solver/boundary_constraint.hpp);
+//   the weighted least-squares linear fit to the particles with weights
+//     a_p V_p phi((x_p - x) / h) (phi the quadratic B-spline, product in x and y: support 1.5 h):
+//     its coefficients c_p at x (where the particles within reach lie on a line, the weighted
+//     mean's); the fit is exact for an affine field;
+//   the gap at the step's end, g = P (u_n(x) + sum_I s_I(x) du_I - u_bar(t_n+1)), with the
+//     shares s_I(x) = N_I(x) r_I / sum_J N_J(x) r_J over the nodes with material: N_I the loads'
+//     grid functions (bilinear for linear and uGIMP, the B-splines otherwise), r_I the node's
+//     share of the part's material, sum_p a_p V_p N_I(x_p) / sum_p V_p N_I(x_p) (the explicit
+//     step's): a node that carries mostly the material beside the part moves what the part does
+//     not (the B-splines reach one and a half cells past a footing's edge, and a force there
+//     widens the footing); and P = n_w n_w^T for normal_only (n_w the part's normal-window
+//     direction, else the curve's normal), the identity otherwise;
 //   u_n(x), the material's displacement at t_n, enters as the gap the last step converged to:
-//     each of its points, moved by its sum_I N_I du_I, keeps its gap g_n, and x takes the gap
+//     each of its points, moved by its sum_I s_I du_I, keeps its gap g_n, and x takes the gap
 //     interpolated between the two nearest of them along the part (the nearest's beyond its
-//     ends), so g = P (g_n(x) + u_bar(t_n) - u_bar(t_n+1) + sum_I N_I(x) du_I). A step thus
+//     ends), so g = P (g_n(x) + u_bar(t_n) - u_bar(t_n+1) + sum_I s_I(x) du_I). A step thus
 //     starts from the balance the last one reached. Measured afresh by the fit,
 //     sum_p c_p (x_p - X_p), the gap would differ from g_n by the difference between the grid's
 //     motion at the boundary and the particles' around it (largest at a footing's edge, where
@@ -24,8 +31,9 @@
 //     plastic soil (test_implicit_constraints holds a footing to see it). The fit
 //     measures it where no point of the last step lies within a cell of x (the first step, a
 //     part grown by more than a cell);
-//   the force on the body, weight x (share t - S g) shared by the nodes as N_I(x) (Galerkin: the
-//     internal force of a uniform stress has the same shares, the patch test), with
+//   the force on the body, weight x (share t - S g) shared by the nodes as s_I(x) (Galerkin: the
+//     internal force of a uniform stress has the same shares where every r_I is 1, the patch
+//     test), with
 //     t = P sigma(x) n, sigma(x) = sum_p c_p sigma_p the same fit to the particles' stresses at
 //     the iterate:
 //     penalty: share 0, S = beta P;
@@ -47,7 +55,7 @@
 // The nodes' forces and stiffness reach the unknowns through each node's map, so a tied node's
 // go to the inner nodes it is tied to (the ties are on by default here: a node over a sliver of
 // perfectly plastic points left free makes the tangent near singular).
-// The stiffness of every term is in the tangent: S N_I N_J P, -share w N_I P (d sigma(x) / d du) n
+// The stiffness of every term is in the tangent: S s_I s_J P, -share w s_I P (d sigma(x) / d du) n
 // through each fitted particle's D (B + the Jaumann rotation's part), and the IBM's transposed
 // term's derivative along g (its change of d sigma / d du with the iterate, times g, is left out:
 // g is O(delta)). beta is the constraint's penalty (penalty_factor x the largest constrained
@@ -79,6 +87,14 @@ double quadratic_kernel(double r) {
   return 0.0;
 }
 
+// A particle's share in a part with an x_range: 1 over it, fading to 0 over the last half cell
+// inside its ends (smoothstep), as the explicit step's (mpm/solver/boundary_constraint.hpp).
+double part_share(double x, const std::optional<Vec2>& x_range, double h) {
+  if (!x_range) return 1.0;
+  const double inside = std::min(x - x_range->x(), x_range->y() - x) / (0.5 * h);
+  return inside <= 0.0 ? 0.0 : inside >= 1.0 ? 1.0 : inside * inside * (3.0 - 2.0 * inside);
+}
+
 // The particles in each cell, for the fits' neighbourhoods.
 struct CellLists {
   std::vector<std::vector<int>> cells;
@@ -107,9 +123,9 @@ std::vector<std::pair<int, double>> linear_fit(const Grid& grid, const CellLists
     for (int i = std::max(ci - 2, 0); i <= std::min(ci + 2, grid.n_cells_x - 1); ++i) {
       for (const int p : lists.cells[static_cast<std::size_t>(grid.cell_index(i, j))]) {
         const Vec2& xp = particles.position[static_cast<std::size_t>(p)];
-        if (x_range && (xp.x() < x_range->x() || xp.x() > x_range->y())) continue;
         const Vec2 d = (xp - x) / h;
-        const double w = particles.volume[static_cast<std::size_t>(p)] * quadratic_kernel(d.x()) *
+        const double w = part_share(xp.x(), x_range, h) *
+                         particles.volume[static_cast<std::size_t>(p)] * quadratic_kernel(d.x()) *
                          quadratic_kernel(d.y());
         if (w <= 0.0) continue;
         const Eigen::Vector3d e(1.0, d.x(), d.y());
@@ -218,6 +234,19 @@ void ImplicitSolver::place_constraints(Prepared& s) {
     const BandIntegrals band = band_integrals(spec.band_factor * grid.cell_size);
     const auto curves = boundary::make_composite_beziers(boundary.contours, spec.part.curve);
     integrator.quadrature_points(curves, spec.part, points);
+    // Each node's share of the part's material, r_I = sum_p a_p V_p N_I(x_p) / sum_p V_p
+    // N_I(x_p) (a_p: part_share), as the explicit step's.
+    std::vector<double> shares(n_nodes_, 1.0);
+    if (spec.part.x_range) {
+      std::vector<double> inside(n_nodes_, 0.0);
+      for (std::size_t p = 0; p < particles_.size(); ++p) {
+        const double a = part_share(particles_.position[p].x(), spec.part.x_range, grid.cell_size);
+        for (const implicit_detail::NodeWeight& w : s.nodes[p])
+          inside[static_cast<std::size_t>(w.node)] += a * w.value * particles_.volume[p];
+      }
+      for (std::size_t n = 0; n < n_nodes_; ++n)
+        shares[n] = s.material[n] > 0.0 ? inside[n] / s.material[n] : 0.0;
+    }
     for (const boundary::CurvePoint& point : points) {
       if (!grid.contains(point.x)) continue;
       ConstraintPoint q;
@@ -231,8 +260,10 @@ void ImplicitSolver::place_constraints(Prepared& s) {
       double sum = 0.0;
       for (const implicit_detail::NodeWeight& w : implicit_detail::grid_nodes(grid, st)) {
         if (w.value == 0.0 || !s.map[2 * static_cast<std::size_t>(w.node)].used) continue;
-        q.nodes.emplace_back(w.node, w.value);
-        sum += w.value;
+        const double share = w.value * shares[static_cast<std::size_t>(w.node)];
+        if (share == 0.0) continue;
+        q.nodes.emplace_back(w.node, share);
+        sum += share;
       }
       if (!(sum > 0.0)) continue;
       for (auto& node : q.nodes) node.second /= sum;
