@@ -191,7 +191,8 @@ def slope_figure(particles, circle, bound, curves: dict, dolfinx_curve):
     mechanism.set_ylim(-0.5, 12.0)
     mechanism.set_xlabel("x (m)")
     mechanism.set_ylabel("y (m)")
-    mechanism.legend(loc="upper left", fontsize=7)
+    # A grey frame: the slip lines are white.
+    mechanism.legend(loc="upper left", fontsize=7, facecolor="0.55")
     for label, curve in curves.items():
         displacement.semilogy(curve["factor"], curve["displacement"], ".-", label=label)
     displacement.semilogy(
