@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <sstream>
 
 #include "mpm/core/json_input.hpp"
 #include "mpm/core/kinematics.hpp"

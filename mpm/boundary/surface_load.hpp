@@ -57,6 +57,7 @@
 // which conserves the total force and the total moment (about any point) exactly.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <optional>
 #include <span>
@@ -129,6 +130,16 @@ struct BoundaryLoadSpec {
   /// The traction law at load factor lambda (t = lambda x the full load).
   TractionLaw traction_law(double load_factor) const;
 };
+
+/// A point's share in a part restricted to x_range (loads' and constraints' x_range): 1 over
+/// it, fading to 0 over the last `fade_width` inside its ends (smoothstep of the distance from
+/// the nearer end); 1 without an x_range. The constraints (mpm/solver/boundary_constraint.hpp,
+/// mpm/implicit/implicit_constraints.cpp) fade their particles over half a cell.
+inline double part_share(double x, const std::optional<Vec2>& x_range, double fade_width) {
+  if (!x_range) return 1.0;
+  const double inside = std::min(x - x_range->x(), x_range->y() - x) / fade_width;
+  return inside <= 0.0 ? 0.0 : inside >= 1.0 ? 1.0 : inside * inside * (3.0 - 2.0 * inside);
+}
 
 /// A point of a rule along the loaded parts of the curves: position, outward unit normal, and
 /// weight (its share of the arc length, m).

@@ -87,14 +87,6 @@ double quadratic_kernel(double r) {
   return 0.0;
 }
 
-// A particle's share in a part with an x_range: 1 over it, fading to 0 over the last half cell
-// inside its ends (smoothstep), as the explicit step's (mpm/solver/boundary_constraint.hpp).
-double part_share(double x, const std::optional<Vec2>& x_range, double h) {
-  if (!x_range) return 1.0;
-  const double inside = std::min(x - x_range->x(), x_range->y() - x) / (0.5 * h);
-  return inside <= 0.0 ? 0.0 : inside >= 1.0 ? 1.0 : inside * inside * (3.0 - 2.0 * inside);
-}
-
 // The particles in each cell, for the fits' neighbourhoods.
 struct CellLists {
   std::vector<std::vector<int>> cells;
@@ -124,7 +116,7 @@ std::vector<std::pair<int, double>> linear_fit(const Grid& grid, const CellLists
       for (const int p : lists.cells[static_cast<std::size_t>(grid.cell_index(i, j))]) {
         const Vec2& xp = particles.position[static_cast<std::size_t>(p)];
         const Vec2 d = (xp - x) / h;
-        const double w = part_share(xp.x(), x_range, h) *
+        const double w = boundary::part_share(xp.x(), x_range, 0.5 * h) *
                          particles.volume[static_cast<std::size_t>(p)] * quadratic_kernel(d.x()) *
                          quadratic_kernel(d.y());
         if (w <= 0.0) continue;
@@ -191,26 +183,28 @@ const ElasticParameters& ImplicitSolver::band_material(
 }
 
 std::optional<Vec2> ImplicitSolver::carried_gap(std::size_t k, const Vec2& x) const {
+  if (k >= carried_gaps_.size()) return std::nullopt;
+  const std::vector<CarriedGap>& carried = carried_gaps_[k];
   const double h = case_.grid.cell_size;
-  std::size_t nearest = carried_gaps_.size();
+  std::size_t nearest = carried.size();
   double closest = h * h;
-  for (std::size_t a = 0; a < carried_gaps_.size(); ++a) {
-    const double d = (carried_gaps_[a].position - x).squaredNorm();
-    if (carried_gaps_[a].constraint == static_cast<int>(k) && d <= closest) {
+  for (std::size_t a = 0; a < carried.size(); ++a) {
+    const double d = (carried[a].position - x).squaredNorm();
+    if (d <= closest) {
       nearest = a;
       closest = d;
     }
   }
-  if (nearest == carried_gaps_.size()) return std::nullopt;
+  if (nearest == carried.size()) return std::nullopt;
   // Between the nearest point and the neighbour along the part whose segment x projects onto.
-  const CarriedGap& a = carried_gaps_[nearest];
+  const CarriedGap& a = carried[nearest];
   for (const std::size_t b : {nearest - 1, nearest + 1}) {
-    if (b >= carried_gaps_.size() || carried_gaps_[b].constraint != a.constraint) continue;
-    const Vec2 segment = carried_gaps_[b].position - a.position;
+    if (b >= carried.size()) continue;  // also nearest - 1 at the first point
+    const Vec2 segment = carried[b].position - a.position;
     const double length_squared = segment.squaredNorm();
     if (!(length_squared > 0.0) || length_squared > 4.0 * h * h) continue;
     const double t = (x - a.position).dot(segment) / length_squared;
-    if (t >= 0.0 && t <= 1.0) return (1.0 - t) * a.gap + t * carried_gaps_[b].gap;
+    if (t >= 0.0 && t <= 1.0) return (1.0 - t) * a.gap + t * carried[b].gap;
   }
   return a.gap;
 }
@@ -235,12 +229,13 @@ void ImplicitSolver::place_constraints(Prepared& s) {
     const auto curves = boundary::make_composite_beziers(boundary.contours, spec.part.curve);
     integrator.quadrature_points(curves, spec.part, points);
     // Each node's share of the part's material, r_I = sum_p a_p V_p N_I(x_p) / sum_p V_p
-    // N_I(x_p) (a_p: part_share), as the explicit step's.
+    // N_I(x_p) (a_p: boundary::part_share), as the explicit step's.
     std::vector<double> shares(n_nodes_, 1.0);
     if (spec.part.x_range) {
       std::vector<double> inside(n_nodes_, 0.0);
       for (std::size_t p = 0; p < particles_.size(); ++p) {
-        const double a = part_share(particles_.position[p].x(), spec.part.x_range, grid.cell_size);
+        const double a = boundary::part_share(particles_.position[p].x(), spec.part.x_range,
+                                              0.5 * grid.cell_size);
         for (const implicit_detail::NodeWeight& w : s.nodes[p])
           inside[static_cast<std::size_t>(w.node)] += a * w.value * particles_.volume[p];
       }

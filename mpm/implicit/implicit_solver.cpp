@@ -728,12 +728,13 @@ void ImplicitSolver::commit(const Prepared& s, const Iterate& it) {
   support_reactions_ = prescribed_.reactions(node_reaction);
   constraint_target_ = s.constraint_target;
   constraint_reports_ = it.reports;
-  carried_gaps_.clear();
+  carried_gaps_.assign(case_.constraints.size(), {});
   for (const implicit_detail::ConstraintPoint& q : s.points) {
     Vec2 du = Vec2::Zero();
     for (const auto& [node, value] : q.nodes)
       du += value * it.increment[static_cast<std::size_t>(node)];
-    carried_gaps_.push_back({q.constraint, q.x + du, q.offset + q.projector * du});
+    carried_gaps_[static_cast<std::size_t>(q.constraint)].push_back(
+        {q.x + du, q.offset + q.projector * du});
   }
   time_ = s.t_end;
 }

@@ -275,12 +275,11 @@ class ImplicitSolver {
   /// A constraint point of the last converged step: moved with the material (by the step's
   /// increment there), with its gap at the step's end.
   struct CarriedGap {
-    int constraint = 0;
     Vec2 position = Vec2::Zero();  ///< m
     Vec2 gap = Vec2::Zero();       ///< m
   };
-  std::vector<CarriedGap> carried_gaps_;
-  std::vector<Vec2> support_reactions_;  ///< per moving support, kN/m
+  std::vector<std::vector<CarriedGap>> carried_gaps_;  ///< per constraint, along its part
+  std::vector<Vec2> support_reactions_;                ///< per moving support, kN/m
 };
 
 }  // namespace pfm

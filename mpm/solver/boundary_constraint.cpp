@@ -80,11 +80,7 @@ void BoundaryConstraints::project(const Particles& particles,
     if (!in_box(x, lo, hi, margin)) continue;
     // The particle's share in the part: 1 over the x_range, fading to 0 at its ends (header
     // comment); the rest is the material beside the part.
-    double share = 1.0;
-    if (x_range) {
-      const double inside = std::min(x.x() - x_range->x(), x_range->y() - x.x()) / fade_width;
-      share = inside <= 0.0 ? 0.0 : inside >= 1.0 ? 1.0 : inside * inside * (3.0 - 2.0 * inside);
-    }
+    const double share = boundary::part_share(x.x(), x_range, fade_width);
     functions_at(x);
     if (share < 1.0) {
       const double beside = (1.0 - share) * particles.mass[p];

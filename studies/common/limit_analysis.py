@@ -84,12 +84,23 @@ def _on_ground(profile: Profile, points: np.ndarray) -> np.ndarray:
     return near
 
 
-def _soil_above(profile: Profile, a: np.ndarray, b: np.ndarray) -> float:
-    """The area between the segment a-b (a.x < b.x) and the ground surface above it."""
-    xs = np.array([a[0], b[0]] + [x for x in profile.x if a[0] < x < b[0]])
-    xs.sort()
-    gap = profile.height(xs) - (a[1] + (b[1] - a[1]) * (xs - a[0]) / (b[0] - a[0]))
-    return float(np.sum(0.5 * (gap[1:] + gap[:-1]) * np.diff(xs)))
+def _ground_integral(profile: Profile, x: np.ndarray) -> np.ndarray:
+    """int_{x_0}^{x} y_s dx of the piecewise linear ground (exact: a trapezoid per piece)."""
+    px, py = np.asarray(profile.x), np.asarray(profile.y)
+    at_vertices = np.concatenate(
+        [[0.0], np.cumsum(0.5 * (py[1:] + py[:-1]) * np.diff(px))]
+    )
+    k = np.clip(np.searchsorted(px, x, side="right") - 1, 0, len(px) - 2)
+    return at_vertices[k] + 0.5 * (x - px[k]) * (py[k] + profile.height(x))
+
+
+def _soil_above(profile: Profile, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per segment a-b (rows, a.x <= b.x): the area between it and the ground surface above
+    it (zero for a vertical one)."""
+    under_ground = _ground_integral(profile, b[:, 0]) - _ground_integral(
+        profile, a[:, 0]
+    )
+    return under_ground - 0.5 * (a[:, 1] + b[:, 1]) * (b[:, 0] - a[:, 0])
 
 
 def _lines(profile: Profile, nodes: np.ndarray, base_y: float):
@@ -150,12 +161,7 @@ def upper_bound(
     tangent = (b - a) / length[:, None]
     cost = soil.cohesion * length
     cost[wall] = 0.0  # smooth walls
-    above = np.array(
-        [
-            0.0 if b[k, 0] - a[k, 0] <= _TOL else _soil_above(profile, a[k], b[k])
-            for k in range(len(a))
-        ]
-    )
+    above = _soil_above(profile, a, b)
     # Compatibility rows: two per node below the surface.
     row_of = -np.ones(len(nodes), dtype=int)
     inner = np.flatnonzero(~on_surface)
