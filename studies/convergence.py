@@ -6,8 +6,10 @@ What it measures, for h = 0.5, 0.25, 0.125, 0.0625 m (quick: 0.5, 0.25):
   square of elastic soil, edges fixed, driven by the body force that makes
   u = A (1 - cos(2 pi t / T))^2 / 4 sin(pi x) sin(pi y) (1, 1) exact, on 8, 16, 32 and 64 cells
   across (quick: 8 to 32), for the MPM (linear and uGIMP, MUSL and USL; quadratic and cubic
-  B-splines, MUSL, on a grid whose edges are the square's) and the UL-FEM: the relative L2
-  errors of displacement and stress at t = T / 2 (``manufactured.png``);
+  B-splines, MUSL, on a grid whose edges are the square's) and the UL-FEM, and quasi-statically
+  by the implicit MPM (every shape function) and the implicit UL-FEM, held by the static body
+  force -div sigma / rho: the relative L2 errors of displacement and stress at t = T / 2
+  (``manufactured.png``);
 * squeezed disk (the same file's uniform dilatation): a free disk (R = 1 m) squeezed by a
   follower pressure on its detected boundary, smooth ramp to p0 = 0.1 (2 (lambda + mu)), so its
   radius shrinks by 9.5 % and the loaded boundary crosses cells; 8, 16, 32 and 64 cells per
@@ -120,6 +122,13 @@ MANUFACTURED_METHODS = (
     ("ulfem musl", "ulfem", "linear", "musl"),
     ("mpm quadratic_bspline musl", "mpm", "quadratic_bspline", "musl"),
     ("mpm cubic_bspline musl", "mpm", "cubic_bspline", "musl"),
+    # Quasi-static (solver.type "implicit", one load step to T / 2): the same field held by its
+    # static body force, b = -div sigma / rho.
+    ("implicit mpm linear", "mpm", "linear", "implicit"),
+    ("implicit mpm gimp", "mpm", "gimp", "implicit"),
+    ("implicit ulfem", "ulfem", "linear", "implicit"),
+    ("implicit mpm quadratic_bspline", "mpm", "quadratic_bspline", "implicit"),
+    ("implicit mpm cubic_bspline", "mpm", "cubic_bspline", "implicit"),
 )
 
 EXPECTED_METRICS = [
@@ -129,6 +138,11 @@ EXPECTED_METRICS = [
     "convergence.dilatation.mpm_gimp.displacement_order",
     "convergence.manufactured.mpm_quadratic_bspline_musl.displacement_order",
     "convergence.manufactured.mpm_cubic_bspline_musl.displacement_order",
+    "convergence.manufactured.implicit_mpm_linear.displacement_order",
+    "convergence.manufactured.implicit_mpm_gimp.displacement_order",
+    "convergence.manufactured.implicit_ulfem.displacement_order",
+    "convergence.manufactured.implicit_mpm_quadratic_bspline.displacement_order",
+    "convergence.manufactured.implicit_mpm_cubic_bspline.displacement_order",
     "convergence.dilatation.mpm_quadratic_bspline.displacement_order",
     "convergence.dilatation.mpm_cubic_bspline.displacement_order",
     "convergence.column.settlement_order",
@@ -194,7 +208,9 @@ def manufactured_case(cells: int, shape_function: str, scheme: str) -> dict:
     (with a 2-cell margin for linear functions and uGIMP, which needs it; none for the B-splines,
     whose edge functions hold the fixed edges: fixing the nodes beyond an edge would hold a
     B-spline's field at zero there instead, and its error would fall at first order), 2 x 2
-    points per cell, every node on or beyond the square's edges fixed, run to T / 2."""
+    points per cell, every node on or beyond the square's edges fixed, run to T / 2. Scheme
+    "implicit": the implicit solver in one load step, no inertia (the static body force).
+    """
     m = MANUFACTURED
     size, h = m["size"], m["size"] / cells
     margin = 0 if is_bspline(shape_function) else 2
@@ -229,10 +245,16 @@ def manufactured_case(cells: int, shape_function: str, scheme: str) -> dict:
         "node_sets": [{"name": k, "box": box} for k, box in walls.items()],
         "boundary_conditions": [{"where": k, "fix": "xy"} for k in walls],
         "manufactured_solution": {"amplitude": m["amplitude"], "period": m["period"]},
-        "solver": {"shape_function": shape_function, "scheme": scheme},
         "time": {"end_time": 0.5 * m["period"]},
         "output": {"interval": 0.5 * m["period"]},
-    }
+    } | (
+        {
+            "solver": {"type": "implicit", "shape_function": shape_function},
+            "implicit": {"load_steps": 1},
+        }
+        if scheme == "implicit"
+        else {"solver": {"shape_function": shape_function, "scheme": scheme}}
+    )
 
 
 # The moving-boundary manufactured solution: a free disk squeezed by a follower pressure on its
@@ -685,14 +707,15 @@ def slope_rows(
 
 def manufactured_figure(table: pd.DataFrame):
     """Relative L2 errors of the manufactured solution against h, one colour per method
-    (displacement solid, stress dashed), with order-1 and order-2 slopes through the finest
+    (displacement solid, stress dashed; the implicit solver's with triangles), with order-1 and order-2 slopes through the finest
     displacement error of the first method."""
     import matplotlib.pyplot as plt
 
-    figure, axis = plt.subplots(figsize=(6.5, 4.5))
+    figure, axis = plt.subplots(figsize=(10.0, 5.0))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for k, (label, *_) in enumerate(MANUFACTURED_METHODS):
-        for field, style in (("displacement", "o-"), ("stress", "s--")):
+    for k, (label, _, _, scheme) in enumerate(MANUFACTURED_METHODS):
+        markers = ("^-", "v--") if scheme == "implicit" else ("o-", "s--")
+        for field, style in zip(("displacement", "stress"), markers):
             group = table[table["quantity"] == f"manufactured {field} L2 ({label})"]
             axis.loglog(
                 group["h_m"],
@@ -712,7 +735,7 @@ def manufactured_figure(table: pd.DataFrame):
     axis.loglog(h, anchor * (h / h[0]), "k-.", label="order 1")
     axis.set_xlabel("h [m]")
     axis.set_ylabel("relative L2 error at t = T / 2")
-    axis.legend(fontsize=6)
+    axis.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     axis.grid(True, which="both", alpha=0.3)
     return figure
 

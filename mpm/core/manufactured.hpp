@@ -15,6 +15,8 @@
 // Phi_yy = -ky^2 Phi, Phi_xy = kx ky cos(kx (x - x0)) cos(ky (y - y0)):
 //   div sigma = A g [ (lambda + mu) grad(Phi_x + Phi_y) + mu lap(Phi) (1, 1) ],
 //   b = A g'' Phi (1, 1) - div sigma / rho.
+// Without inertia (the implicit solver's load steps) the same u(X, t) is the static answer to
+// b = -div sigma / rho at every t.
 //
 // kUniformDilatation, finite strain, a moving loaded boundary: a free body of any shape squeezed
 // by a follower pressure p0 f(t) on its boundary, f the smooth ramp (smooth_ramp_factor) over
@@ -122,21 +124,37 @@ struct ManufacturedSolution {
   Vec2 body_force(const Vec2& x, double t) const {
     if (kind == ManufacturedKind::kUniformDilatation) return stretch(t).acceleration * (x - centre);
     const Vec2 k = wave_numbers();
+    const double phi =
+        std::sin(k.x() * (x.x() - origin.x())) * std::sin(k.y() * (x.y() - origin.y()));
+    const double w = omega();
+    const double sine = std::sin(w * t), cosine = std::cos(w * t);
+    const double acceleration =
+        amplitude * 0.5 * w * w * (sine * sine + (1.0 - cosine) * cosine) * phi;
+    return Vec2(acceleration, acceleration) - stress_divergence(x, t) / density;
+  }
+
+  /// The quasi-static body force, b = -div sigma / rho (m/s^2): the standing wave's field held
+  /// in equilibrium without inertia, u(X, t) exact at every t (the implicit solver's load steps;
+  /// the uniform dilatation's is zero, its stress being uniform).
+  Vec2 static_body_force(const Vec2& x, double t) const {
+    if (kind == ManufacturedKind::kUniformDilatation) return Vec2::Zero();
+    return -stress_divergence(x, t) / density;
+  }
+
+ private:
+  /// The standing wave's div sigma at the point that started at X, kPa/m.
+  Vec2 stress_divergence(const Vec2& x, double t) const {
+    const Vec2 k = wave_numbers();
     const Vec2 s = x - origin;
     const double sx = std::sin(k.x() * s.x()), cx = std::cos(k.x() * s.x());
     const double sy = std::sin(k.y() * s.y()), cy = std::cos(k.y() * s.y());
     const double phi = sx * sy;
     const double phi_xx = -k.x() * k.x() * phi, phi_yy = -k.y() * k.y() * phi;
     const double phi_xy = k.x() * k.y() * cx * cy;
-    const double w = omega();
     const double g = amplitude * time_factor(t);
     // grad(div u) / g = (Phi_xx + Phi_xy, Phi_xy + Phi_yy); lap u / g = (Phi_xx + Phi_yy)(1, 1).
-    const Vec2 div_sigma = g * ((lambda + mu) * Vec2(phi_xx + phi_xy, phi_xy + phi_yy) +
-                                mu * (phi_xx + phi_yy) * Vec2::Ones());
-    const double sine = std::sin(w * t), cosine = std::cos(w * t);
-    const double acceleration =
-        amplitude * 0.5 * w * w * (sine * sine + (1.0 - cosine) * cosine) * phi;
-    return Vec2(acceleration, acceleration) - div_sigma / density;
+    return g * ((lambda + mu) * Vec2(phi_xx + phi_xy, phi_xy + phi_yy) +
+                mu * (phi_xx + phi_yy) * Vec2::Ones());
   }
 };
 

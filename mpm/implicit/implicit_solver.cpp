@@ -77,7 +77,11 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
              "implicit.load_steps");
     }
   }
-  if (c.manufactured) refuse(c, "/manufactured_solution", "not taken by the implicit solver");
+  if (c.manufactured && c.manufactured->kind == ManufacturedKind::kUniformDilatation) {
+    refuse(c, "/manufactured_solution/type",
+           "\"uniform_dilatation\" is a free body: without supports a quasi-static step's "
+           "stiffness is singular (the implicit solver takes \"standing_wave\")");
+  }
   if (mesh_ && !c.constraints.empty()) {
     refuse(c, "/constraints",
            "a mesh prescribes motion on its nodes (a node set in boundary_conditions with "
@@ -306,6 +310,15 @@ void ImplicitSolver::apply_external_force(Prepared& s) {
   for (std::size_t p = 0; p < n_particles; ++p) {
     for (const NodeWeight& w : s.nodes[p])
       s.external[static_cast<std::size_t>(w.node)].y() -= w.value * particles_.mass[p] * g;
+  }
+  if (c.manufactured) {
+    // A manufactured solution (gravity off): sum_p N_I m_p b(X_p, t_n+1), its static body force.
+    for (std::size_t p = 0; p < n_particles; ++p) {
+      const Vec2 b = particles_.mass[p] *
+                     c.manufactured->static_body_force(particles_.reference_position[p], s.t_end);
+      for (const NodeWeight& w : s.nodes[p])
+        s.external[static_cast<std::size_t>(w.node)] += w.value * b;
+    }
   }
   if (c.loads.empty()) return;  // also while settling under gravity (settle_under_gravity)
   if (mesh_) {

@@ -10,7 +10,8 @@
 //      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
 //      supports, and the external force at t_n+1: gravity sum_p N_I m_p g, the loads on the
 //      boundary detected at t_n and those on the grid-top nodes (mpm/step/grid_top_loads.hpp,
-//      the explicit step's), dead within the step; the constraints on the detected boundary
+//      the explicit step's), dead within the step (a manufactured solution's body force
+//      instead of gravity); the constraints on the detected boundary
 //      (penalty, Nitsche's method or the Implicit Boundary Method, implicit_constraints.cpp),
 //      their forces and stiffness in the residual and the tangent;
 //   2. the unknowns: the displacement increment of every node component that is neither fixed
@@ -125,8 +126,9 @@ class ImplicitSolver {
  public:
   /// Builds the particles of the case's bodies (and K0 stresses when asked); refuses
   /// (InputError naming the JSON path) what this solver does not do: the explicit step's keys
-  /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt), and what it does
-  /// not do yet: a manufactured solution (the "gravity" initial stress: initialise_stress()).
+  /// (solver.scheme, damping, damping_form, pic_fraction; time.cfl, time.dt) and the
+  /// manufactured uniform dilatation (a free body; the standing wave is taken, held by its static
+  /// body force, mpm/core/manufactured.hpp).
   /// With a mesh the step's nodes are the mesh's (see the header comment), and it refuses
   /// constraints on a detected boundary (a mesh prescribes motion on its nodes).
   explicit ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh = nullptr);
