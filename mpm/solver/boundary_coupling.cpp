@@ -45,25 +45,30 @@ void BoundaryCoupling::attach(MpmSolver& solver) {
       times_.detect += seconds_since(start);
     });
   }
-  solver.set_external_force_hook(
-      [this](const StepView& step, GridState& grid_state, std::vector<Vec2>& force) {
-        const bool due = detected_at_step_ < 0 || step.step % case_.detection->every_steps == 0;
-        if (due && detected_at_step_ != step.step) {
-          if (moved_since_detection(step.particles)) {
-            detect_now(step);
-          } else {
-            ++times_.kept;
-          }
-        }
-        if (!loads_.empty()) apply_loads(step, grid_state, force);
-        if (!constraints_.empty()) {
-          const auto start = Clock::now();
-          constraints_.apply(
-              step, grid_state, force,
-              [this](boundary::CurveKind kind) { return curves_for(kind); }, detected_positions_);
-          times_.constraint += seconds_since(start);
-        }
-      });
+  solver.set_external_force_hook([this](const StepView& step, GridState& grid_state,
+                                        std::vector<Vec2>& force) {
+    Detection& detection = detection_for(step);
+    if (!loads_.empty()) apply_loads(step, detection, grid_state, force);
+    if (!constraints_.empty()) {
+      const auto start = Clock::now();
+      constraints_.apply(
+          step, grid_state, force,
+          [&](boundary::CurveKind kind) { return curves(detection, kind); }, detection.positions);
+      times_.constraint += seconds_since(start);
+    }
+  });
+}
+
+BoundaryCoupling::Detection& BoundaryCoupling::detection_for(const StepView& step) {
+  const bool due = !detection_ || step.step % case_.detection->every_steps == 0;
+  if (due && (!detection_ || detection_->step != step.step)) {
+    if (moved_since_detection(step.particles)) {
+      detect_now(step);
+    } else {
+      ++times_.kept;
+    }
+  }
+  return *detection_;
 }
 
 void BoundaryCoupling::tie_material_intervals(const Particles& particles) {
@@ -99,12 +104,13 @@ std::vector<std::array<long, 2>> BoundaryCoupling::interval_particles() const {
 
 bool BoundaryCoupling::moved_since_detection(const Particles& particles) const {
   const std::vector<Vec2>& x = particles.position;
-  if (detected_at_step_ < 0 || detected_positions_.size() != x.size()) return true;
+  if (!detection_ || detection_->positions.size() != x.size()) return true;
   const double limit = case_.detection->max_motion * case_.grid.cell_size;
   if (!(limit > 0.0)) return true;
   const double limit2 = limit * limit;
+  const std::vector<Vec2>& then = detection_->positions;
   for (std::size_t p = 0; p < x.size(); ++p) {
-    if ((x[p] - detected_positions_[p]).squaredNorm() > limit2) return true;
+    if ((x[p] - then[p]).squaredNorm() > limit2) return true;
   }
   return false;
 }
@@ -117,10 +123,11 @@ void BoundaryCoupling::detect_now(const StepView& step) {
   cloud.volume = particles.volume;
   cloud.deformation_gradient = particles.deformation_gradient;
   cloud.initial_spacing = initial_spacing_;
-  boundary_ =
+  detection_ = Detection{};
+  detection_->boundary =
       detect(cloud, case_.grid, case_.detection->detector, detector_state_, &detection_timings_);
-  detected_at_step_ = step.step;
-  detected_positions_ = particles.position;
+  detection_->step = step.step;
+  detection_->positions = particles.position;
   times_.detect += seconds_since(start);
   ++times_.detections;
   const DetectionTimings& t = detection_timings_;
@@ -128,23 +135,24 @@ void BoundaryCoupling::detect_now(const StepView& step) {
   times_.bridges += t.bridges;
   times_.spurious_loops_removed += t.spurious_loops_removed;
   times_.guard_refinement_passes += t.guard_refinement_passes;
-  times_.most_loops = std::max(times_.most_loops, static_cast<long>(boundary_.contours.size()));
+  times_.most_loops =
+      std::max(times_.most_loops, static_cast<long>(detection_->boundary.contours.size()));
 }
 
 const DetectedBoundary& BoundaryCoupling::current_boundary(const StepView& step) {
-  if (detected_at_step_ != step.step) detect_now(step);
-  return boundary_;
+  if (!detection_ || detection_->step != step.step) detect_now(step);
+  return detection_->boundary;
 }
 
-void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
-                                   std::vector<Vec2>& force) {
+void BoundaryCoupling::apply_loads(const StepView& step, Detection& detection,
+                                   GridState& grid_state, std::vector<Vec2>& force) {
   diagnostics_ = SurfaceLoadDiagnostics{};
   const Particles& particles = step.particles;
   const bool keep = case_.output.nodal_loads;
   if (keep) nodal_forces_.clear();
   for (std::size_t k = 0; k < loads_.size(); ++k) {
     SurfaceLoad& load = loads_[k];
-    const std::vector<boundary::CompositeBezier>& curves = curves_for(load.spec.curve);
+    const std::vector<boundary::CompositeBezier>& load_curves = curves(detection, load.spec.curve);
     const auto start = Clock::now();
     boundary::BoundaryLoadSpec spec = load.spec;
     if (load.end_particle[0] >= 0) {
@@ -163,7 +171,7 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
       carriers = {};
     }
     const boundary::BoundaryLoadResult result = integrator_.integrate(
-        curves, spec, load.time_function.factor(step.time), carriers, force, true);
+        load_curves, spec, load.time_function.factor(step.time), carriers, force, true);
     LoadWorkRecorder& recorder = step.load_work;
     for (const boundary::NodalForce& f : result.nodal_forces)
       recorder.add(load.case_index, static_cast<std::size_t>(f.node), f.force);
@@ -204,6 +212,7 @@ void BoundaryCoupling::apply_loads(const StepView& step, GridState& grid_state,
 std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& now,
                                                                std::span<const unsigned> fixed) {
   current_boundary(now);
+  Detection& detection = *detection_;
   const Grid& grid = case_.grid;
   const double h = grid.cell_size;
   std::vector<TractionSample> samples;
@@ -214,7 +223,7 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
   // for lengths, no integral is exact here.
   const auto add_part = [&](boundary::BoundaryLoadSpec spec, double factor, bool known) {
     spec.quadrature.gauss_points = 1;
-    integrator_.quadrature_points(curves_for(spec.curve), spec, points);
+    integrator_.quadrature_points(curves(detection, spec.curve), spec, points);
     const boundary::TractionLaw law = spec.traction_law(factor);
     for (const boundary::CurvePoint& c : points) {
       taken.push_back(c.x);
@@ -244,7 +253,7 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
   all.type = boundary::BoundaryLoadType::kTraction;
   all.faces = boundary::LoadedFaces::kAll;
   all.quadrature.gauss_points = 1;
-  integrator_.quadrature_points(curves_for(boundary::CurveKind::kLinear), all, points);
+  integrator_.quadrature_points(curves(detection, boundary::CurveKind::kLinear), all, points);
   std::sort(taken.begin(), taken.end(), [](const Vec2& a, const Vec2& b) { return a.x() < b.x(); });
   const double near = 0.25 * h;
   for (const boundary::CurvePoint& c : points) {
@@ -279,16 +288,15 @@ std::vector<TractionSample> BoundaryCoupling::traction_samples(const StepView& n
   return samples;
 }
 
-const std::vector<boundary::CompositeBezier>& BoundaryCoupling::curves_for(
-    boundary::CurveKind kind) {
-  if (curves_step_ != detected_at_step_ || curves_kind_ != kind) {
+const std::vector<boundary::CompositeBezier>& BoundaryCoupling::curves(Detection& detection,
+                                                                       boundary::CurveKind kind) {
+  if (detection.curve_kind != kind) {
     const auto start = Clock::now();
-    curves_ = boundary::make_composite_beziers(boundary_.contours, kind);
-    curves_step_ = detected_at_step_;
-    curves_kind_ = kind;
+    detection.curves = boundary::make_composite_beziers(detection.boundary.contours, kind);
+    detection.curve_kind = kind;
     times_.bezier += seconds_since(start);
   }
-  return curves_;
+  return detection.curves;
 }
 
 void BoundaryCoupling::save(CheckpointFile& file) const {
@@ -307,7 +315,8 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/detector/marker_closed", marker_closed);
   file.put("coupling/detector/markers_placed", detector_state_.markers_placed ? 1.0 : 0.0);
   std::vector<double> points, counts, closed;
-  for (const Contour& contour : boundary_.contours) {
+  const std::vector<Contour> none;
+  for (const Contour& contour : detection_ ? detection_->boundary.contours : none) {
     for (const Vec2& x : contour.points) points.insert(points.end(), {x.x(), x.y()});
     counts.push_back(static_cast<double>(contour.points.size()));
     closed.push_back(contour.closed ? 1.0 : 0.0);
@@ -315,8 +324,9 @@ void BoundaryCoupling::save(CheckpointFile& file) const {
   file.put("coupling/boundary/points", points);
   file.put("coupling/boundary/counts", counts);
   file.put("coupling/boundary/closed", closed);
-  file.put("coupling/detected_at_step", static_cast<double>(detected_at_step_));
-  file.put("coupling/detected_positions", flatten(detected_positions_));
+  file.put("coupling/detected_at_step", static_cast<double>(detection_ ? detection_->step : -1));
+  file.put("coupling/detected_positions",
+           detection_ ? flatten(detection_->positions) : std::vector<double>{});
   std::vector<double> ends;
   for (const SurfaceLoad& load : loads_) {
     ends.insert(ends.end(),
@@ -377,26 +387,26 @@ void BoundaryCoupling::restore(const CheckpointFile& file, const StepView& now) 
   std::vector<std::vector<Vec2>> lines;
   std::vector<bool> closed;
   read_polylines(file, "coupling/boundary/", lines, closed);
-  boundary_.contours.clear();
+  Detection detection;
   for (std::size_t k = 0; k < lines.size(); ++k) {
     Contour contour;
     contour.points = std::move(lines[k]);
     contour.closed = closed[k];
-    boundary_.contours.push_back(std::move(contour));
+    detection.boundary.contours.push_back(std::move(contour));
   }
-  detected_at_step_ = file.integer("coupling/detected_at_step", -1, step);
-  curves_step_ = -2;
+  detection.step = file.integer("coupling/detected_at_step", -1, step);
   if (!constraints_.empty()) {  // checkpoints of runs without constraints may lack it
     const std::vector<double>& targets =
         file.get("coupling/constraint_targets", 2 * constraints_.size());
     constraints_.set_target(unflatten<Vec2>(targets));
   }
-  {
-    const std::size_t size = file.get("coupling/detected_positions").size();
-    if (size != 0 && size != 2 * n)
-      file.fail("coupling/detected_positions", "is not one position per particle");
-    detected_positions_ = unflatten<Vec2>(file.get("coupling/detected_positions"));
-  }
+  const std::size_t size = file.get("coupling/detected_positions").size();
+  if (size != 0 && size != 2 * n)
+    file.fail("coupling/detected_positions", "is not one position per particle");
+  detection.positions = unflatten<Vec2>(file.get("coupling/detected_positions"));
+  // A step of -1: the run had not detected yet.
+  detection_.reset();
+  if (detection.step >= 0) detection_ = std::move(detection);
   const std::vector<double>& ends = file.get("coupling/load_ends", 4 * loads_.size());
   for (std::size_t k = 0; k < loads_.size(); ++k) {
     for (int e = 0; e < 2; ++e) {

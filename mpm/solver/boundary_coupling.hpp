@@ -100,7 +100,6 @@ class BoundaryCoupling {
   /// The boundary of the particles as `now` has them (detects unless the last detection was
   /// at its step).
   const DetectedBoundary& current_boundary(const StepView& now);
-  const DetectedBoundary& last_boundary() const { return boundary_; }
   const SurfaceLoadDiagnostics& diagnostics() const { return diagnostics_; }
   /// The particles' spacing in the initial state, m (the loops' classes take it).
   double initial_spacing() const { return initial_spacing_; }
@@ -140,14 +139,30 @@ class BoundaryCoupling {
     std::array<double, 2> end_x0 = {0.0, 0.0};  ///< the ends' particles' initial x, m
   };
 
+  /// A boundary the detector found: the step it was found at, and the particles' positions
+  /// then.
+  struct Detection {
+    long step = 0;
+    DetectedBoundary boundary;
+    std::vector<Vec2> positions;  ///< m
+    /// Its composite curves of the kind last asked for (curves()).
+    std::optional<boundary::CurveKind> curve_kind;
+    std::vector<boundary::CompositeBezier> curves;
+  };
+
+  /// The detection the step's loads and constraints act on: a new one when due (header
+  /// comment), else the last.
+  Detection& detection_for(const StepView& step);
   void detect_now(const StepView& step);
   /// Whether a point has moved more than detection.max_motion x h since the last detection
   /// (true before the first one, and always with max_motion 0).
   bool moved_since_detection(const Particles& particles) const;
-  void apply_loads(const StepView& step, GridState& grid_state, std::vector<Vec2>& force);
-  /// The composite curves of kind `kind` through the last boundary (built once per boundary
-  /// and kind).
-  const std::vector<boundary::CompositeBezier>& curves_for(boundary::CurveKind kind);
+  void apply_loads(const StepView& step, Detection& detection, GridState& grid_state,
+                   std::vector<Vec2>& force);
+  /// The composite curves of kind `kind` through a detection's boundary (built once per
+  /// detection and kind).
+  const std::vector<boundary::CompositeBezier>& curves(Detection& detection,
+                                                       boundary::CurveKind kind);
   void tie_material_intervals(const Particles& particles);
 
   const Case& case_;
@@ -155,12 +170,7 @@ class BoundaryCoupling {
   std::vector<SurfaceLoad> loads_;
   DetectorState detector_state_;
   DetectionTimings detection_timings_;
-  DetectedBoundary boundary_;
-  long detected_at_step_ = -1;
-  std::vector<Vec2> detected_positions_;  ///< the points at the last detection, m
-  std::vector<boundary::CompositeBezier> curves_;
-  long curves_step_ = -2;  ///< detected_at_step_ when curves_ were built (-2: not built)
-  boundary::CurveKind curves_kind_ = boundary::CurveKind::kLinear;
+  std::optional<Detection> detection_;  ///< the last (none before the first)
   boundary::BoundaryLoadIntegrator integrator_;
   BoundaryConstraints constraints_;
   SurfaceLoadDiagnostics diagnostics_;
