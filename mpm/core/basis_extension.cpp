@@ -137,12 +137,33 @@ void BasisExtension::tie_massless(std::span<const int> nodes, std::span<const un
   }
 }
 
+NodeTies BasisExtension::light_arrays(std::span<const double> mass, double density, double upto,
+                                      std::span<const unsigned> fixed, std::span<const Vec2> start,
+                                      std::span<const Vec2> end) {
+  NodeTies arrays;
+  if (!enabled()) return arrays;
+  const int nx = grid_.n_nodes_x();
+  std::vector<char> classified = inner_;
+  std::vector<int> light;
+  for (int node = 0; node < grid_.n_nodes(); ++node) {
+    const auto n = static_cast<std::size_t>(node);
+    inner_[n] = mass[n] >= upto * density * support(node);
+    if (classified[n] && !inner_[n] && fixed[n] == kFixNone && tie_of_[n] < 0)
+      light.push_back(node);
+  }
+  std::swap(ties_, arrays);
+  for (const int j : light) tie(j % nx, j / nx, degree_, fixed, start, end, 1);
+  std::swap(ties_, arrays);
+  inner_ = std::move(classified);
+  return arrays;
+}
+
 bool BasisExtension::tie(int jx, int jy, int max_degree, std::span<const unsigned> fixed,
-                         std::span<const Vec2> start, std::span<const Vec2> end) {
+                         std::span<const Vec2> start, std::span<const Vec2> end, int min_degree) {
   constexpr int kReach = 2;  // nodes between j and its array, at most
   const int nx = grid_.n_nodes_x(), ny = grid_.n_nodes_y();
   const auto j = static_cast<std::size_t>(grid_.node_index(jx, jy));
-  for (int q = max_degree; q >= 0; --q) {
+  for (int q = max_degree; q >= min_degree; --q) {
     int best_x = -1, best_y = -1;
     long best_box = std::numeric_limits<long>::max(), best_centre = best_box;
     for (int ly = std::max(0, jy - q - kReach); ly <= std::min(ny - 1 - q, jy + kReach); ++ly) {

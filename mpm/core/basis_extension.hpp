@@ -80,6 +80,15 @@ class BasisExtension {
   void tie_massless(std::span<const int> nodes, std::span<const unsigned> fixed,
                     std::span<const Vec2> start, std::span<const Vec2> end);
 
+  /// The ghost penalty's arrays (the implicit step, mpm/implicit/implicit_solver.hpp), after
+  /// classify(): each node with material of at least fraction and less than `upto` of a full
+  /// support, free in both components, with the array that classify's rule picks among the
+  /// nodes holding at least `upto` (as a tie's: outer[k] the node; degree 1 or more, so that
+  /// the node's deviation from the extrapolation vanishes on linear fields).
+  NodeTies light_arrays(std::span<const double> mass, double density, double upto,
+                        std::span<const unsigned> fixed, std::span<const Vec2> start,
+                        std::span<const Vec2> end);
+
   const NodeTies& ties() const { return ties_; }
   bool enabled() const { return fraction_ > 0.0; }
   /// int N_I dOmega over the grid, m^2.
@@ -122,9 +131,10 @@ class BasisExtension {
       return T::Zero();
     }
   }
-  /// Ties node (jx, jy) to the nearest usable array of degree <= max_degree; false if none.
+  /// Ties node (jx, jy) to the nearest usable array of degree <= max_degree (and >=
+  /// min_degree); false if none.
   bool tie(int jx, int jy, int max_degree, std::span<const unsigned> fixed,
-           std::span<const Vec2> start, std::span<const Vec2> end);
+           std::span<const Vec2> start, std::span<const Vec2> end, int min_degree = 0);
 
   Grid grid_;
   int degree_ = 1;

@@ -96,8 +96,14 @@ struct ImplicitSolver::Prepared {
   std::vector<std::vector<implicit_detail::NodeStrain>> strain;  // per particle: B per node
   std::vector<implicit_detail::Affine> map;                      // per node component (2 n + d)
   int n_dofs = 0;
-  std::vector<Vec2> external;                            // per node, kN/m
-  implicit_detail::Vector external_reduced;              // T^T f_ext
+  std::vector<Vec2> external;                // per node, kN/m
+  implicit_detail::Vector external_reduced;  // T^T f_ext
+  // The ghost penalty (hold_and_tie): the light nodes with their arrays, each one's stiffness
+  // (kPa); and (build_pattern) each one's unknowns, ascending, and where their pairs sit.
+  NodeTies ghosts;
+  std::vector<double> ghost_stiffness;
+  std::vector<std::vector<int>> ghost_unknowns;
+  std::vector<std::vector<int>> ghost_where;
   std::vector<implicit_detail::ConstraintPoint> points;  // of every constraint
   std::vector<Vec2> constraint_target;                   // u_bar(t_n+1) per constraint, m
   std::vector<char> fitted;                              // per particle: in a point's fit

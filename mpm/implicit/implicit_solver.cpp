@@ -95,6 +95,11 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
     models_.push_back(m.model);
     constants_.push_back(material_constants(m.model));
     hooke_inverse_.push_back(elastic_tangent(constants_.back()).inverse());
+    ghost_modulus_ = std::max(ghost_modulus_, elastic_parameters(m.model).constrained_modulus());
+  }
+  if (!mesh_) {
+    ghost_factor_ = c.solver.ghost_penalty;
+    ghost_fraction_ = 2.0 * c.solver.outer_node_fraction;
   }
 
   const Grid& grid = c.grid;
@@ -297,6 +302,14 @@ void ImplicitSolver::hold_and_tie(Prepared& s) {
   s.tied = extension_.enabled();
   if (s.tied) {
     extension_.classify(s.material, 1.0, fixed_, prescribed_.start(), prescribed_.end());
+    if (ghost_factor_ > 0.0) {
+      s.ghosts = extension_.light_arrays(s.material, 1.0, ghost_fraction_, fixed_,
+                                         prescribed_.start(), prescribed_.end());
+      for (const int j : s.ghosts.outer) {
+        const double f = s.material[static_cast<std::size_t>(j)] / extension_.support(j);
+        s.ghost_stiffness.push_back(ghost_factor_ * ghost_modulus_ * (1.0 - f / ghost_fraction_));
+      }
+    }
   }
 }
 
@@ -639,6 +652,7 @@ Vector ImplicitSolver::evaluate(const Prepared& s, const Vector& at, bool tangen
     double* values = it.tangent.valuePtr();
     for (std::size_t k = 0; k < n_values; ++k) values[k] += it.thread_values[t][k];
   }
+  if (!s.ghosts.empty()) add_ghost_penalty(s, tangent, it);
   Vector residual = s.external_reduced;
   it.internal_norm = 0.0;
   for (std::size_t n = 0; n < n_nodes; ++n) {
@@ -800,6 +814,7 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
     }
   }
   add_constraint_pairs(s, pairs);
+  add_ghost_pairs(s, pairs);
   s.pattern.resize(s.n_dofs, s.n_dofs);
   s.pattern.setFromTriplets(pairs.begin(), pairs.end());
   s.pattern.makeCompressed();
@@ -819,6 +834,86 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
     }
   }
   place_constraint_pairs(s);
+  place_ghost_pairs(s);
+}
+
+namespace {
+
+/// Calls add(node, coefficient) for ghost g's node (1) and its array (minus the weights).
+template <class Add>
+void for_each_ghost_node(const NodeTies& ghosts, std::size_t g, Add&& add) {
+  add(ghosts.outer[g], 1.0);
+  for (int e = ghosts.start[g]; e < ghosts.start[g + 1]; ++e) {
+    add(ghosts.inner[static_cast<std::size_t>(e)], -ghosts.weight[static_cast<std::size_t>(e)]);
+  }
+}
+
+}  // namespace
+
+void ImplicitSolver::add_ghost_pairs(Prepared& s, std::vector<Eigen::Triplet<double>>& pairs) {
+  s.ghost_unknowns.assign(s.ghosts.size(), {});
+  for (std::size_t g = 0; g < s.ghosts.size(); ++g) {
+    std::vector<int>& own = s.ghost_unknowns[g];
+    for_each_ghost_node(s.ghosts, g, [&](int node, double) {
+      for (std::size_t d = 0; d < 2; ++d) {
+        for (const auto& [dof, w] : s.map[2 * static_cast<std::size_t>(node) + d].terms)
+          own.push_back(dof);
+      }
+    });
+    std::sort(own.begin(), own.end());
+    own.erase(std::unique(own.begin(), own.end()), own.end());
+    for (const int i : own)
+      for (const int j : own) pairs.emplace_back(i, j, 0.0);
+  }
+}
+
+void ImplicitSolver::place_ghost_pairs(Prepared& s) {
+  const int* outer = s.pattern.outerIndexPtr();
+  const int* inner = s.pattern.innerIndexPtr();
+  s.ghost_where.assign(s.ghosts.size(), {});
+  for (std::size_t g = 0; g < s.ghosts.size(); ++g) {
+    const std::vector<int>& own = s.ghost_unknowns[g];
+    std::vector<int>& where = s.ghost_where[g];
+    for (const int column : own) {
+      for (const int row : own) {
+        const int* found = std::lower_bound(inner + outer[column], inner + outer[column + 1], row);
+        where.push_back(static_cast<int>(found - inner));
+      }
+    }
+  }
+}
+
+void ImplicitSolver::add_ghost_penalty(const Prepared& s, bool tangent, Iterate& it) {
+  // Per light node j and component d, the energy k g^2 / 2 of its deviation from the
+  // extrapolation of its array, g = du_j - sum_i e_ij du_i: the force k g (1, -e_ij) on the
+  // nodes, the stiffness k c c^T over the unknowns.
+  std::vector<double> c;
+  for (std::size_t g = 0; g < s.ghosts.size(); ++g) {
+    const double k = s.ghost_stiffness[g];
+    const std::vector<int>& own = s.ghost_unknowns[g];
+    for (std::size_t d = 0; d < 2; ++d) {
+      double gap = 0.0;
+      for_each_ghost_node(s.ghosts, g, [&](int node, double w) {
+        gap += w * it.increment[static_cast<std::size_t>(node)][static_cast<Eigen::Index>(d)];
+      });
+      for_each_ghost_node(s.ghosts, g, [&](int node, double w) {
+        it.internal[static_cast<std::size_t>(node)][static_cast<Eigen::Index>(d)] += k * w * gap;
+      });
+      if (!tangent) continue;
+      c.assign(own.size(), 0.0);
+      for_each_ghost_node(s.ghosts, g, [&](int node, double w) {
+        for (const auto& [dof, v] : s.map[2 * static_cast<std::size_t>(node) + d].terms)
+          c[static_cast<std::size_t>(std::lower_bound(own.begin(), own.end(), dof) -
+                                     own.begin())] += w * v;
+      });
+      double* values = it.tangent.valuePtr();
+      const std::vector<int>& where = s.ghost_where[g];
+      for (std::size_t b = 0; b < own.size(); ++b) {
+        for (std::size_t a = 0; a < own.size(); ++a)
+          values[where[b * own.size() + a]] += k * c[a] * c[b];
+      }
+    }
+  }
 }
 
 bool ImplicitSolver::try_step(double dt) {

@@ -7,8 +7,9 @@
 // gravity follow their time functions, nothing is inertial):
 //   1. at the particles' positions of t_n: the shape functions (the case's kind), the material
 //      under each node (sum_p N_I V_p, which also a weightless material has), the ties of the
-//      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule), the
-//      supports, and the external force at t_n+1: gravity sum_p N_I m_p g, the loads on the
+//      nodes with little of it (mpm/core/basis_extension.hpp, the explicit step's rule) and
+//      the ghost penalty of the light nodes next to them (below), the supports, and the
+//      external force at t_n+1: gravity sum_p N_I m_p g, the loads on the
 //      boundary detected at t_n and those on the grid-top nodes (mpm/step/grid_top_loads.hpp,
 //      the explicit step's), dead within the step (a manufactured solution's body force
 //      instead of gravity); the constraints on the detected boundary
@@ -35,6 +36,21 @@
 //      the iterate before), stands for the last correction: a linear step ends after one;
 //   4. the particles moved by sum_I N_I du_I, F = (I + G) F, V = det F V_0, the stress and
 //      plastic strain of the converged iteration kept.
+// The ghost penalty (solver.ghost_penalty, gamma). A node with material of between the tie
+// fraction f and 2 f of a full support keeps its unknown, but what holds it is a sliver of
+// material, and where that sliver is all at yield (perfectly plastic soil beside a footing) the
+// tangent is near singular there and Newton's corrections grow without bound. Each such node j
+// and component takes the energy k g^2 / 2 of its deviation from the extrapolation of its array
+// (the tie's rule, degree p or at least 1), g = du_j - sum_i e_ij du_i, with
+// k = gamma M (1 - f_j / (2 f)), M = lambda + 2 mu of the stiffest material and f_j the node's
+// share of a full support: the stiffness fades to none at 2 f, so no node's operator jumps as
+// its material crosses it. For B-splines of degree p along a node column, g is the (p + 1)-th
+// difference of the coefficients, h^p times the jump of the p-th derivative across the knot:
+// the face ghost penalty of Burman (C. R. Math. 2010) for splines, as the unfitted finite
+// element methods and the implicit MPM (Coombs, AMPLE's ghost stabilisation) use it. g
+// vanishes on polynomials of the array's degree, so the penalty is consistent: it does not act
+// on a linear field (degree 1, uGIMP), nor on a quadratic one along a column (quadratic
+// B-splines).
 // Within a step the geometry is the step's start (B, V and the loads' boundary), so an elastic
 // step is linear in its increment and a large-deformation answer converges in the step size at
 // first order: such a run needs the steps its strains ask for.
@@ -224,6 +240,11 @@ class ImplicitSolver {
   /// The constraint points' pairs of unknowns (rows, columns), and then their places.
   static void add_constraint_pairs(Prepared& s, std::vector<Eigen::Triplet<double>>& pairs);
   static void place_constraint_pairs(Prepared& s);
+  /// The ghost penalty's pairs of unknowns, and then their places.
+  static void add_ghost_pairs(Prepared& s, std::vector<Eigen::Triplet<double>>& pairs);
+  static void place_ghost_pairs(Prepared& s);
+  /// The ghost penalty's forces added to it.internal (and its stiffness to it.tangent).
+  static void add_ghost_penalty(const Prepared& s, bool tangent, Iterate& it);
   /// The constraints' forces added to `residual` (and their stiffness to it.tangent), their
   /// reports into it.reports.
   void add_constraints(const Prepared& s, bool tangent, Iterate& it,
@@ -256,6 +277,9 @@ class ImplicitSolver {
   double strength_factor_ = 1.0;        ///< of models_
   double failed_factor_ = 0.0;          ///< collapsed(): the factor of the last attempt
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
+  double ghost_factor_ = 0.0;           ///< gamma of the ghost penalty (0: none)
+  double ghost_fraction_ = 0.0;         ///< f_s: the light nodes' upper fraction
+  double ghost_modulus_ = 0.0;          ///< M = lambda + 2 mu of the stiffest material, kPa
   /// Per particle, the strain increment of the last converged step if the point yielded in it
   /// (zero otherwise): a zero increment's tangent is probed along it (evaluate_particle).
   std::vector<Strain> yielding_;

@@ -861,7 +861,7 @@ void parse_solver(const JsonView& root, Case& c) {
   std::optional<double> outer_node_fraction;
   if (const auto s = root.find("solver")) {
     s->expect_object({"type", "scheme", "shape_function", "damping", "damping_form", "pic_fraction",
-                      "anti_locking", "outer_node_fraction"});
+                      "anti_locking", "outer_node_fraction", "ghost_penalty"});
     c.solver.type = s->choice_or("type", {"explicit", "implicit"}, "explicit") == "implicit"
                         ? SolverType::kImplicit
                         : SolverType::kExplicit;
@@ -929,6 +929,19 @@ void parse_solver(const JsonView& root, Case& c) {
   }
   c.solver.outer_node_fraction =
       outer_node_fraction.value_or(tied ? kDefaultOuterNodeFraction : 0.0);
+  // The ghost penalty acts on the light nodes next to the tied ones (the tie fraction up to
+  // twice it), in the implicit step's tangent, which the explicit step does not have.
+  const bool ghosted = c.solver.type == SolverType::kImplicit && c.solver.outer_node_fraction > 0.0;
+  c.solver.ghost_penalty = ghosted ? kDefaultGhostPenalty : 0.0;
+  if (const auto s = root.find("solver"); s && s->has("ghost_penalty")) {
+    const JsonView value = s->at("ghost_penalty");
+    c.solver.ghost_penalty = value.as_number();
+    value.require(c.solver.ghost_penalty >= 0.0 && c.solver.ghost_penalty <= 1.0,
+                  "must be in [0, 1] (0: none)");
+    value.require(ghosted || c.solver.ghost_penalty == 0.0,
+                  "must be 0 unless solver.type is \"implicit\" with solver.outer_node_fraction "
+                  "> 0 (it acts on the nodes next to the tied ones, in the implicit tangent)");
+  }
   // Checks that need the shape function, which has a default.
   {
     const int degree = shape_degree(c.solver.shape_function);

@@ -162,6 +162,8 @@ enum class Scheme { kMUSL, kUSL };
 
 /// solver.outer_node_fraction's default with uGIMP and B-splines (linear functions: 0).
 inline constexpr double kDefaultOuterNodeFraction = 0.05;
+/// solver.ghost_penalty's default in an implicit case with ties (otherwise 0).
+inline constexpr double kDefaultGhostPenalty = 1e-3;
 
 /// solver.type: the explicit dynamic MPM (mpm/solver/mpm_solver.hpp) or the implicit
 /// quasi-static one (mpm/implicit/implicit_solver.hpp).
@@ -210,6 +212,10 @@ struct SolverSpec {
   /// neighbours (mpm/core/basis_extension.hpp); 0 leaves every node free. Set by the case
   /// reader: kDefaultOuterNodeFraction with uGIMP and B-splines, 0 with linear functions.
   double outer_node_fraction = 0.0;
+  /// The implicit step's ghost penalty (implicit_solver.hpp): gamma, the stiffness gamma M on a
+  /// light node's deviation from its array's extrapolation; 0 for none. Set by the case reader:
+  /// kDefaultGhostPenalty in an implicit case with ties, 0 otherwise.
+  double ghost_penalty = 0.0;
 };
 
 struct TimeSpec {

@@ -245,6 +245,46 @@ nlohmann::json footing_case(double pressure, int load_steps, int max_cuts, bool 
 
 constexpr double kPrandtl = (2.0 + std::numbers::pi) * 40.0;  // kPa
 
+TEST(ImplicitSolver, TheGhostPenaltyIsConsistentAndInTheTangent) {
+  // An elastic body 2 m wide whose top falls from 4 m to 3.3 m across it, under its weight in 2
+  // load steps: along the sloping top some nodes hold between the tie fraction and twice it, so
+  // the ghost penalty acts (implicit_solver.hpp). With it a hundred times the default:
+  //  - every step, linear, still ends after one correction at round-off: the penalty's stiffness
+  //    in the tangent is the derivative of its forces;
+  //  - the settlement of the highest point moves (the penalty acts) by less than 1e-3: it acts
+  //    only on what the nodes' arrays do not reproduce, the smooth field's higher differences
+  //    (a penalty on the nodes' own increments would hold the top back by percents).
+  nlohmann::json document = column_case("gimp", 5e4);
+  document["bodies"][0].erase("rectangle");
+  document["bodies"][0]["polygon"] = {{0.0, 0.0}, {2.0, 0.0}, {2.0, 3.3}, {0.0, 4.0}};
+  document["grid"]["n_cells"] = {8, 20};
+  document.erase("loads");
+  document["implicit"]["load_steps"] = 2;
+  for (const char* shape : {"gimp", "quadratic_bspline"}) {
+    SCOPED_TRACE(shape);
+    std::vector<double> settlement;
+    for (const double gamma : {0.0, 0.1}) {
+      document["solver"]["shape_function"] = shape;
+      document["solver"]["ghost_penalty"] = gamma;
+      const Case c = parse_case(document, "ghost.json");
+      ImplicitSolver solver(c);  // keeps a reference to the case
+      solver.run_to(1.0);
+      for (const LoadStepLog& e : solver.log()) {
+        ASSERT_EQ(e.residuals.size(), 2u) << "t = " << e.time;
+        EXPECT_LT(e.residuals.back(), 1e-12) << "t = " << e.time;
+      }
+      const auto& x = solver.particles().position;
+      const auto top = std::max_element(x.begin(), x.end(),
+                                        [](const Vec2& a, const Vec2& b) { return a.y() < b.y(); });
+      const auto p = static_cast<std::size_t>(top - x.begin());
+      settlement.push_back(solver.particles().reference_position[p].y() - x[p].y());
+    }
+    const double change = std::abs(settlement[1] / settlement[0] - 1.0);
+    EXPECT_GT(change, 1e-7);
+    EXPECT_LT(change, 1e-3);
+  }
+}
+
 TEST(ImplicitSolver, NewtonConvergesQuadraticallyOnAPlasticFooting) {
   const Case c = parse_case(footing_case(0.9 * kPrandtl, 10, 8), "footing.json");
   ImplicitSolver solver(c);
@@ -427,6 +467,16 @@ TEST(ImplicitSolver, RefusesWhatItCannotHonour) {
   nlohmann::json late = base;
   late["implicit"]["strength_reduction"] = {{"start_time", 1.0}, {"final_factor", 2.0}};
   refused(late, "/implicit/strength_reduction/start_time");
+  // The ghost penalty is the implicit tangent's, next to the ties.
+  nlohmann::json ghost_explicit = base;
+  ghost_explicit.erase("implicit");
+  ghost_explicit["solver"]["type"] = "explicit";
+  ghost_explicit["solver"]["ghost_penalty"] = 1e-3;
+  refused(ghost_explicit, "/solver/ghost_penalty");
+  nlohmann::json ghost_untied = base;
+  ghost_untied["solver"]["outer_node_fraction"] = 0.0;
+  ghost_untied["solver"]["ghost_penalty"] = 1e-3;
+  refused(ghost_untied, "/solver/ghost_penalty");
   // The implicit block belongs to the implicit solver.
   nlohmann::json explicit_case = base;
   explicit_case["solver"]["type"] = "explicit";
