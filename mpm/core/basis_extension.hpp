@@ -84,7 +84,8 @@ class BasisExtension {
   /// classify(): each node with material of at least fraction and less than `upto` of a full
   /// support, free in both components, with the array that classify's rule picks among the
   /// nodes holding at least `upto` (as a tie's: outer[k] the node; degree 1 or more, so that
-  /// the node's deviation from the extrapolation vanishes on linear fields).
+  /// the node's deviation from the extrapolation vanishes on linear fields; a node that no
+  /// such array within reach fits is left out).
   NodeTies light_arrays(std::span<const double> mass, double density, double upto,
                         std::span<const unsigned> fixed, std::span<const Vec2> start,
                         std::span<const Vec2> end);
