@@ -1,9 +1,13 @@
 // The tests' main: GoogleTest's, except that what a test writes to its standard output and
 // error (the figures it measured, for a reader chasing a failure) is held back and shown only
 // when the test fails, or always with PFM_TEST_VERBOSE=1. A test that passes prints nothing but
-// GoogleTest's own lines.
+// GoogleTest's own lines. Under the sanitizers a report that ends the process is shown with
+// what the test had written before it.
 #include <gtest/gtest.h>
 #include <unistd.h>
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/common_interface_defs.h>
+#endif
 
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +18,22 @@ namespace {
 
 class HoldOutput : public testing::EmptyTestEventListener {
  public:
+  HoldOutput() { instance_ = this; }
+  /// A sanitizer's report (written to the held stderr) ends the process before OnTestEnd: the
+  /// held file goes to the real stderr first, the report with what the test had written (its
+  /// output still buffered in stdio after the report).
+  static void release_on_death() {
+    const HoldOutput* self = instance_;
+    if (self == nullptr || self->held_ == nullptr || self->saved_err_ < 0) return;
+    flush();
+    const int held = fileno(self->held_);
+    if (lseek(held, 0, SEEK_SET) < 0) return;
+    char buffer[4096];
+    ssize_t n = 0;
+    while ((n = read(held, buffer, sizeof buffer)) > 0) {
+      if (write(self->saved_err_, buffer, static_cast<std::size_t>(n)) < 0) return;
+    }
+  }
   // GoogleTest calls the listeners in order at a test's start and in reverse order at its end:
   // its printer's "[ RUN ]" comes before the hold, its "[ OK ]" after the release.
   void OnTestStart(const testing::TestInfo&) override {
@@ -69,6 +89,7 @@ class HoldOutput : public testing::EmptyTestEventListener {
   }
   std::FILE* held_ = nullptr;
   int saved_out_ = -1, saved_err_ = -1;
+  static inline const HoldOutput* instance_ = nullptr;
 };
 
 }  // namespace
@@ -78,6 +99,9 @@ int main(int argc, char** argv) {
   const char* verbose = std::getenv("PFM_TEST_VERBOSE");
   if (verbose == nullptr || std::string(verbose).empty() || std::string(verbose) == "0") {
     testing::UnitTest::GetInstance()->listeners().Append(new HoldOutput);
+#if defined(__SANITIZE_ADDRESS__)
+    __sanitizer_set_death_callback(&HoldOutput::release_on_death);
+#endif
   }
   return RUN_ALL_TESTS();
 }
