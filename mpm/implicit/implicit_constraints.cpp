@@ -331,11 +331,8 @@ void ImplicitSolver::add_constraint_pairs(Prepared& s, std::vector<Eigen::Triple
 }
 
 void ImplicitSolver::place_constraint_pairs(Prepared& s) {
-  const int* outer = s.pattern.outerIndexPtr();
-  const int* inner = s.pattern.innerIndexPtr();
   const auto place = [&](int row, int column) {
-    return static_cast<int>(
-        std::lower_bound(inner + outer[column], inner + outer[column + 1], row) - inner);
+    return implicit_detail::place(s.pattern, row, column);
   };
   for (ConstraintPoint& q : s.points) {
     q.position.resize(q.rows.size() * q.cols.size());

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Sparse>
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -34,6 +35,15 @@ struct Affine {
 };
 
 using NodeWeight = pfm::NodeWeight;
+
+// Where entry (row, column) of a compressed column-major pattern sits among its stored values
+// (the entry must be in the pattern).
+inline int place(const SparseMatrix& pattern, int row, int column) {
+  const int* outer = pattern.outerIndexPtr();
+  const int* inner = pattern.innerIndexPtr();
+  return static_cast<int>(std::lower_bound(inner + outer[column], inner + outer[column + 1], row) -
+                          inner);
+}
 
 // The nodes of a stencil that lie on the grid (a B-spline stencil at the grid's edge starts
 // one node outside it, with zero weight there).

@@ -97,10 +97,6 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
     hooke_inverse_.push_back(elastic_tangent(constants_.back()).inverse());
     ghost_modulus_ = std::max(ghost_modulus_, elastic_parameters(m.model).constrained_modulus());
   }
-  if (!mesh_) {
-    ghost_factor_ = c.solver.ghost_penalty;
-    ghost_fraction_ = 2.0 * c.solver.outer_node_fraction;
-  }
 
   const Grid& grid = c.grid;
   n_nodes_ = mesh_ ? mesh_->n_nodes() : static_cast<std::size_t>(grid.n_nodes());
@@ -302,12 +298,15 @@ void ImplicitSolver::hold_and_tie(Prepared& s) {
   s.tied = extension_.enabled();
   if (s.tied) {
     extension_.classify(s.material, 1.0, fixed_, prescribed_.start(), prescribed_.end());
-    if (ghost_factor_ > 0.0) {
-      s.ghosts = extension_.light_arrays(s.material, 1.0, ghost_fraction_, fixed_,
-                                         prescribed_.start(), prescribed_.end());
+    // The ghost penalty (header comment) on the nodes between the tie fraction and twice it.
+    const double gamma = case_.solver.ghost_penalty;
+    const double upto = 2.0 * case_.solver.outer_node_fraction;
+    if (gamma > 0.0) {
+      s.ghosts = extension_.light_arrays(s.material, 1.0, upto, fixed_, prescribed_.start(),
+                                         prescribed_.end());
       for (const int j : s.ghosts.outer) {
         const double f = s.material[static_cast<std::size_t>(j)] / extension_.support(j);
-        s.ghost_stiffness.push_back(ghost_factor_ * ghost_modulus_ * (1.0 - f / ghost_fraction_));
+        s.ghost_stiffness.push_back(gamma * ghost_modulus_ * (1.0 - f / upto));
       }
     }
   }
@@ -818,19 +817,13 @@ void ImplicitSolver::build_pattern(Prepared& s) const {
   s.pattern.resize(s.n_dofs, s.n_dofs);
   s.pattern.setFromTriplets(pairs.begin(), pairs.end());
   s.pattern.makeCompressed();
-  const int* outer = s.pattern.outerIndexPtr();
-  const int* inner = s.pattern.innerIndexPtr();
   s.positions.resize(sets.size());
   for (const auto& [own, index] : sets) {
     std::vector<int>& where = s.positions[static_cast<std::size_t>(index)];
     where.resize(own.size() * own.size());
     for (std::size_t a = 0; a < own.size(); ++a) {
-      for (std::size_t b = 0; b < own.size(); ++b) {
-        const int column = own[b];  // column-major storage: rows of `column` ascending
-        const int* found =
-            std::lower_bound(inner + outer[column], inner + outer[column + 1], own[a]);
-        where[a * own.size() + b] = static_cast<int>(found - inner);
-      }
+      for (std::size_t b = 0; b < own.size(); ++b)
+        where[a * own.size() + b] = implicit_detail::place(s.pattern, own[a], own[b]);
     }
   }
   place_constraint_pairs(s);
@@ -868,17 +861,12 @@ void ImplicitSolver::add_ghost_pairs(Prepared& s, std::vector<Eigen::Triplet<dou
 }
 
 void ImplicitSolver::place_ghost_pairs(Prepared& s) {
-  const int* outer = s.pattern.outerIndexPtr();
-  const int* inner = s.pattern.innerIndexPtr();
   s.ghost_where.assign(s.ghosts.size(), {});
   for (std::size_t g = 0; g < s.ghosts.size(); ++g) {
     const std::vector<int>& own = s.ghost_unknowns[g];
-    std::vector<int>& where = s.ghost_where[g];
     for (const int column : own) {
-      for (const int row : own) {
-        const int* found = std::lower_bound(inner + outer[column], inner + outer[column + 1], row);
-        where.push_back(static_cast<int>(found - inner));
-      }
+      for (const int row : own)
+        s.ghost_where[g].push_back(implicit_detail::place(s.pattern, row, column));
     }
   }
 }

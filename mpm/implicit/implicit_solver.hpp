@@ -277,8 +277,6 @@ class ImplicitSolver {
   double strength_factor_ = 1.0;        ///< of models_
   double failed_factor_ = 0.0;          ///< collapsed(): the factor of the last attempt
   std::vector<Tangent> hooke_inverse_;  ///< per material: d sigma / d trial = D_alg D^-1
-  double ghost_factor_ = 0.0;           ///< gamma of the ghost penalty (0: none)
-  double ghost_fraction_ = 0.0;         ///< f_s: the light nodes' upper fraction
   double ghost_modulus_ = 0.0;          ///< M = lambda + 2 mu of the stiffest material, kPa
   /// Per particle, the strain increment of the last converged step if the point yielded in it
   /// (zero otherwise): a zero increment's tangent is probed along it (evaluate_particle).

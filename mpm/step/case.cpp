@@ -859,6 +859,7 @@ void parse_solver(const JsonView& root, Case& c) {
   const bool mean_dilatation = largest_poisson_ratio >= kBbarPoissonRatio || seeks_collapse;
   c.solver.mean_dilatation = mean_dilatation;
   std::optional<double> outer_node_fraction;
+  std::optional<JsonView> ghost_penalty;
   if (const auto s = root.find("solver")) {
     s->expect_object({"type", "scheme", "shape_function", "damping", "damping_form", "pic_fraction",
                       "anti_locking", "outer_node_fraction", "ghost_penalty"});
@@ -897,6 +898,7 @@ void parse_solver(const JsonView& root, Case& c) {
           .require(*outer_node_fraction >= 0.0 && *outer_node_fraction <= 0.5,
                    "must be in [0, 0.5] (0 leaves every node free)");
     }
+    ghost_penalty = s->find("ghost_penalty");
   }
   // The ties of nearly empty nodes (mpm/core/basis_extension.hpp): on by default with uGIMP and
   // B-splines (linear functions, the thesis's, keep their results). The explicit step's
@@ -933,14 +935,14 @@ void parse_solver(const JsonView& root, Case& c) {
   // twice it), in the implicit step's tangent, which the explicit step does not have.
   const bool ghosted = c.solver.type == SolverType::kImplicit && c.solver.outer_node_fraction > 0.0;
   c.solver.ghost_penalty = ghosted ? kDefaultGhostPenalty : 0.0;
-  if (const auto s = root.find("solver"); s && s->has("ghost_penalty")) {
-    const JsonView value = s->at("ghost_penalty");
-    c.solver.ghost_penalty = value.as_number();
-    value.require(c.solver.ghost_penalty >= 0.0 && c.solver.ghost_penalty <= 1.0,
-                  "must be in [0, 1] (0: none)");
-    value.require(ghosted || c.solver.ghost_penalty == 0.0,
-                  "must be 0 unless solver.type is \"implicit\" with solver.outer_node_fraction "
-                  "> 0 (it acts on the nodes next to the tied ones, in the implicit tangent)");
+  if (ghost_penalty) {
+    c.solver.ghost_penalty = ghost_penalty->as_number();
+    ghost_penalty->require(c.solver.ghost_penalty >= 0.0 && c.solver.ghost_penalty <= 1.0,
+                           "must be in [0, 1] (0: none)");
+    ghost_penalty->require(
+        ghosted || c.solver.ghost_penalty == 0.0,
+        "must be 0 unless solver.type is \"implicit\" with solver.outer_node_fraction > 0 (it "
+        "acts on the nodes next to the tied ones, in the implicit tangent)");
   }
   // Checks that need the shape function, which has a default.
   {
