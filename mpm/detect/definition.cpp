@@ -37,8 +37,12 @@ double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b) {
   return best;
 }
 
-int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h) {
+int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h,
+                    double spacing) {
   if (config.refinement > 0) return config.refinement;
+  // Fine cells of at most half a spacing (the rounding's 1e-9 keeps 2 x 2 points per cell at 4;
+  // capped before the conversion, as below: a spacing of nothing asks for any refinement).
+  const int base = static_cast<int>(std::clamp(std::ceil(2.0 * h / spacing - 1e-9), 4.0, 1e6));
   // Joining the spurious loops, the second pass (the bridges) keeps the first's refinement.
   const int base_passes = config.join_spurious_loops ? 2 : 1;
   const double axis =
@@ -46,12 +50,12 @@ int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guar
   // (Capped before the conversion: a guard squeezed to nothing asks for any refinement.)
   const int refinement = std::isfinite(axis)
                              ? static_cast<int>(std::min(std::ceil(h * std::sqrt(2.0) / axis), 1e6))
-                             : 4;
+                             : base;
   // Kernels shaped by the neighbours narrow their guards by up to sqrt(1 - beta) across: the cap
   // grows as much, so that it covers the guards of F as it does without the option.
   const int cap = static_cast<int>(
       std::ceil(std::max(1, config.max_refinement) / std::sqrt(1.0 - config.neighbour_shape)));
-  return std::clamp(std::max(refinement, 4), 1, cap);
+  return std::clamp(std::max(refinement, base), 1, cap);
 }
 
 std::optional<NextPass> next_pass(const ImprovedConfig& config, int pass,

@@ -36,14 +36,20 @@ DetectedBoundary detect_improved_reference(const ParticleCloud& cloud, const Gri
 /// Chebyshev (max-norm) distance from x to the segment a-b (a point: a == b), m.
 double chebyshev_distance(const Vec2& x, const Vec2& a, const Vec2& b);
 /// The refinement of contour pass `pass` (0, 1 or, joining spurious loops, 2), for a grid of
-/// cell h (m) and the smallest semi-axis of an active guard (m; infinity: none). Automatic
-/// (config.refinement <= 0): 4 for the first pass and, joining spurious loops, for the bridges'
-/// pass; the last pass takes cells whose diagonal fits in the smallest guard, so that a guarded
-/// particle has the four corners of its fine cell inside (capped at max_refinement /
-/// sqrt(1 - neighbour_shape)). The first pass does not refine for the guards: a few guarded
-/// corner particles of a long face would refine the whole band, and the containment check sends
-/// what it misses to the last pass.
-int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h);
+/// cell h (m), the particles' initial spacing (m) and the smallest semi-axis of an active guard
+/// (m; infinity: none). Automatic (config.refinement <= 0): for the first pass and, joining
+/// spurious loops, for the bridges' pass, the smallest refinement >= 4 whose fine cell is at most
+/// half a spacing (4 up to 2 x 2 points per cell, 2 n at n x n); the last pass takes cells whose
+/// diagonal fits in the smallest guard, so that a guarded particle has the four corners of its
+/// fine cell inside (capped at max_refinement / sqrt(1 - neighbour_shape)). The fine cell scales
+/// with the spacing because the contours' corners and the bridges do: marching squares on cells
+/// a spacing wide cut a body's convex corner off past its corner particle, and that particle's
+/// bridge (a square of 1.25 fine cells around it) would then stand out of the body by 1.25 cells
+/// less half a spacing. The first pass does not refine for the guards: a few guarded corner
+/// particles of a long face would refine the whole band, and the containment check sends what it
+/// misses to the last pass.
+int pass_refinement(const ImprovedConfig& config, int pass, double smallest_guard_axis, double h,
+                    double spacing);
 /// The bridges of the second pass (ImprovedConfig::join_spurious_loops): from each particle of
 /// `left_out` to every particle within kContactSpacings initial spacings of it, and the contacts
 /// of the spurious islands of `classes`; pairs in increasing order, each once.

@@ -76,11 +76,12 @@ struct ImprovedConfig {
   /// pass (Invariants.StackedPointsSmallerThanAFineCellAreGuardedInASecondPass).
   double guard_factor = 0.6;
   double guard_margin = 0.02;
-  /// Field cell = grid cell / refinement. 0 = automatic: 4 (the bridges' pass too), and if the
-  /// contours still leave a particle outside (the containment check tests every particle outside
-  /// the interior cells, guarded or not), a last pass at the smallest refinement >= 4 whose cells
-  /// fit in every active guard ellipse (cell diagonal <= smallest guard semi-axis), capped at
-  /// max_refinement.
+  /// Field cell = grid cell / refinement. 0 = automatic: 4, or finer where half a spacing is
+  /// less than h / 4 (2 n at n x n points per cell; the bridges' pass too), and if the contours
+  /// still leave a particle outside (the containment check tests every particle outside the
+  /// interior cells, guarded or not), a last pass at the smallest refinement at least that whose
+  /// cells fit in every active guard ellipse (cell diagonal <= smallest guard semi-axis), capped
+  /// at max_refinement (detail::pass_refinement).
   int refinement = 0;
   int max_refinement = 32;
   SaddleRule saddle_rule = SaddleRule::kAsymptoticDecider;

@@ -340,7 +340,8 @@ DetectedBoundary detect_improved(const ParticleCloud& input, const Grid& grid,
   for (int pass = 0;; ++pass) {
     classes.reset();
     lap.restart();
-    const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h);
+    const int r =
+        pass_refinement(config, pass, field.smallest_guard_axis(), h, cloud.initial_spacing);
     timings.refinement = r;
     FineNodes& nodes = pass_nodes(kept_nodes, memo, changed, r, grid, field, config,
                                   cloud.initial_spacing, field_evaluations);

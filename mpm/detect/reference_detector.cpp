@@ -319,14 +319,15 @@ DetectedBoundary detect_improved_reference(const ParticleCloud& input, const Gri
     ++evaluations;
     return field(x);
   };
-  // Contour passes: the first at refinement 4; then, if a particle lies outside the contours or
-  // an island touches other material, one with bridges (join_spurious_loops) or with those
-  // particles guarded; then, if a particle is still outside, one at the guards' refinement.
+  // Contour passes: the first at refinement 4 (finer beyond 2 x 2 points per cell:
+  // pass_refinement); then, if a particle lies outside the contours or an island touches other
+  // material, one with bridges (join_spurious_loops) or with those particles guarded; then, if a
+  // particle is still outside, one at the guards' refinement.
   DetectedBoundary boundary;
   std::optional<LoopClasses> classes;
   for (int pass = 0;; ++pass) {
     classes.reset();
-    const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h);
+    const int r = pass_refinement(config, pass, field.smallest_guard_axis(), h, spacing);
     timings.refinement = r;
     NodalField nodes;
     nodes.origin = grid.origin;

@@ -153,16 +153,17 @@ TEST(Invariants, NeighbourShapedDetectorHasNoViolations) {
 namespace pfm::test {
 namespace {
 
-// Four points stacked at a fine cell's centre (spacing 0.1 m, so phi = 0.566 there, above the
-// guard margin) make an island of radius 0.06 m that no node of the 0.125 m fine cells sees:
+// Four points stacked at a fine cell's centre (spacing 0.1 m, kernels of 1.5 spacings and a
+// quarter of the volume of a spacing squared each, so phi = 0.566 there, above the guard margin)
+// make an island of radius 0.03 m that no node of the 0.05 m fine cells (half a spacing) sees:
 // the first contours miss it, the containment check guards the four points, and the second
 // pass finds their island (fuzz_detect's finding, tests/fuzz/README.md).
 TEST(Invariants, StackedPointsSmallerThanAFineCellAreGuardedInASecondPass) {
   OwnedCloud cloud;
   cloud.initial_spacing = 0.1;
   for (int k = 0; k < 4; ++k) {
-    cloud.position.emplace_back(3.0625, 2.4375);
-    cloud.volume.push_back(0.01);
+    cloud.position.emplace_back(3.025, 2.425);
+    cloud.volume.push_back(0.0025);
   }
   Grid g;
   g.cell_size = 0.5;
@@ -170,6 +171,7 @@ TEST(Invariants, StackedPointsSmallerThanAFineCellAreGuardedInASecondPass) {
   g.n_cells_y = 10;
   DetectorConfig band, full;
   band.method = full.method = DetectorMethod::kImproved;
+  band.improved.radius_factor = full.improved.radius_factor = 1.5;
   full.improved.narrow_band = false;
   for (const DetectorConfig* config : {&band, &full}) {
     DetectorState state;

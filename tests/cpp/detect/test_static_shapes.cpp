@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <string>
 
 #include "detect_test_support.hpp"
 
@@ -81,6 +82,46 @@ TEST(StaticShapes, RectangleFlatFaces) {
         EXPECT_EQ(b.contours.size(), 1u);
         EXPECT_LE(faces.max, 0.02);
       }
+    }
+  }
+}
+
+TEST(StaticShapes, RectangleCornersStayInsideAtEveryPointCount) {
+  // The rectangle at n x n points per cell (equal spacing s = h / n): the contours keep every
+  // point inside, and no sample lies outside the rectangle by more than the flat faces' bar,
+  // corners included; the corners are cut by a fixed fraction of a spacing. With fine cells of
+  // h / 4 at every n, the first contours would cut a corner off past its corner point at n >= 3,
+  // and that point's bridge would stand out of the body (pass_refinement).
+  const Vec2 lo(2, 2), hi(8, 6);
+  const std::vector<Vec2> rect = {lo, Vec2(hi.x(), lo.y()), hi, Vec2(lo.x(), hi.y())};
+  for (const int n : {2, 3, 4, 5}) {
+    OwnedCloud cloud;
+    const double s = kH / n;
+    cloud.initial_spacing = s;
+    for (double y = lo.y() + 0.5 * s; y < hi.y(); y += s) {
+      for (double x = lo.x() + 0.5 * s; x < hi.x(); x += s) {
+        cloud.position.emplace_back(x, y);
+        cloud.volume.push_back(s * s);
+      }
+    }
+    for (const int variant : {1, 2}) {
+      SCOPED_TRACE(std::to_string(n) + " x " + std::to_string(n) + " " + variant_name(variant));
+      const DetectedBoundary b = run(cloud, variant_config(variant));
+      ASSERT_EQ(b.contours.size(), 1u);
+      double outside = 0.0;  // the largest distance outside the rectangle, m
+      for (const Vec2& p : boundary_samples(b)) {
+        const Vec2 beyond = (lo - p).cwiseMax(p - hi).cwiseMax(0.0);
+        outside = std::max(outside, beyond.norm());
+      }
+      const FaceReport r = face_distances(b, rect, 1.5 * kernel_radius(improved_config()) + kH, kH);
+      std::printf("rectangle %d x %d %-8s outside %.4f h  faces max %.4f h  corners max %.4f h\n",
+                  n, n, variant_name(variant), outside / kH, r.faces.max, r.corner.max);
+      EXPECT_LE(outside / kH, 0.02);
+      EXPECT_LE(r.faces.max, 0.02);
+      EXPECT_LE(r.corner.max * kH, 0.4 * s);  // 0.35 s at every n
+      int left_out = 0;
+      for (const Vec2& x : cloud.position) left_out += material_winding(b, x) != 1;
+      EXPECT_EQ(left_out, 0);
     }
   }
 }
