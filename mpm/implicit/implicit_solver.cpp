@@ -95,8 +95,8 @@ ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh
     models_.push_back(m.model);
     constants_.push_back(material_constants(m.model));
     hooke_inverse_.push_back(elastic_tangent(constants_.back()).inverse());
-    ghost_modulus_ = std::max(ghost_modulus_, elastic_parameters(m.model).constrained_modulus());
   }
+  ghost_modulus_ = largest_constrained_modulus(c.materials);
 
   const Grid& grid = c.grid;
   n_nodes_ = mesh_ ? mesh_->n_nodes() : static_cast<std::size_t>(grid.n_nodes());

@@ -285,6 +285,13 @@ bool NodeSet::contains(const Vec2& x, double tolerance) const {
   return false;
 }
 
+double largest_constrained_modulus(const std::vector<MaterialRecord>& materials) {
+  double modulus = 0.0;
+  for (const MaterialRecord& m : materials)
+    modulus = std::max(modulus, elastic_parameters(m.model).constrained_modulus());
+  return modulus;
+}
+
 double largest_wave_speed(const Case& c) {
   const double g = c.gravity.g > 0.0 ? c.gravity.g : 9.81;
   double speed = 0.0;
@@ -766,9 +773,7 @@ void parse_loads(const JsonView& root, Case& c) {
 void parse_constraints(const JsonView& root, Case& c) {
   if (const auto constraints = root.find("constraints")) {
     // The stiffest material's constrained modulus, the scale of the default penalty.
-    double modulus = 0.0;
-    for (const MaterialRecord& m : c.materials)
-      modulus = std::max(modulus, elastic_parameters(m.model).constrained_modulus());
+    const double modulus = largest_constrained_modulus(c.materials);
     for (std::size_t k = 0; k < constraints->array_size(); ++k) {
       const JsonView v = constraints->at(k);
       v.expect_object({"apply_on", "x_range", "faces", "normal", "curve", "interval",

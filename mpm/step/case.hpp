@@ -329,6 +329,10 @@ nlohmann::json resolved_case(const Case& c);
 /// never advanced: the run hung).
 void check_run_length(const Case& c, double dt);
 
+/// The largest constrained modulus M = lambda + 2 mu of the case's materials, kPa: the scale of
+/// the constraints' default penalty and of the implicit step's ghost penalty.
+double largest_constrained_modulus(const std::vector<MaterialRecord>& materials);
+
 /// The largest P-wave speed sqrt(M / rho) of the case's materials at their initial density
 /// rho = unit weight / g (g = 9.81 m/s^2 when gravity is off), m/s: with the cell or element size
 /// it gives the critical time step of both solvers. Throws InputError when every material is
