@@ -47,7 +47,9 @@ What it measures:
   against (2 + pi) c along the settlement, its plateau's mean over s / b in [0.03, 0.12]
   (issue 25 must-show 2) and its mean over windows of s / b, where the constraint is compared
   with the UL-FEM of the same h (the reaction rises along the settlement on both: the footing
-  sinks into its heave);
+  sinks into its heave); the constraint at factor 16 also on the default shape functions, at 8
+  and 16 cells under b; per constraint run the deepest dip of the reaction, and each 8-cell run
+  against its 16-cell twin window by window (issue 45 must-show 4);
 * ``disk``: a plane-strain elastic disk (R = 2 m, centre node fixed) under a uniform pressure
   of 10 kPa applied as a follower pressure on its detected boundary (improved detector, every
   step): the uniform radial strain against the closed form -p (1 + nu)(1 - 2 nu) / E, the test
@@ -119,6 +121,8 @@ from studies.benchmarks.footing import (
     footing_curve,
     footing_plateau_line,
     footing_against_ulfem,
+    footing_against_refined,
+    footing_dip,
     _footing,
 )
 from studies.benchmarks.constraint import (
@@ -170,6 +174,8 @@ __all__ = [
     "footing_curve",
     "footing_plateau_line",
     "footing_against_ulfem",
+    "footing_against_refined",
+    "footing_dip",
     "constraint_lattice",
     "constraint_case",
     "constraint_jobs",

@@ -110,6 +110,9 @@ FOOTING = {
     # The reaction's mean over each of these windows of s / b too: it rises along the
     # settlement, on the UL-FEM as well (the footing sinks into its heave)
     "windows": ((0.01, 0.03), (0.03, 0.06), (0.06, 0.09), (0.09, 0.12)),
+    # The dips (footing_dip): the reaction's means over windows this wide (s / b), from the
+    # plateau's start on
+    "dip_window": 0.01,
     # The constraint at the first penalty factor and the UL-FEM again with this many cells
     # under b: the h-dependence of both
     "refined_cells": 16,

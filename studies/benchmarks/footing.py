@@ -29,13 +29,15 @@ def footing_case(
     method: str = "penalty",
     speedup: float = 1.0,
     cells: int | None = None,
+    shape_function: str | None = "gimp",
 ) -> dict:
     """The rigid footing of FOOTING: `how` "constraint" (on the detected top, x <= b, with
     `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over
     x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than
     1: slower) to the same settlement, with `cells` cells (or elements) under b (default
-    FOOTING's). The support is the fourth boundary condition (reaction_3_*), the constraint
-    the first (constraint_0_*)."""
+    FOOTING's), on the MPM's `shape_function` (uGIMP; None: the default, quadratic B-splines,
+    which hold the grid's margin and its node-set walls as well). The support is the fourth
+    boundary condition (reaction_3_*), the constraint the first (constraint_0_*)."""
     f = FOOTING
     b = f["half_width"]
     extent = 5.0 * b
@@ -61,7 +63,7 @@ def footing_case(
         damping=f["damping"],
         output_interval=duration / 4,
         headroom=int(round(extent / h)) // 2,
-        shape_function="gimp",
+        shape_function=shape_function,
     )
     case["title"] = f"benchmark footing: {how}" + (
         f", {method}, penalty factor {penalty_factor:g}" if penalty_factor else ""
@@ -70,6 +72,8 @@ def footing_case(
         case["title"] += f", {speedup:g} times the speed"
     if cells != f["cells_under_half_width"]:
         case["title"] += f", {cells} cells under b"
+    if shape_function is None:
+        case["title"] += ", default shape functions"
     case["solver"].update(anti_locking="bbar", pic_fraction=f["pic_fraction"])
     case["output"]["timeseries_interval"] = duration / f["samples"]
     ramp = footing_ramp(speedup)
@@ -137,6 +141,15 @@ def footing_jobs() -> dict:
         footing_case("constraint", k, cells=n),
         "mpm",
     )
+    # The same on the default shape functions, at both cell sizes (issue 45 must-show 4).
+    jobs[f"footing/constraint/f{k:g}_default"] = (
+        footing_case("constraint", k, shape_function=None),
+        "mpm",
+    )
+    jobs[f"footing/constraint/f{k:g}_default_h{n}"] = (
+        footing_case("constraint", k, cells=n, shape_function=None),
+        "mpm",
+    )
     jobs["footing/support/mpm"] = (footing_case("support"), "mpm")
     jobs["footing/support/ulfem"] = (footing_case("support"), "ulfem")
     jobs[f"footing/support/ulfem_h{n}"] = (footing_case("support", cells=n), "ulfem")
@@ -200,11 +213,61 @@ def footing_plateau_line(curve: pd.DataFrame) -> tuple[float, float]:
     return float(at_0), float(slope)
 
 
+def footing_dip(curve: pd.DataFrame) -> float:
+    """The deepest dip of a footing_curve: over FOOTING's dip windows of s / b (from the
+    plateau's start to the last settlement reached), the largest drop of a window's mean q
+    below the largest mean of the windows before it, relative to that largest mean (0 for a
+    reaction that never falls back). The reaction of a footing pushed into perfectly plastic
+    soil does not fall as it sinks (it rises with the heave beside it); a drop is the
+    discretisation's."""
+    step = FOOTING["dip_window"]
+    lo, reached = FOOTING["plateau"][0], float(curve["s_over_b"].iloc[-1])
+    means = []
+    for k in range(int(math.floor((reached - lo) / step + 1e-9))):
+        a = lo + k * step
+        window = curve[(curve["s_over_b"] >= a) & (curve["s_over_b"] < a + step)]
+        if len(window):
+            means.append(float(window["q_over_prandtl"].mean()))
+    dip, highest = 0.0, -math.inf
+    for q in means:
+        if highest > 0.0:
+            dip = max(dip, (highest - q) / highest)
+        highest = max(highest, q)
+    return dip
+
+
+def _largest_window_difference(row: dict, reference: dict) -> float | None:
+    """The largest |mean q of row / mean q of reference - 1| over FOOTING's windows both
+    reached (rows as in footing.md); None if they share none."""
+    names = [f"mean_{a:g}_{z:g}" for a, z in FOOTING["windows"]]
+    ratios = [
+        abs(row[w] / reference[w] - 1.0)
+        for w in names
+        if math.isfinite(row[w]) and math.isfinite(reference[w])
+    ]
+    return max(ratios) if ratios else None
+
+
+def footing_against_refined(rows: list[dict]) -> dict:
+    """Per constraint run at FOOTING's cells under b that has a refined twin (its name with
+    _h<refined_cells>): the largest |mean q / mean q of the twin - 1| over the windows both
+    reached (rows as in footing.md)."""
+    by_name = {r["run"]: r for r in rows}
+    out = {}
+    for r in rows:
+        twin = by_name.get(f"{r['run']}_h{FOOTING['refined_cells']}")
+        if twin is None or r["cells"] != FOOTING["cells_under_half_width"]:
+            continue
+        difference = _largest_window_difference(r, twin)
+        if difference is not None:
+            out[r["run"]] = difference
+    return out
+
+
 def footing_against_ulfem(rows: list[dict]) -> dict:
     """Per constraint run at FOOTING's speed with a UL-FEM run of the same cells under b: the
     largest |mean q of the constraint / mean q of the UL-FEM - 1| over the windows both
     reached (rows as in footing.md)."""
-    windows = [f"mean_{a:g}_{z:g}" for a, z in FOOTING["windows"]]
     ulfem = {r["cells"]: r for r in rows if r["solver"] == "ulfem"}
     out = {}
     for r in rows:
@@ -213,27 +276,25 @@ def footing_against_ulfem(rows: list[dict]) -> dict:
             continue
         if not math.isclose(r["speed"], FOOTING["speed"], rel_tol=1e-12):
             continue
-        ratios = [
-            abs(r[w] / reference[w] - 1.0)
-            for w in windows
-            if math.isfinite(r[w]) and math.isfinite(reference[w])
-        ]
-        if ratios:
-            out[r["run"]] = max(ratios)
+        difference = _largest_window_difference(r, reference)
+        if difference is not None:
+            out[r["run"]] = difference
     return out
 
 
 def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
     """The rigid footing on every code: the table footing.md (per run the plateau's mean,
     least and largest q / (2 + pi) c over FOOTING's plateau window, the mean over each of its
-    windows, the plateau's line, the last settlement reached), the curves footing.png, and
-    the metrics benchmarks.footing.<run>_plateau_rel_error (the plateau's mean
-    |q / (2 + pi) c - 1|) and <run>_line_at_0_rel_error (|q0 - 1|, footing_plateau_line) for
-    each run that reached the plateau's end, <run>_vs_ulfem_rel_error (footing_against_ulfem)
-    for the constraint runs at the speed; <run> as in the table (constraint_f<factor>,
-    constraint_nitsche_f<factor>, constraint_f<factor>_x<k>, constraint_f<factor>_h<n>,
-    support_mpm, support_ulfem, support_ulfem_h<n>, support_dolfinx). A run that stopped is
-    read up to its stop."""
+    windows, the plateau's line, the deepest dip, the last settlement reached), the curves
+    footing.png, and the metrics benchmarks.footing.<run>_plateau_rel_error (the plateau's
+    mean |q / (2 + pi) c - 1|) and <run>_line_at_0_rel_error (|q0 - 1|, footing_plateau_line)
+    for each run that reached the plateau's end, <run>_dip (footing_dip) for the constraint
+    runs, <run>_vs_ulfem_rel_error (footing_against_ulfem) for the constraint runs at the
+    speed, <run>_vs_h<n>_rel_error (footing_against_refined) for those with a refined twin;
+    <run> as in the table (constraint_f<factor>, constraint_nitsche_f<factor>,
+    constraint_f<factor>_x<k>, constraint_f<factor>_h<n>, constraint_f<factor>_default[_h<n>]
+    (the default shape functions), support_mpm, support_ulfem, support_ulfem_h<n>,
+    support_dolfinx). A run that stopped is read up to its stop."""
     import matplotlib.pyplot as plt
 
     f = FOOTING
@@ -268,8 +329,13 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
             )
         line = footing_plateau_line(curve) if reached >= hi else (float("nan"),) * 2
         row["line_at_0"], row["line_slope"] = line
+        row["dip"] = footing_dip(curve)
         row["last_s_over_b"] = reached
         rows.append(row)
+        if how == "constraint":
+            outcome.metrics.append(
+                Metric(f"benchmarks.footing.{name}_dip", row["dip"], "1")
+            )
         if reached >= hi:
             outcome.metrics.append(
                 Metric(
@@ -290,6 +356,12 @@ def _footing(outs: dict, jobs: dict, outcome: StudyOutcome, folder: Path):
     for name, value in footing_against_ulfem(rows).items():
         outcome.metrics.append(
             Metric(f"benchmarks.footing.{name}_vs_ulfem_rel_error", value, "1")
+        )
+    # Each constraint at FOOTING's cells against its twin with refined_cells, window by window.
+    n = f["refined_cells"]
+    for name, value in footing_against_refined(rows).items():
+        outcome.metrics.append(
+            Metric(f"benchmarks.footing.{name}_vs_h{n}_rel_error", value, "1")
         )
     if not rows:
         raise PrerequisiteMissing("footing outputs")

@@ -146,3 +146,54 @@ def test_the_plateau_line_is_the_least_squares_line_over_the_plateau():
     )
     assert at_0 == pytest.approx(1.02, abs=1e-12)
     assert slope == pytest.approx(1.06, abs=1e-10)
+
+
+def test_the_dip_is_the_deepest_fall_below_the_highest_window_before():
+    """footing_dip: 0 for a rising reaction, whatever happens before the plateau's start; for a
+    reaction that rises, falls by 5 % of its highest window mean over one window and rises
+    again, 0.05 (windows of FOOTING's dip_window from the plateau's start)."""
+    f = benchmarks.FOOTING
+    lo, step = f["plateau"][0], f["dip_window"]
+    s = np.linspace(0.0, 0.1425, 571)
+    rising = 1.0 + s + np.where(s < lo, 0.5 - 10 * s, 0.0)
+    curve = pd.DataFrame({"s_over_b": s, "q_over_prandtl": rising})
+    assert benchmarks.footing_dip(curve) == 0.0
+    q = np.full_like(s, 1.0)
+    q[s >= lo + step] = 2.0
+    fallen = (s >= lo + 5 * step) & (s < lo + 6 * step)
+    q[fallen] = 1.9
+    curve = pd.DataFrame({"s_over_b": s, "q_over_prandtl": q})
+    assert benchmarks.footing_dip(curve) == pytest.approx(0.05, rel=1e-12)
+
+
+def test_each_constraint_is_compared_with_its_refined_twin():
+    """footing_against_refined: the largest |mean q / the twin's - 1| over the windows both
+    reached, for a run at FOOTING's cells whose name with _h<refined_cells> is a run; runs
+    without a twin and the twins themselves have none. The jobs hold the default shape
+    functions' twins."""
+    f = benchmarks.FOOTING
+    n, cells = f["refined_cells"], f["cells_under_half_width"]
+    names = [f"mean_{a:g}_{z:g}" for a, z in f["windows"]]
+
+    def row(run, cells, values):
+        return {"run": run, "cells": cells} | dict(zip(names, values))
+
+    nan = float("nan")
+    rows = [
+        row("constraint_f16", cells, [1.1, 1.2, 1.0, 5.0]),
+        row(f"constraint_f16_h{n}", n, [1.0, 1.0, 1.25, nan]),
+        row("constraint_f100", cells, [1.0, 1.0, 1.0, 1.0]),
+        row(f"constraint_f16_default_h{n}", n, [1.0, 1.0, 1.0, 1.0]),
+    ]
+    result = benchmarks.footing_against_refined(rows)
+    assert set(result) == {"constraint_f16"}
+    assert result["constraint_f16"] == pytest.approx(0.2, rel=1e-12)
+    jobs = benchmarks.footing_jobs()
+    for key in (
+        "footing/constraint/f16_default",
+        f"footing/constraint/f16_default_h{n}",
+    ):
+        assert "shape_function" not in jobs[key][0]["solver"]
+    assert (
+        benchmarks.footing_cells(jobs[f"footing/constraint/f16_default_h{n}"][0]) == n
+    )
