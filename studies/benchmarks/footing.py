@@ -35,9 +35,11 @@ def footing_case(
     `penalty_factor` and `method`) or "support" (the grid's or the mesh's top nodes over
     x <= b: MPM, UL-FEM and dolfinx), pushed at `speedup` times FOOTING's speed (smaller than
     1: slower) to the same settlement, with `cells` cells (or elements) under b (default
-    FOOTING's), on the MPM's `shape_function` (uGIMP; None: the default, quadratic B-splines,
-    which hold the grid's margin and its node-set walls as well). The support is the fourth
-    boundary condition (reaction_3_*), the constraint the first (constraint_0_*)."""
+    FOOTING's), on the MPM's `shape_function` (uGIMP, on a grid with a 2-cell margin and
+    node-set walls; None: the default, quadratic B-splines, whose edge functions hold the walls
+    on the grid's edges, with no margin: studies.common.cases.is_bspline). The support is the
+    fourth boundary condition (reaction_3_*), the constraint the first (constraint_0_*).
+    """
     f = FOOTING
     b = f["half_width"]
     extent = 5.0 * b
