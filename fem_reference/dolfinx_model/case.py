@@ -299,7 +299,7 @@ def _ignored(root: dict) -> list:
         and solver.get("damping_form", "along_velocity") != "per_axis"
     ):
         out.append("/solver/damping_form: the explicit dolfinx model damps per axis")
-    for key in ("scheme", "shape_function", "pic_fraction"):
+    for key in ("scheme", "shape_function", "pic_fraction", "xpic_order"):
         if key in solver:
             out.append(f"/solver/{key}: MPM only")
     if "anti_locking" in solver:

@@ -32,12 +32,18 @@ UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
 namespace {
 
 /// The UL-FEM's mesh has its boundary on its nodes: a displacement is prescribed there, by
-/// boundary_conditions on a node set, not by constraints on a detected boundary.
+/// boundary_conditions on a node set, not by constraints on a detected boundary. XPIC orders
+/// above 1 (solver.xpic_order) are the MPM's only.
 const Case& without_constraints(const Case& c) {
   if (!c.constraints.empty()) {
     throw InputError(c.file +
                      ": /constraints: the UL-FEM prescribes motion on mesh nodes (a node set in "
                      "boundary_conditions with \"velocity\"), not on a detected boundary");
+  }
+  if (c.solver.xpic_order != 1) {
+    throw InputError(c.file +
+                     ": /solver/xpic_order: the UL-FEM takes order 1 only (the FLIP/PIC blend "
+                     "of solver.pic_fraction)");
   }
   return c;
 }

@@ -64,7 +64,7 @@ std::string format_number(double v) {
 
 ImplicitSolver::ImplicitSolver(const Case& c, std::unique_ptr<ImplicitMesh> mesh)
     : case_(c), mesh_(std::move(mesh)), settings_(c.implicit) {
-  for (const char* key : {"scheme", "damping", "damping_form", "pic_fraction"}) {
+  for (const char* key : {"scheme", "damping", "damping_form", "pic_fraction", "xpic_order"}) {
     if (c.source.contains("solver") && c.source["solver"].contains(key)) {
       refuse(c, std::string("/solver/") + key,
              "belongs to the explicit step; the implicit solver is quasi-static");

@@ -60,6 +60,11 @@ MpmSolver::MpmSolver(const Case& c) : case_(c) {
   node_energy_.assign((static_cast<std::size_t>(n_nodes) + kSumBlock - 1) / kSumBlock, {});
   remapped_velocity_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
   remapped_momentum_.assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+  if (case_.solver.xpic_order > 1) {
+    for (std::vector<Vec2>* field : {&xpic_term_, &xpic_iterate_, &xpic_sum_}) {
+      field->assign(static_cast<std::size_t>(n_nodes), Vec2::Zero());
+    }
+  }
   // The loads' nodal forces, then the constraints' (boundary_constraint.hpp).
   load_work_recorder_ = LoadWorkRecorder(case_.loads.size() + case_.constraints.size());
   counters_.energy.load_work_by_load.assign(case_.loads.size(), 0.0);
@@ -582,12 +587,92 @@ void MpmSolver::update_grid() {
   }
 }
 
+template <int W>
+void MpmSolver::xpic_extrapolation() {
+  const int order = case_.solver.xpic_order;
+  const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
+  const std::size_t n_nodes = grid_.mass.size();
+  const double dt = counters_.dt;
+  const double tiny = 1e-12 * particles_.mass.front();
+  const StencilReader<W> stencil = stencil_reader<W>();
+  const double* particle_mass = particles_.mass.data();
+  const int* band_start = band_start_.data();
+  const int* sorted = sorted_.data();
+  const int n_bands = n_bands_;
+  const double* mass = grid_.mass.data();
+  const unsigned* fixed = grid_.fixed.data();
+  const Vec2* start = prescribed_.start().data();
+  Vec2* term = xpic_term_.data();
+  Vec2* iterate = xpic_iterate_.data();
+  Vec2* sum = xpic_sum_.data();
+  // g_1: the grid velocity of the step's start, v' - dt a (the prescribed velocity at the
+  // start on the fixed components, the extrapolated one on the tied nodes).
+#pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
+  for (std::size_t node = 0; node < n_nodes; ++node) {
+    iterate[node] = grid_.velocity[node] - dt * grid_.acceleration[node];
+    term[node] = static_cast<double>(order - 1) * iterate[node];
+  }
+  double binomial = order;  // C(m, r)
+  for (int r = 2; r <= order; ++r) {
+    binomial = binomial * (order - r + 1) / r;
+    const double coefficient = r % 2 == 0 ? -binomial : binomial;
+    // g_r = S+ S g_(r-1): interpolated to the particles, summed back with their masses.
+    auto scatter_band = [&](int band) {
+      for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
+        const auto p = static_cast<std::size_t>(sorted[q]);
+        const Shape<W> f = stencil(p);
+        Vec2 u = Vec2::Zero();
+        for (int b = 0; b < W; ++b) {
+          for (int a = 0; a < W; ++a) {
+            const double weight = f.nx[a] * f.ny[b];
+            if (W > 2 && weight == 0.0) continue;
+            u += weight * iterate[f.node0 + static_cast<std::size_t>(b) * nnx + a];
+          }
+        }
+        const Vec2 mu = particle_mass[p] * u;
+        for (int b = 0; b < W; ++b) {
+          for (int a = 0; a < W; ++a) {
+            const double weight = f.nx[a] * f.ny[b];
+            if (W > 2 && weight == 0.0) continue;
+            sum[f.node0 + static_cast<std::size_t>(b) * nnx + a] += weight * mu;
+          }
+        }
+      }
+    };
+    // Cleared, then the even bands, then the odd bands, as in particles_to_grid.
+#pragma omp parallel if (parallel_)
+    {
+#pragma omp for schedule(dynamic, kNodeChunk)
+      for (std::size_t node = 0; node < n_nodes; ++node) sum[node].setZero();
+#pragma omp for schedule(dynamic, 1)
+      for (int band = 0; band < n_bands; band += 2) scatter_band(band);
+#pragma omp for schedule(dynamic, 1)
+      for (int band = 1; band < n_bands; band += 2) scatter_band(band);
+    }
+    // The sums go to the nodes as the particles' momentum does (remap()).
+    mirror_.gather(std::span<Vec2>(xpic_sum_));
+    extension_.gather(std::span<Vec2>(xpic_sum_));
+#pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
+    for (std::size_t node = 0; node < n_nodes; ++node) {
+      iterate[node] = node_velocity(mass[node], sum[node], fixed[node], start[node], tiny);
+    }
+    extension_.extrapolate(std::span<Vec2>(xpic_iterate_));
+    mirror_.extrapolate(std::span<Vec2>(xpic_iterate_));
+#pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
+    for (std::size_t node = 0; node < n_nodes; ++node) term[node] += coefficient * iterate[node];
+  }
+}
+
 template <int W, bool kScatterMomentum>
 void MpmSolver::grid_to_particles() {
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n = particles_.size();
   const double dt = counters_.dt;
   const double pic_fraction = case_.solver.pic_fraction;
+  // XPIC(m): the PIC part interpolates v' + (G - g_1) (xpic_extrapolation()).
+  const bool xpic = case_.solver.xpic_order > 1;
+  if (xpic) xpic_extrapolation<W>();
+  const Vec2* xpic_term = xpic_term_.data();
   const int n_bands = n_bands_;
   const StencilReader<W> stencil = stencil_reader<W>();
   const Vec2* acceleration = grid_.acceleration.data();
@@ -604,7 +689,7 @@ void MpmSolver::grid_to_particles() {
   // the grid at once (the MUSL remap). bad_p and max_speed_p are the calling thread's.
   auto update = [&](std::size_t p, long& bad_p, double& max_speed_p) {
     const Shape<W> f = stencil(p);
-    Vec2 a = Vec2::Zero(), v = Vec2::Zero();
+    Vec2 a = Vec2::Zero(), v = Vec2::Zero(), c = Vec2::Zero();
     for (int b = 0; b < W; ++b) {
       for (int a_ = 0; a_ < W; ++a_) {
         const double weight = f.nx[a_] * f.ny[b];
@@ -612,9 +697,11 @@ void MpmSolver::grid_to_particles() {
         const std::size_t node = f.node0 + static_cast<std::size_t>(b) * nnx + a_;
         a += weight * acceleration[node];
         v += weight * velocity[node];
+        if (xpic) c += weight * xpic_term[node];
       }
     }
-    const Vec2 vp = flip_pic_velocity(particle_velocity[p], a, v, dt, pic_fraction);
+    const Vec2 vp =
+        flip_pic_velocity(particle_velocity[p], a, xpic ? Vec2(v + c) : v, dt, pic_fraction);
     const Vec2 xp = particle_position[p] + dt * v;
     particle_velocity[p] = vp;
     particle_position[p] = xp;

@@ -11,8 +11,8 @@
 //                         external_forces, their velocities after update_grid and remap)
 //   external_forces       surface loads on the grid (grid-aligned, or on the detected boundary)
 //   update_grid           local damping, acceleration, velocity, velocity constraints
-//   grid_to_particles     particle velocity (FLIP, blended with PIC by solver.pic_fraction)
-//                         and position
+//   grid_to_particles     particle velocity (FLIP, blended with PIC by solver.pic_fraction,
+//                         XPIC of solver.xpic_order) and position
 //   remap                 MUSL only: nodal velocity from the updated particle momentum
 //   update_stress         velocity gradient, Jaumann rotation, constitutive update, F, volume
 //
@@ -131,6 +131,13 @@ class MpmSolver {
   void update_grid();
   template <int W, bool kScatterMomentum>
   void grid_to_particles();
+  // XPIC(m) (solver.xpic_order m > 1): xpic_term_ = G - g_1 with G = sum_r=1..m (-1)^(r+1)
+  // C(m, r) g_r, g_1 the grid velocity at the step's start and g_r = S+ S g_(r-1) (S the
+  // grid-to-particle interpolation, S+ the mass-weighted particle-to-grid sum divided by the
+  // nodal mass, ties, mirrors and fixed components as the momentum's). The update's PIC part
+  // is then S (v' + xpic_term_), which makes it V_FLIP - beta (I - S S+)^m V.
+  template <int W>
+  void xpic_extrapolation();
   // MUSL: the nodes' momentum and velocity from the updated particles' momentum, which
   // grid_to_particles<W, true> scattered.
   void remap();
@@ -205,6 +212,9 @@ class MpmSolver {
   bool kinetic_stale_ = true;            ///< the ledger's particle_kinetic is to be taken anew
   std::vector<Vec2> remapped_velocity_;  ///< MUSL: nodal velocity from updated particles
   std::vector<Vec2> remapped_momentum_;  ///< MUSL: nodal momentum of updated particles
+  std::vector<Vec2> xpic_term_;          ///< XPIC(m): the PIC part's grid term (m > 1 only)
+  std::vector<Vec2> xpic_iterate_;       ///< XPIC(m): g_r
+  std::vector<Vec2> xpic_sum_;           ///< XPIC(m): sum_p N m_p (S g_(r-1))_p
   bool parallel_ = true;         ///< run the stages on all threads (false for tiny problems)
   long bad_particle_ = -1;       ///< a particle with a non-finite value in this step, or -1
   long inverted_particle_ = -1;  ///< a particle whose det F <= 0 after this step, or -1

@@ -843,6 +843,25 @@ void parse_constraints(const JsonView& root, Case& c) {
   }
 }
 
+/// The particle velocity update of solver block `s`: pic_fraction and xpic_order.
+void parse_velocity_update(const JsonView& s, SolverSpec& solver) {
+  solver.pic_fraction = s.number_or("pic_fraction", 0.0);
+  if (s.has("pic_fraction")) {
+    s.at("pic_fraction")
+        .require(solver.pic_fraction >= 0.0 && solver.pic_fraction <= 1.0,
+                 "must be in [0, 1] (0 = FLIP, 1 = PIC)");
+  }
+  solver.xpic_order = s.int_or("xpic_order", 1);
+  if (s.has("xpic_order")) {
+    s.at("xpic_order")
+        .require(solver.xpic_order >= 1 && solver.xpic_order <= kMaxXpicOrder,
+                 "must be an integer in [1, " + std::to_string(kMaxXpicOrder) + "]");
+    s.at("xpic_order")
+        .require(solver.xpic_order == 1 || solver.pic_fraction > 0.0,
+                 "an order above 1 needs solver.pic_fraction > 0 (it shapes the PIC part)");
+  }
+}
+
 /// The solver settings and their defaults (which depend on the materials, the constraints and the
 /// shape function), with the checks that need the shape function.
 void parse_solver(const JsonView& root, Case& c) {
@@ -867,7 +886,7 @@ void parse_solver(const JsonView& root, Case& c) {
   std::optional<JsonView> ghost_penalty;
   if (const auto s = root.find("solver")) {
     s->expect_object({"type", "scheme", "shape_function", "damping", "damping_form", "pic_fraction",
-                      "anti_locking", "outer_node_fraction", "ghost_penalty"});
+                      "xpic_order", "anti_locking", "outer_node_fraction", "ghost_penalty"});
     c.solver.type = s->choice_or("type", {"explicit", "implicit"}, "explicit") == "implicit"
                         ? SolverType::kImplicit
                         : SolverType::kExplicit;
@@ -889,12 +908,7 @@ void parse_solver(const JsonView& root, Case& c) {
                                          "along_velocity") == "along_velocity"
                                 ? DampingForm::kAlongVelocity
                                 : DampingForm::kPerAxis;
-    c.solver.pic_fraction = s->number_or("pic_fraction", 0.0);
-    if (s->has("pic_fraction")) {
-      s->at("pic_fraction")
-          .require(c.solver.pic_fraction >= 0.0 && c.solver.pic_fraction <= 1.0,
-                   "must be in [0, 1] (0 = FLIP, 1 = PIC)");
-    }
+    parse_velocity_update(*s, c.solver);
     c.solver.mean_dilatation =
         s->choice_or("anti_locking", {"none", "bbar"}, mean_dilatation ? "bbar" : "none") == "bbar";
     if (s->has("outer_node_fraction")) {

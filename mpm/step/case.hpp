@@ -194,6 +194,9 @@ struct ImplicitSpec {
   std::optional<StrengthReduction> strength_reduction;
 };
 
+/// Largest solver.xpic_order a case may ask for (each order is one more pass per step).
+inline constexpr int kMaxXpicOrder = 8;
+
 struct SolverSpec {
   SolverType type = SolverType::kExplicit;
   Scheme scheme = Scheme::kMUSL;
@@ -204,6 +207,13 @@ struct SolverSpec {
   /// 0 = FLIP (the thesis), 1 = PIC. FLIP keeps velocity the grid cannot see (it moves no
   /// particle: jitter), PIC removes it each step at the cost of dissipation.
   double pic_fraction = 0.0;
+  /// m of the PIC part above, XPIC(m) (Hammerquist and Nairn 2017): the update takes
+  /// beta (I - P)^m V off the FLIP velocities V_FLIP, where P = S S+ is the particles-to-grid-
+  /// to-particles projection of the particle velocities V. m = 1 is the blend above; a larger m
+  /// removes what the grid cannot see (P's null space, where (I - P)^m = I) as PIC does while
+  /// it damps the resolved motion (P's eigenvalues near 1) by (1 - lambda)^m instead of
+  /// (1 - lambda). Each order above 1 costs one more grid-to-particle-to-grid pass per step.
+  int xpic_order = 1;
   /// Anti-locking: the mean dilatation (B-bar) over each cell (MPM) or element (UL-FEM) in the
   /// stress update and the internal force (mean_dilatation_gradient, mpm/core/kinematics.hpp).
   /// Set by the case reader: on by default when a material has nu >= kBbarPoissonRatio.
@@ -313,7 +323,8 @@ Case parse_case(const nlohmann::json& document, const std::string& file);
 /// {type, ramp_time}, and normal {direction, max_angle} when given}], constraints [{x_range, faces,
 /// normal (null or {direction, max_angle}), quantity (displacement, velocity), normal_only,
 /// value (a number with normal_only, else [x, y]), time_function, method, penalty}], solver
-/// {type, scheme, shape_function, damping, damping_form, pic_fraction, anti_locking}, implicit
+/// {type, scheme, shape_function, damping, damping_form, pic_fraction, xpic_order, anti_locking},
+/// implicit
 /// (null, or with solver.type "implicit" {load_steps, tolerance, max_iterations, max_cuts,
 /// strength_reduction (null or {start_time, final_factor})}), time
 /// {end_time, cfl, dt (null: from cfl), max_steps}, output {interval, timeseries_interval,

@@ -185,6 +185,7 @@ json resolved_case(const Case& c) {
       {"damping_form",
        c.solver.damping_form == DampingForm::kAlongVelocity ? "along_velocity" : "per_axis"},
       {"pic_fraction", c.solver.pic_fraction},
+      {"xpic_order", c.solver.xpic_order},
       {"anti_locking", c.solver.mean_dilatation ? "bbar" : "none"}};
   out["implicit"] = nullptr;
   if (c.solver.type == SolverType::kImplicit) {

@@ -180,6 +180,22 @@ MALFORMED = [
     ("dt_above_critical", mutate(["time", "dt"], 1.0), "/time/dt"),
     ("scheme_unknown", mutate(["solver", "scheme"], "usf"), "/solver/scheme"),
     ("damping_one", mutate(["solver", "damping"], 1.0), "/solver/damping"),
+    ("xpic_order_zero", mutate(["solver", "xpic_order"], 0), "/solver/xpic_order"),
+    (
+        "xpic_order_fraction",
+        mutate(["solver", "xpic_order"], 1.5),
+        "/solver/xpic_order",
+    ),
+    (
+        "xpic_order_above_eight",
+        mutate(["solver", "xpic_order"], 9),
+        "/solver/xpic_order",
+    ),
+    (
+        "xpic_order_without_pic",
+        mutate(["solver", "xpic_order"], 2),
+        "/solver/xpic_order",
+    ),
     (
         "k0_with_zero_method",
         mutate(["initial_stress", "k0"], 0.5),

@@ -229,6 +229,7 @@ def expect_refused(cases, make, tmp_path, run_case):
 def test_what_the_implicit_solver_cannot_honour_is_refused(tmp_path, run_case):
     cases = {
         "/solver/damping": lambda c: c["solver"].update({"damping": 0.1}),
+        "/solver/xpic_order": lambda c: c["solver"].update({"xpic_order": 1}),
         "/time/cfl": lambda c: c["time"].update({"cfl": 0.5}),
         "/implicit": lambda c: c["solver"].update({"type": "explicit"}),
         "/implicit/load_steps": lambda c: c["implicit"].update({"load_steps": 0}),

@@ -344,9 +344,10 @@ TEST(SolverPhysics, GridTopLoadWithTiedBsplinesActsOnTheMovingTop) {
   }
 }
 
-// Two runs give bitwise identical particles, with 1 and with 2 threads.
+// Two runs give bitwise identical particles, with 1 and with 2 threads (the quadratic B-splines
+// with XPIC(3), whose passes scatter to the grid as particles_to_grid does).
 TEST(SolverPhysics, BitwiseDeterministicAcrossThreadCounts) {
-  for (const std::string shape : {"linear", "gimp"}) {
+  for (const std::string shape : {"linear", "gimp", "quadratic_bspline"}) {
     nlohmann::json j = read_json_file(std::string(PFM_SOURCE_DIR) +
                                       "/cases/thesis62_bearing_dynamic_zero_start.json");
     j["time"]["end_time"] = 0.5;
@@ -362,6 +363,10 @@ TEST(SolverPhysics, BitwiseDeterministicAcrossThreadCounts) {
               {"name": "right_of_block", "box": [[15, 0], [15, 7]]}])");
     }
     j["solver"]["shape_function"] = shape;
+    if (shape == "quadratic_bspline") {
+      j["solver"]["pic_fraction"] = 0.05;
+      j["solver"]["xpic_order"] = 3;
+    }
     const Case c = parse_case(j, "determinism");
     std::vector<Particles> results;
     for (const int threads : {1, 1, 2}) {
