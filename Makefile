@@ -12,7 +12,7 @@ OUT ?= results/bearing_quasi_static
 # module after the interpreter's file name without its minor version, followed by a dash and the
 # module (DEB_PYTHON_PREFIX, from $(PYTHON)); Python itself always runs as $(PYTHON).
 DEB_PYTHON_PREFIX := $(basename $(notdir $(PYTHON)))-
-DEB_PYTHON_MODULES := numpy scipy matplotlib pandas skimage pytest jinja2 tqdm tabulate h5py \
+DEB_PYTHON_MODULES := numpy scipy matplotlib pandas skimage pytest pytest-xdist jinja2 tqdm tabulate h5py \
   meshio gmsh dolfinx distributed docutils
 # libopenblas0-serial: the BLAS under UMFPACK (the implicit solver's factorisation); Debian's
 # alternatives take it over the reference BLAS once installed. Serial: one thread, the same bytes
@@ -79,9 +79,10 @@ format-check:
 test-cpp:
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
 
-# pytest exits 5 when it collects nothing; that is not a failure of the suite.
+# pytest exits 5 when it collects nothing; that is not a failure of the suite. The tests run on
+# JOBS workers (pytest-xdist), each test on one: most of them wait on a pfm-mpm run.
 test-python:
-	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python $(wildcard fem_reference/tests) $(wildcard studies/tests) $(wildcard studies/detectors/tests); \
+	PFM_BUILD_DIR=$(abspath $(BUILD_DIR)) $(PYTHON) -m pytest -q -p no:cacheprovider -n $(JOBS) --dist load tests/python $(wildcard fem_reference/tests) $(wildcard studies/tests) $(wildcard studies/detectors/tests); \
 	  rc=$$?; if [ $$rc -eq 5 ]; then echo "no Python tests collected"; exit 0; fi; exit $$rc
 
 sanitize: deps
