@@ -32,18 +32,12 @@ UlFemSolver::UlFemSolver(const Case& c) : UlFemSolver(c, mesh_case(c)) {}
 namespace {
 
 /// The UL-FEM's mesh has its boundary on its nodes: a displacement is prescribed there, by
-/// boundary_conditions on a node set, not by constraints on a detected boundary. XPIC orders
-/// above 1 (solver.xpic_order) are the MPM's only.
+/// boundary_conditions on a node set, not by constraints on a detected boundary.
 const Case& without_constraints(const Case& c) {
   if (!c.constraints.empty()) {
     throw InputError(c.file +
                      ": /constraints: the UL-FEM prescribes motion on mesh nodes (a node set in "
                      "boundary_conditions with \"velocity\"), not on a detected boundary");
-  }
-  if (c.solver.xpic_order != 1) {
-    throw InputError(c.file +
-                     ": /solver/xpic_order: the UL-FEM takes order 1 only (the FLIP/PIC blend "
-                     "of solver.pic_fraction)");
   }
   return c;
 }
@@ -69,6 +63,11 @@ UlFemSolver::UlFemSolver(const Case& c, QuadMesh mesh)
   nodes_.fixed.assign(n_nodes, kFixNone);
   nodes_.reaction.assign(n_nodes, Vec2::Zero());
   remapped_velocity_.assign(n_nodes, Vec2::Zero());
+  if (case_.solver.xpic_order > 1) {
+    for (std::vector<Vec2>* field : {&xpic_term_, &xpic_iterate_, &xpic_sum_}) {
+      field->assign(n_nodes, Vec2::Zero());
+    }
+  }
   for (std::size_t k = 0; k < 4; ++k) {
     shape_value_[k] = gauss_slots()[k].value;
     shape_natural_gradient_[k] = gauss_slots()[k].natural_gradient;
@@ -323,22 +322,63 @@ void UlFemSolver::update_nodes() {
                            nodes_.fixed, prescribed_.start(), counters_.energy.load_work_by_load);
 }
 
+void UlFemSolver::xpic_extrapolation() {
+  const std::size_t n_nodes = nodes_.mass.size();
+  const std::size_t n_elements = mesh_.n_elements();
+  const double dt = counters_.dt;
+  const double tiny = 1e-12 * particles_.mass.front();
+  // g_1: the nodes' velocity of the step's start (the prescribed one on fixed components).
+  for (std::size_t n = 0; n < n_nodes; ++n) {
+    xpic_iterate_[n] = nodes_.velocity[n] - dt * nodes_.acceleration[n];
+  }
+  // S+ S: interpolated to the points, summed back with their masses, serially over the
+  // elements in index order as particles_to_nodes.
+  auto project = [&](std::span<Vec2> iterate) {
+    std::fill(xpic_sum_.begin(), xpic_sum_.end(), Vec2::Zero());
+    for (std::size_t e = 0; e < n_elements; ++e) {
+      const std::array<int, 4>& element = mesh_.element_nodes[e];
+      for (std::size_t k = 0; k < 4; ++k) {
+        const Eigen::Vector4d& shape = shape_value_[k];
+        Vec2 u = Vec2::Zero();
+        for (std::size_t a = 0; a < 4; ++a) {
+          u += shape[static_cast<Eigen::Index>(a)] * iterate[static_cast<std::size_t>(element[a])];
+        }
+        const Vec2 mu = particles_.mass[4 * e + k] * u;
+        for (std::size_t a = 0; a < 4; ++a) {
+          xpic_sum_[static_cast<std::size_t>(element[a])] +=
+              shape[static_cast<Eigen::Index>(a)] * mu;
+        }
+      }
+    }
+    for (std::size_t n = 0; n < n_nodes; ++n) {
+      iterate[n] = node_velocity(nodes_.mass[n], xpic_sum_[n], nodes_.fixed[n],
+                                 prescribed_.start()[n], tiny);
+    }
+  };
+  xpic_grid_term(case_.solver.xpic_order, std::span<Vec2>(xpic_iterate_),
+                 std::span<Vec2>(xpic_term_), project);
+}
+
 void UlFemSolver::nodes_to_particles() {
   const std::size_t n_elements = mesh_.n_elements();
   const double dt = counters_.dt;
   const double pic_fraction = case_.solver.pic_fraction;
+  // XPIC(m): the PIC part interpolates v' + xpic_term_ (xpic_grid_term, grid_stages.hpp).
+  const bool xpic = case_.solver.xpic_order > 1;
+  if (xpic) xpic_extrapolation();
 #pragma omp parallel for schedule(static) if (n_elements >= kParallelElements)
   for (std::size_t e = 0; e < n_elements; ++e) {
     for (std::size_t k = 0; k < 4; ++k) {
-      Vec2 a = Vec2::Zero(), v = Vec2::Zero();
+      Vec2 a = Vec2::Zero(), v = Vec2::Zero(), c = Vec2::Zero();
       for (std::size_t n = 0; n < 4; ++n) {
         const auto node = static_cast<std::size_t>(mesh_.element_nodes[e][n]);
         const double weight = shape_value_[k][static_cast<Eigen::Index>(n)];
         a += weight * nodes_.acceleration[node];
         v += weight * nodes_.velocity[node];
+        if (xpic) c += weight * xpic_term_[node];
       }
       Vec2& vp = particles_.velocity[4 * e + k];
-      vp = flip_pic_velocity(vp, a, v, dt, pic_fraction);
+      vp = flip_pic_velocity(vp, a, xpic ? Vec2(v + c) : v, dt, pic_fraction);
     }
   }
 }

@@ -10,7 +10,8 @@
 //   external_forces      gravity m_I g, the case's loads on the current boundary edges
 //   update_nodes         local (Cundall) damping, acceleration, velocity, constraints
 //                        (update_node() of mpm/step/energy_ledger.hpp, as the MPM's grid)
-//   nodes_to_particles   particle velocity (FLIP, blended with PIC by solver.pic_fraction)
+//   nodes_to_particles   particle velocity (FLIP, blended with PIC by solver.pic_fraction,
+//                        XPIC of solver.xpic_order)
 //   remap_momentum       MUSL only: nodal velocity from the updated particle momentum
 //   update_stress        velocity gradient, Jaumann rotation, constitutive update, F
 //   move_mesh            x_I += dt v_I; material points stay at their natural coordinates,
@@ -75,6 +76,8 @@ class UlFemSolver {
   /// Node displacement = current - reference position (reference reset by initialise_stress).
   std::vector<Vec2> node_displacement() const;
   const Particles& particles() const { return particles_; }
+  /// The points, to be changed between steps (tests: initial velocity fields).
+  Particles& mutable_particles() { return particles_; }
   /// Nodal arrays, indexed by mesh node.
   const GridState& node_state() const { return nodes_; }
   const Case& case_spec() const { return case_; }
@@ -106,6 +109,8 @@ class UlFemSolver {
   void external_forces();
   void update_nodes();
   void nodes_to_particles();
+  /// XPIC(m) (solver.xpic_order m > 1): xpic_term_ by xpic_grid_term (grid_stages.hpp).
+  void xpic_extrapolation();
   /// MUSL: the updated points' momentum to the nodes, and the nodes' velocity from it.
   void remap();
   void update_stress(const std::vector<Vec2>& node_velocity);
@@ -141,6 +146,9 @@ class UlFemSolver {
   std::vector<PointEnergy> point_energy_;              ///< per point, scratch of update_stress
   double grid_kinetic_after_ = 0.0;                    ///< nodal kinetic energy after update_nodes
   std::vector<Vec2> remapped_velocity_;
+  std::vector<Vec2> xpic_term_;     ///< XPIC(m): the PIC part's nodal term (m > 1 only)
+  std::vector<Vec2> xpic_iterate_;  ///< XPIC(m): g_r
+  std::vector<Vec2> xpic_sum_;      ///< XPIC(m): sum_p N m_p (S g_(r-1))_p
 };
 
 }  // namespace pfm::ulfem

@@ -589,7 +589,6 @@ void MpmSolver::update_grid() {
 
 template <int W>
 void MpmSolver::xpic_extrapolation() {
-  const int order = case_.solver.xpic_order;
   const std::size_t nnx = static_cast<std::size_t>(case_.grid.n_nodes_x());
   const std::size_t n_nodes = grid_.mass.size();
   const double dt = counters_.dt;
@@ -602,21 +601,16 @@ void MpmSolver::xpic_extrapolation() {
   const double* mass = grid_.mass.data();
   const unsigned* fixed = grid_.fixed.data();
   const Vec2* start = prescribed_.start().data();
-  Vec2* term = xpic_term_.data();
-  Vec2* iterate = xpic_iterate_.data();
   Vec2* sum = xpic_sum_.data();
   // g_1: the grid velocity of the step's start, v' - dt a (the prescribed velocity at the
   // start on the fixed components, the extrapolated one on the tied nodes).
+  Vec2* first = xpic_iterate_.data();
 #pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
   for (std::size_t node = 0; node < n_nodes; ++node) {
-    iterate[node] = grid_.velocity[node] - dt * grid_.acceleration[node];
-    term[node] = static_cast<double>(order - 1) * iterate[node];
+    first[node] = grid_.velocity[node] - dt * grid_.acceleration[node];
   }
-  double binomial = order;  // C(m, r)
-  for (int r = 2; r <= order; ++r) {
-    binomial = binomial * (order - r + 1) / r;
-    const double coefficient = r % 2 == 0 ? -binomial : binomial;
-    // g_r = S+ S g_(r-1): interpolated to the particles, summed back with their masses.
+  // S+ S: interpolated to the particles, summed back with their masses.
+  auto project = [&](std::span<Vec2> iterate) {
     auto scatter_band = [&](int band) {
       for (int q = band_start[band]; q < band_start[band + 1]; ++q) {
         const auto p = static_cast<std::size_t>(sorted[q]);
@@ -656,11 +650,11 @@ void MpmSolver::xpic_extrapolation() {
     for (std::size_t node = 0; node < n_nodes; ++node) {
       iterate[node] = node_velocity(mass[node], sum[node], fixed[node], start[node], tiny);
     }
-    extension_.extrapolate(std::span<Vec2>(xpic_iterate_));
-    mirror_.extrapolate(std::span<Vec2>(xpic_iterate_));
-#pragma omp parallel for schedule(dynamic, kNodeChunk) if (parallel_)
-    for (std::size_t node = 0; node < n_nodes; ++node) term[node] += coefficient * iterate[node];
-  }
+    extension_.extrapolate(iterate);
+    mirror_.extrapolate(iterate);
+  };
+  xpic_grid_term(case_.solver.xpic_order, std::span<Vec2>(xpic_iterate_),
+                 std::span<Vec2>(xpic_term_), project);
 }
 
 template <int W, bool kScatterMomentum>

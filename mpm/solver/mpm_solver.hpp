@@ -131,11 +131,9 @@ class MpmSolver {
   void update_grid();
   template <int W, bool kScatterMomentum>
   void grid_to_particles();
-  // XPIC(m) (solver.xpic_order m > 1): xpic_term_ = G - g_1 with G = sum_r=1..m (-1)^(r+1)
-  // C(m, r) g_r, g_1 the grid velocity at the step's start and g_r = S+ S g_(r-1) (S the
-  // grid-to-particle interpolation, S+ the mass-weighted particle-to-grid sum divided by the
-  // nodal mass, ties, mirrors and fixed components as the momentum's). The update's PIC part
-  // is then S (v' + xpic_term_), which makes it V_FLIP - beta (I - S S+)^m V.
+  // XPIC(m) (solver.xpic_order m > 1): xpic_term_ by xpic_grid_term (grid_stages.hpp), S+ S
+  // gathered and extrapolated through the mirrors and ties as the momentum is. The update's
+  // PIC part is then S (v' + xpic_term_).
   template <int W>
   void xpic_extrapolation();
   // MUSL: the nodes' momentum and velocity from the updated particles' momentum, which

@@ -90,6 +90,27 @@ inline Vec2 flip_pic_velocity(const Vec2& vp, const Vec2& a, const Vec2& v, doub
   return pic_fraction == 0.0 ? flip : Vec2((1.0 - pic_fraction) * flip + pic_fraction * v);
 }
 
+/// XPIC(m)'s grid term (solver.xpic_order m > 1; Hammerquist and Nairn 2017), the recursion both
+/// explicit solvers share. On entry `iterate` holds g_1, the grid velocity of the step's start;
+/// `project(iterate)` replaces g_(r-1) there by g_r = S+ S g_(r-1): the solver's interpolation S
+/// to its points, then their mass-weighted sum back to the nodes over the nodal mass, S+, as the
+/// momentum goes (with the supports' velocities at the step's start). `term` becomes
+/// sum_r=1..m (-1)^(r+1) C(m, r) g_r - g_1: a PIC part that interpolates v' + term makes the
+/// particle update V_FLIP - beta (I - S S+)^m V, where m = 1 is the FLIP/PIC blend.
+template <class Project>
+void xpic_grid_term(int order, std::span<Vec2> iterate, std::span<Vec2> term, Project&& project) {
+  for (std::size_t n = 0; n < term.size(); ++n) {
+    term[n] = static_cast<double>(order - 1) * iterate[n];
+  }
+  double binomial = order;  // C(m, r)
+  for (int r = 2; r <= order; ++r) {
+    binomial = binomial * (order - r + 1) / r;
+    const double coefficient = r % 2 == 0 ? -binomial : binomial;
+    project(iterate);
+    for (std::size_t n = 0; n < term.size(); ++n) term[n] += coefficient * iterate[n];
+  }
+}
+
 /// The stress update of a material point with velocity gradient l over dt: the strain increment
 /// (returned), the Jaumann rotation of `stress` (`rotated` takes the stress after it, for the
 /// ledger's rotation work), then the material's update with its constants.

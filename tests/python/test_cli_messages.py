@@ -66,27 +66,3 @@ def test_the_example_detector_configuration_runs_and_missing_f_is_a_warning(
     assert "no F11..F22 columns" in done.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["loops"] == 1 and len(summary["warnings"]) == 1
-
-
-def test_the_ulfem_refuses_an_xpic_order_above_one(pfm_binary, tmp_path):
-    """XPIC orders above 1 are the MPM's (solver.xpic_order): the UL-FEM exits 2 naming the
-    key and writes nothing; the MPM runs the same case."""
-    case = json.loads((ROOT / "cases" / "column.json").read_text())
-    case["time"]["end_time"] = 0.05
-    case.setdefault("solver", {}).update(pic_fraction=0.05, xpic_order=2)
-    path = tmp_path / "column.json"
-    path.write_text(json.dumps(case))
-    done = subprocess.run(
-        [pfm_binary, "run", path, "--out", tmp_path / "ulfem", "--solver", "ulfem"],
-        capture_output=True,
-        text=True,
-    )
-    assert done.returncode == 2, done.stderr
-    assert "column.json: /solver/xpic_order: " in done.stderr, done.stderr
-    assert not (tmp_path / "ulfem").exists()
-    done = subprocess.run(
-        [pfm_binary, "run", path, "--out", tmp_path / "mpm", "--quiet"],
-        capture_output=True,
-        text=True,
-    )
-    assert done.returncode == 0, done.stderr
