@@ -177,7 +177,7 @@ def footing_case(method: str, cells: int, shape: str = "gimp") -> dict:
     )
     case["title"] += " [implicit study]"
     case["solver"]["shape_function"] = shape
-    for key in ("scheme", "damping", "damping_form", "pic_fraction"):
+    for key in ("scheme", "damping", "damping_form", "pic_fraction", "xpic_order"):
         case["solver"].pop(key, None)
     case["solver"]["type"] = "implicit"
     if method == "ibm":
