@@ -180,22 +180,15 @@ MALFORMED = [
     ("dt_above_critical", mutate(["time", "dt"], 1.0), "/time/dt"),
     ("scheme_unknown", mutate(["solver", "scheme"], "usf"), "/solver/scheme"),
     ("damping_one", mutate(["solver", "damping"], 1.0), "/solver/damping"),
-    ("xpic_order_zero", mutate(["solver", "xpic_order"], 0), "/solver/xpic_order"),
-    (
-        "xpic_order_fraction",
-        mutate(["solver", "xpic_order"], 1.5),
-        "/solver/xpic_order",
-    ),
-    (
-        "xpic_order_above_eight",
-        mutate(["solver", "xpic_order"], 9),
-        "/solver/xpic_order",
-    ),
-    (
-        "xpic_order_without_pic",
-        mutate(["solver", "xpic_order"], 2),
-        "/solver/xpic_order",
-    ),
+    # 0 and 9: outside [1, 8]; 1.5: not an integer; 2: the case names no pic_fraction.
+    *[
+        (
+            f"xpic_order_{value}",
+            mutate(["solver", "xpic_order"], value),
+            "/solver/xpic_order",
+        )
+        for value in (0, 1.5, 9, 2)
+    ],
     (
         "k0_with_zero_method",
         mutate(["initial_stress", "k0"], 0.5),
